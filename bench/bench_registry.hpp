@@ -1,0 +1,32 @@
+#pragma once
+// The benchmark program is one executable; each bench_*.cpp registers its sections here.
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace smoketrace::bench {
+
+struct BenchOptions {
+    bool quick = false;          // --quick: the CI-sized run (< 3 minutes on 2 cores in total)
+    int repeats = 5;             // medians over this many repeats
+    std::string results_dir;     // CSV output folder
+};
+
+using SectionFn = void (*)(const BenchOptions&);
+
+struct Section {
+    std::string_view name;
+    std::string_view summary;
+    SectionFn run;
+};
+
+std::vector<Section>& section_registry();
+
+struct RegisterSection {
+    explicit RegisterSection(Section s) { section_registry().push_back(s); }
+};
+
+// "name=value" summary lines collected from every section and printed at the end.
+void report(const std::string& name, double value);
+
+}  // namespace smoketrace::bench

@@ -1,0 +1,34 @@
+#pragma once
+// Wall-clock timing for benchmarks: medians over repeats, because the machine is shared and noisy.
+#include <algorithm>
+#include <chrono>
+#include <vector>
+
+namespace smoketrace::bench {
+
+struct Stats {
+    double median = 0, min = 0, max = 0;
+};
+
+inline Stats stats_of(std::vector<double> v) {
+    if (v.empty()) return {};
+    std::sort(v.begin(), v.end());
+    const std::size_t n = v.size();
+    const double med = n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+    return {med, v.front(), v.back()};
+}
+
+// Runs fn() `repeats` times and returns the statistics of its wall time in milliseconds.
+template <class Fn>
+Stats time_ms(int repeats, Fn&& fn) {
+    std::vector<double> ms;
+    for (int i = 0; i < repeats; ++i) {
+        const auto t0 = std::chrono::steady_clock::now();
+        fn();
+        const auto t1 = std::chrono::steady_clock::now();
+        ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+    }
+    return stats_of(ms);
+}
+
+}  // namespace smoketrace::bench

@@ -1,0 +1,101 @@
+#pragma once
+// Watertight ray/triangle intersection: Woop, Benthin and Wald, "Watertight Ray/Triangle
+// Intersection", JCGT 2(1), 2013.
+//
+// Face convention: a triangle's FRONT face is the side from which its vertices v0, v1, v2 appear
+// counter-clockwise, i.e. the side its normal (v1 − v0) × (v2 − v0) points to. A closed mesh wound
+// counter-clockwise seen from outside therefore shows front faces outward: a ray entering it hits a
+// front face, a ray leaving it a back face.
+//
+// Shared edges and vertices: the ray is sheared so that it becomes the +z axis; each vertex's 2D
+// position depends only on that vertex and the ray, so triangles sharing an edge compute its edge
+// function from identical numbers and get exactly opposite values. Where an edge value is exactly 0
+// (the ray passes through the edge or a vertex) a top-left style tie-break decides (thesis 2.2.1): an
+// edge owns its points when, oriented with the triangle's 2D winding, it points up (dy > 0) or,
+// horizontal, to the right. Of two triangles on either side of a shared edge exactly one owns it; of
+// the fan of triangles around a vertex exactly one owns the vertex. So a ray through a shared edge or
+// vertex of a closed mesh is reported once per crossing: never by none, never by two.
+#include <smoketrace/ray.hpp>
+
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+#include <cmath>
+#include <utility>
+
+namespace smoketrace {
+
+// Per-ray set-up of the watertight test: the dominant axis kz and the shear that maps the ray
+// direction to (0, 0, 1).
+struct TriangleRay {
+    glm::vec3 origin;
+    int kx, ky, kz;
+    float sx, sy, sz;
+    float tmin;
+
+    explicit TriangleRay(const Ray& r) : origin(r.origin), tmin(r.tmin) {
+        const glm::vec3 a = glm::abs(r.direction);
+        kz = (a.x > a.y) ? (a.x > a.z ? 0 : 2) : (a.y > a.z ? 1 : 2);
+        kx = (kz + 1) % 3;
+        ky = (kx + 1) % 3;
+        if (r.direction[kz] < 0.0f) std::swap(kx, ky);  // keep the winding of the 2D projection
+        sx = r.direction[kx] / r.direction[kz];
+        sy = r.direction[ky] / r.direction[kz];
+        sz = 1.0f / r.direction[kz];
+    }
+};
+
+struct TriangleHit {
+    float t;
+    glm::vec2 barycentrics;  // weights of v1 and v2 (DXR's convention); v0's is 1 − b.x − b.y
+    bool front_face;
+};
+
+namespace detail {
+// Top-left ownership of the edge p → q, winding-normalised by the sign of the 2D determinant.
+// Only signs of exact float differences are used, so both triangles of a shared edge agree.
+inline bool owns_edge(float px, float py, float qx, float qy, bool ccw) {
+    float dx = qx - px, dy = qy - py;
+    if (!ccw) { dx = -dx; dy = -dy; }
+    return dy > 0.0f || (dy == 0.0f && dx > 0.0f);
+}
+}  // namespace detail
+
+// Returns true and fills `hit` when the ray meets the triangle at t in [tmin, tmax].
+// Degenerate triangles (repeated vertices, or seen edge-on) have a zero determinant and never hit.
+// The edge functions are evaluated in double: a product of two floats is exact there, so each sign is
+// the exact sign for the sheared vertex positions and no FMA contraction can break the symmetry.
+inline bool intersect_triangle(const TriangleRay& r, const glm::vec3& v0, const glm::vec3& v1,
+                               const glm::vec3& v2, float tmax, TriangleHit& hit) {
+    const glm::vec3 a = v0 - r.origin;
+    const glm::vec3 b = v1 - r.origin;
+    const glm::vec3 c = v2 - r.origin;
+    const float ax = a[r.kx] - r.sx * a[r.kz], ay = a[r.ky] - r.sy * a[r.kz];
+    const float bx = b[r.kx] - r.sx * b[r.kz], by = b[r.ky] - r.sy * b[r.kz];
+    const float cx = c[r.kx] - r.sx * c[r.kz], cy = c[r.ky] - r.sy * c[r.kz];
+
+    const double u = double(cx) * double(by) - double(cy) * double(bx);  // edge v1 → v2, weight of v0
+    const double v = double(ax) * double(cy) - double(ay) * double(cx);  // edge v2 → v0, weight of v1
+    const double w = double(bx) * double(ay) - double(by) * double(ax);  // edge v0 → v1, weight of v2
+
+    // Quick rejection: mixed strict signs mean the ray passes outside.
+    if ((u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0)) return false;
+    const double det = u + v + w;
+    if (det == 0.0) return false;
+    const bool ccw = det > 0.0;
+    if (u == 0.0 && !detail::owns_edge(bx, by, cx, cy, ccw)) return false;
+    if (v == 0.0 && !detail::owns_edge(cx, cy, ax, ay, ccw)) return false;
+    if (w == 0.0 && !detail::owns_edge(ax, ay, bx, by, ccw)) return false;
+
+    const double az = double(r.sz) * a[r.kz], bz = double(r.sz) * b[r.kz], cz = double(r.sz) * c[r.kz];
+    const double t = (u * az + v * bz + w * cz) / det;
+    if (!(t >= double(r.tmin) && t <= double(tmax))) return false;  // also rejects NaN
+    hit.t = static_cast<float>(t);
+    if (!(hit.t >= r.tmin && hit.t <= tmax)) return false;  // rounding to float must stay in range
+    hit.barycentrics = glm::vec2(float(v / det), float(w / det));
+    // The shear keeps the winding as seen from the origin looking along the ray, so a positive
+    // determinant means the vertices run counter-clockwise for the viewer: the front face.
+    hit.front_face = ccw;
+    return true;
+}
+
+}  // namespace smoketrace

@@ -1,0 +1,192 @@
+#pragma once
+// trace(): DirectX Raytracing's TraceRay() on the CPU, over a two-level Scene. Every ray of smoketrace
+// (optical-depth, view and shadow rays) goes through this one function.
+//
+// The rules implemented, from the DXR specification (microsoft/DirectX-Specs, d3d/Raytracing.md):
+//  1. Instance inclusion: an instance is visible to a ray iff (InstanceMask & InclusionMask) != 0. Each
+//     TLAS node stores the OR of the masks below it, so a subtree no visible instance lives in is never
+//     entered.
+//  2. Opacity: a primitive is opaque iff its geometry is opaque (BottomLevel::opaque); the instance
+//     flags FORCE_OPAQUE / FORCE_NON_OPAQUE override the geometry, and the ray flags FORCE_OPAQUE /
+//     FORCE_NON_OPAQUE override both.
+//  3. CULL_OPAQUE / CULL_NON_OPAQUE skip primitives whose final opacity is opaque / non-opaque.
+//  4. CULL_BACK_FACING_TRIANGLES / CULL_FRONT_FACING_TRIANGLES skip triangle hits of that facing,
+//     except in instances flagged TRIANGLE_CULL_DISABLE. They never apply to procedural primitives
+//     (spheres). Facing is decided in object space (a mirroring transform does not flip it), with the
+//     instance flag TRIANGLE_FRONT_CLOCKWISE reversing it (instance.hpp).
+//  5. An opaque hit in [tmin, tmax] is committed at once, with no any-hit call; tmax becomes its t.
+//  6. A non-opaque hit in [tmin, tmax] calls any_hit(candidate) → AnyHitDecision. ignore: nothing is
+//     committed; accept: the candidate is committed and tmax becomes its t; accept_and_end: committed,
+//     and the search ends. Candidates come in no guaranteed order of t, but only ever with t inside
+//     [tmin, the current committed tmax].
+//  7. ACCEPT_FIRST_HIT_AND_END_SEARCH: the first commit (opaque, or accepted by any-hit) ends the search.
+//  8. SKIP_CLOSEST_HIT_SHADER: the caller learns whether something was committed, but gets no hit data
+//     (TraceResult::hit is left default).
+//  9. NO_DUPLICATE_ANYHIT_INVOCATION is always in force: each primitive is referenced by exactly one
+//     BLAS leaf and each instance by exactly one TLAS leaf (no spatial splits), so a primitive is tested
+//     once per ray and any-hit is called at most once per reported hit — once per triangle, and for a
+//     sphere once for its entry and once for its exit (the two ReportHit()s of an intersection shader).
+//     At a shared edge or vertex of a mesh only one triangle reports the hit (ray_triangle.hpp).
+// Beyond DXR: per-call counters, and a cutoff (TraceLimits::max_any_hit_invocations) after which the
+// search ends and TraceResult::cut_off is set.
+#include <smoketrace/any_hit.hpp>
+#include <smoketrace/blas_traversal.hpp>
+#include <smoketrace/scene.hpp>
+
+#include <cstdint>
+
+namespace smoketrace {
+
+// DXR's RAY_FLAG values.
+enum RayFlags : std::uint32_t {
+    ray_flag_none = 0x00,
+    ray_flag_force_opaque = 0x01,
+    ray_flag_force_non_opaque = 0x02,
+    ray_flag_accept_first_hit_and_end_search = 0x04,
+    ray_flag_skip_closest_hit_shader = 0x08,
+    ray_flag_cull_back_facing_triangles = 0x10,
+    ray_flag_cull_front_facing_triangles = 0x20,
+    ray_flag_cull_opaque = 0x40,
+    ray_flag_cull_non_opaque = 0x80,
+};
+
+// DXR's HIT_KIND_TRIANGLE_FRONT_FACE / BACK_FACE; spheres report entry as front and exit as back.
+enum class HitKind : std::uint8_t { front_face = 0xFE, back_face = 0xFF };
+
+// A candidate (seen by any-hit) or the committed hit.
+struct TraceHit {
+    float t = 0.0f;
+    glm::vec2 barycentrics{0.0f};   // triangles: weights of v1 and v2
+    glm::vec3 object_point{0.0f};   // spheres: the hit point in object space (on the sphere)
+    std::uint32_t instance_index = ~0u;  // InstanceIndex()
+    std::uint32_t instance_id = 0;       // InstanceID() (Instance::user_id)
+    std::uint32_t primitive_index = ~0u; // PrimitiveIndex()
+    HitKind kind = HitKind::front_face;  // HitKind()
+    GeometryKind geometry = GeometryKind::triangles;
+
+    [[nodiscard]] bool front_face() const { return kind == HitKind::front_face; }
+};
+
+struct TraceCounters {
+    std::uint32_t tlas_nodes = 0;          // TLAS nodes visited
+    std::uint32_t blas_nodes = 0;          // BLAS nodes visited, summed over instances
+    std::uint32_t boxes_tested = 0;
+    std::uint32_t instances_entered = 0;   // object-space rays set up
+    std::uint32_t primitives_tested = 0;
+    std::uint32_t any_hit_invocations = 0;
+    std::uint32_t hits_accepted = 0;       // commits, opaque or by any-hit
+};
+
+struct TraceLimits {
+    std::uint32_t max_any_hit_invocations = 0;  // 0 = no cutoff
+};
+
+struct TraceResult {
+    bool hit = false;      // something was committed
+    bool cut_off = false;  // the any-hit cutoff ended the search
+    TraceHit committed;    // valid when hit, unless SKIP_CLOSEST_HIT_SHADER was set
+    TraceCounters counters;
+};
+
+// The any-hit callback for rays that need none: accept every candidate (DXR without an any-hit shader).
+struct AcceptAll {
+    constexpr AnyHitDecision operator()(const TraceHit&) const { return AnyHitDecision::accept; }
+};
+
+template <class AnyHit = AcceptAll>
+TraceResult trace(const Scene& scene, const Ray& ray, std::uint32_t flags, std::uint8_t inclusion_mask,
+                  AnyHit&& any_hit = {}, const TraceLimits& limits = {}) {
+    TraceResult result;
+    TraceCounters& c = result.counters;
+    float tmax = ray.tmax;
+    bool ended = false;
+    const Bvh& tlas = scene.tlas();
+    const std::uint8_t* node_masks = scene.tlas_node_masks().data();
+    const BoxRay world_ray(ray);
+    const glm::dvec3 world_origin(ray.origin), world_dir(ray.direction);
+    const bool skip_closest = (flags & ray_flag_skip_closest_hit_shader) != 0;
+    const bool end_on_first = (flags & ray_flag_accept_first_hit_and_end_search) != 0;
+
+    TraversalStats tlas_stats, blas_stats;
+    auto visit_instances = [&](std::uint32_t first, std::uint32_t count) {
+        for (std::uint32_t k = first; k < first + count; ++k) {
+            const std::uint32_t index = tlas.prim_indices[k];
+            const InstanceRecord& inst = scene.record(index);
+            if ((inst.mask & inclusion_mask) == 0) continue;  // rule 1
+            const BottomLevel& blas = *inst.blas;
+
+            bool opaque = blas.opaque;  // rule 2
+            if (inst.flags & instance_flag_force_opaque) opaque = true;
+            if (inst.flags & instance_flag_force_non_opaque) opaque = false;
+            if (flags & ray_flag_force_opaque) opaque = true;
+            if (flags & ray_flag_force_non_opaque) opaque = false;
+            if ((flags & ray_flag_cull_opaque) && opaque) continue;  // rule 3
+            if ((flags & ray_flag_cull_non_opaque) && !opaque) continue;
+
+            const bool triangles = blas.kind == GeometryKind::triangles;
+            const bool facing_cull = triangles && !(inst.flags & instance_flag_triangle_cull_disable);
+            const bool cull_back = facing_cull && (flags & ray_flag_cull_back_facing_triangles);
+            const bool cull_front = facing_cull && (flags & ray_flag_cull_front_facing_triangles);
+            const bool flip_facing = triangles && (inst.flags & instance_flag_triangle_front_clockwise);
+
+            // The object-space ray keeps t: direction transformed without normalising.
+            ++c.instances_entered;
+            const glm::dvec3 o = inst.world_to_object_linear * (world_origin - inst.object_to_world_translation);
+            const glm::dvec3 d = inst.world_to_object_linear * world_dir;
+            const BlasRay obj(Ray{glm::vec3(o), ray.tmin, glm::vec3(d), ray.tmax});
+
+            auto on_hit = [&](const BlasHit& h) {
+                const bool front = h.front_face != flip_facing;
+                if ((cull_back && !front) || (cull_front && front)) return false;  // rule 4
+                TraceHit cand;
+                cand.t = h.t;
+                cand.barycentrics = h.barycentrics;
+                if (!triangles) cand.object_point = obj.ray.origin + h.t * obj.ray.direction;
+                cand.instance_index = index;
+                cand.instance_id = inst.user_id;
+                cand.primitive_index = h.primitive;
+                cand.kind = front ? HitKind::front_face : HitKind::back_face;
+                cand.geometry = blas.kind;
+                AnyHitDecision decision = AnyHitDecision::accept;  // rule 5
+                if (!opaque) {                                     // rule 6
+                    ++c.any_hit_invocations;
+                    decision = any_hit(static_cast<const TraceHit&>(cand));
+                }
+                if (decision != AnyHitDecision::ignore) {
+                    ++c.hits_accepted;
+                    result.hit = true;
+                    if (!skip_closest) result.committed = cand;  // rule 8
+                    tmax = cand.t;
+                    if (decision == AnyHitDecision::accept_and_end || end_on_first) ended = true;  // rule 7
+                }
+                if (!opaque && limits.max_any_hit_invocations != 0 &&
+                    c.any_hit_invocations >= limits.max_any_hit_invocations) {
+                    result.cut_off = true;
+                    ended = true;
+                }
+                return ended;
+            };
+            if (triangles) {
+                traverse_bvh(blas.mesh.bvh(), obj.box, tmax, [&](std::uint32_t f, std::uint32_t n) {
+                    return mesh_leaf_hits(blas.mesh, obj, tmax, f, n, blas_stats, on_hit);
+                }, blas_stats);
+            } else {
+                traverse_bvh(blas.spheres.bvh(), obj.box, tmax, [&](std::uint32_t f, std::uint32_t n) {
+                    return sphere_leaf_hits(blas.spheres, obj, tmax, f, n, blas_stats, on_hit);
+                }, blas_stats);
+            }
+            if (ended) return true;
+        }
+        return false;
+    };
+    traverse_bvh(tlas, world_ray, tmax, visit_instances, tlas_stats,
+                 [&](std::uint32_t node) { return (node_masks[node] & inclusion_mask) != 0; });
+
+    c.tlas_nodes = tlas_stats.nodes_visited;
+    c.blas_nodes = blas_stats.nodes_visited;
+    c.boxes_tested = tlas_stats.boxes_tested + blas_stats.boxes_tested;
+    c.primitives_tested = blas_stats.primitives_tested;
+    return result;
+}
+
+}  // namespace smoketrace

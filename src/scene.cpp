@@ -1,0 +1,138 @@
+// Two-level scene and its TLAS update policy (see scene.hpp).
+#include <smoketrace/bvh_builder.hpp>
+#include <smoketrace/scene.hpp>
+
+#include <glm/matrix.hpp>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace smoketrace {
+
+const char* to_string(TlasUpdate u) {
+    switch (u) {
+        case TlasUpdate::none: return "none";
+        case TlasUpdate::refit: return "refit";
+        case TlasUpdate::rebuild: return "rebuild";
+    }
+    return "?";
+}
+
+BottomLevel BottomLevel::from_mesh(const TriangleMesh& m, bool opaque) {
+    BottomLevel b;
+    b.kind = GeometryKind::triangles;
+    b.mesh = MeshBlas(m);
+    b.opaque = opaque;
+    return b;
+}
+
+BottomLevel BottomLevel::from_spheres(const std::vector<Sphere>& s, bool opaque) {
+    BottomLevel b;
+    b.kind = GeometryKind::spheres;
+    b.spheres = SphereBlas(s, BvhBuildSettings{.max_leaf_size = 2});
+    b.opaque = opaque;
+    return b;
+}
+
+std::uint32_t Scene::add_bottom_level(BottomLevel blas) {
+    blases_.push_back(std::make_unique<BottomLevel>(std::move(blas)));
+    return static_cast<std::uint32_t>(blases_.size() - 1);
+}
+
+std::uint32_t Scene::add_instance(const Instance& instance) {
+    if (instance.blas >= blases_.size()) throw std::out_of_range("Scene::add_instance: no bottom level " + std::to_string(instance.blas));
+    instances_.push_back(instance);
+    records_.emplace_back();
+    world_boxes_.emplace_back();
+    update_instance(static_cast<std::uint32_t>(instances_.size() - 1));
+    structure_dirty_ = true;
+    return static_cast<std::uint32_t>(instances_.size() - 1);
+}
+
+void Scene::remove_instance(std::uint32_t index) {
+    if (index >= instances_.size()) throw std::out_of_range("Scene::remove_instance");
+    instances_.erase(instances_.begin() + index);
+    records_.erase(records_.begin() + index);
+    world_boxes_.erase(world_boxes_.begin() + index);
+    structure_dirty_ = true;
+}
+
+void Scene::set_transform(std::uint32_t index, const AffineTransform& m) {
+    instances_.at(index).object_to_world = m;
+    update_instance(index);
+    transforms_dirty_ = true;
+}
+
+void Scene::set_mask(std::uint32_t index, std::uint8_t mask) {
+    if (instances_.at(index).mask == mask) return;
+    instances_[index].mask = mask;
+    records_[index].mask = mask;
+    transforms_dirty_ = true;  // node masks are refreshed by the refit sweep
+}
+
+// World box: the 8 transformed corners of the object box, in double, rounded outward to float.
+void Scene::update_instance(std::uint32_t i) {
+    const Instance& in = instances_[i];
+    const BottomLevel& b = *blases_[in.blas];
+    const AffineTransform inv = in.object_to_world.inverse();
+    records_[i] = InstanceRecord{inv.linear, in.object_to_world.translation, &b, in.user_id, in.mask, in.flags};
+    const Aabb ob = b.bounds();
+    Aabb wb;
+    if (!ob.empty()) {
+        glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+        for (int c = 0; c < 8; ++c) {
+            const glm::dvec3 p((c & 1) ? ob.hi.x : ob.lo.x, (c & 2) ? ob.hi.y : ob.lo.y, (c & 4) ? ob.hi.z : ob.lo.z);
+            const glm::dvec3 w = in.object_to_world.point(p);
+            lo = glm::min(lo, w);
+            hi = glm::max(hi, w);
+        }
+        for (int a = 0; a < 3; ++a) {
+            wb.lo[a] = std::nextafter(static_cast<float>(lo[a]), -std::numeric_limits<float>::infinity());
+            wb.hi[a] = std::nextafter(static_cast<float>(hi[a]), std::numeric_limits<float>::infinity());
+        }
+    }
+    if (!(std::isfinite(wb.lo.x) && std::isfinite(wb.lo.y) && std::isfinite(wb.lo.z) && std::isfinite(wb.hi.x) &&
+          std::isfinite(wb.hi.y) && std::isfinite(wb.hi.z)))
+        throw std::domain_error("Scene: instance " + std::to_string(i) + " has a non-finite or empty world box");
+    world_boxes_[i] = wb;
+}
+
+void Scene::rebuild() {
+    tlas_ = build_bvh(world_boxes_, BvhBuildSettings{.max_leaf_size = 1});
+    node_masks_.assign(tlas_.nodes.size(), 0);
+    refit();  // fills the node masks (boxes are already exact)
+    sah_at_build_ = tlas_.sah_cost();
+}
+
+void Scene::refit() {
+    tlas_.refit(world_boxes_);
+    for (std::size_t k = tlas_.nodes.size(); k-- > 0;) {
+        if (k == 1) continue;
+        const BvhNode& n = tlas_.nodes[k];
+        std::uint8_t m = 0;
+        if (n.is_leaf())
+            for (std::uint32_t i = 0; i < n.count; ++i) m |= instances_[tlas_.prim_indices[n.first + i]].mask;
+        else
+            m = node_masks_[n.first] | node_masks_[n.first + 1];
+        node_masks_[k] = m;
+    }
+}
+
+TlasUpdate Scene::commit() {
+    if (structure_dirty_) {
+        rebuild();
+        structure_dirty_ = transforms_dirty_ = false;
+        return TlasUpdate::rebuild;
+    }
+    if (!transforms_dirty_) return TlasUpdate::none;
+    transforms_dirty_ = false;
+    refit();
+    if (tlas_.sah_cost() > rebuild_ratio_ * sah_at_build_) {
+        rebuild();
+        return TlasUpdate::rebuild;
+    }
+    return TlasUpdate::refit;
+}
+
+}  // namespace smoketrace
