@@ -1,0 +1,61 @@
+#pragma once
+// The optical-depth pass (thesis 4.3.2): for each particle, a ray from its centre toward the light
+// collects the particle surfaces it crosses, through trace() and its any-hit callback.
+//
+//   ray:    origin = particle centre, direction = toward the light, tmin = 1e-7, tmax = 1e38,
+//           inclusion mask ~2 (everything but billboards), no closest-hit data needed;
+//   any-hit (particle stand-ins, non-opaque): store (t, +1) for a front face (entering a particle) or
+//           (t, −1) for a back face (leaving one), IgnoreHit() so the search goes on;
+//   ground (opaque): commits without any-hit and shrinks tmax — the particle is occluded.
+//
+// Statuses are defined so that they do not depend on the order the traversal finds things in (and so
+// match any other correct tracer, Embree included):
+//   occluded — opaque geometry lies on the ray; `hits` counts the surfaces in front of it;
+//   cutoff   — not occluded, and the ray meets more than K particle surfaces (K = cutoff > 0): the
+//              search ends at the (K+1)-th, `hits` = K + 1 (thesis 4.4.3, "fully dark");
+//   ok       — all surfaces stored, `hits` = their number.
+// A crossing of a shared edge or vertex counts once (ray_triangle.hpp). Hits go into one flat buffer of
+// variable-length per-particle lists: no fixed K-slot arrays (the thesis's limitation 6.1).
+#include <smoketrace/hit_resolver.hpp>
+#include <smoketrace/smoke_scene.hpp>
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace smoketrace {
+
+// TMin of the thesis's optical-depth rays (4.3.2): just off the centre, so that a stand-in whose
+// surface passes through another particle's centre still counts, but no zero-length hit is reported.
+inline constexpr float kOpticalDepthTmin = 1e-7f;
+// TMax of the thesis's optical-depth rays: effectively unbounded, yet finite.
+inline constexpr float kOpticalDepthTmax = 1e38f;
+
+struct OpticalDepthSettings {
+    std::uint32_t cutoff = 0;  // K: more than K surfaces → cutoff (0 = no cutoff)
+};
+
+// The pass's output for the particles it traced (in the order given to run()).
+struct OpticalDepthHits {
+    std::vector<std::uint32_t> particles;  // which particle each entry belongs to
+    HitLists lists;                        // ok particles' hits (other particles own an empty list)
+    std::vector<DepthStatus> status;
+    std::vector<std::uint32_t> hit_counts;
+};
+
+class OpticalDepthPass {
+public:
+    // Traces the rays of `which` (particle indices) toward `to_light` (need not be unit length) in
+    // parallel over particles (TBB). The result does not depend on the number of threads.
+    void run(const SmokeScene& scene, std::span<const Particle> particles, std::span<const std::uint32_t> which,
+             const glm::vec3& to_light, const OpticalDepthSettings& settings, OpticalDepthHits& out);
+
+private:
+    struct Chunk {
+        std::vector<SurfaceHit> hits;
+    };
+    std::vector<Chunk> chunks_;  // kept between frames so that a steady state allocates nothing
+};
+
+
+}  // namespace smoketrace
