@@ -1,0 +1,75 @@
+#pragma once
+// The hit resolver: thesis 4.3.3 "compute pass". Turns each particle's optical-depth ray hits (collected in
+// any order by the any-hit callback, thesis 4.3.2) into the optical path length through smoke toward the
+// light (thesis 3.1, eq. 3.1).
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <span>
+#include <vector>
+
+namespace smoketrace {
+
+// One particle surface crossed by an optical-depth ray: +1 entering a particle (front face), -1 leaving
+// (back face). t is the distance along the ray from the particle centre, t >= 0, never NaN.
+struct SurfaceHit {
+    float t = 0.0f;
+    std::int32_t value = 0;
+};
+
+// What the optical-depth ray of a particle found: hits to resolve (ok), something opaque between the
+// particle and the light (occluded), or more hits than the cutoff allows (cutoff, thesis 4.4.3).
+enum class DepthStatus : std::uint8_t { ok, occluded, cutoff };
+
+// The optical path length of a particle that is occluded or over the cutoff: "fully dark" (thesis 4.3.3
+// stores "a very high value"). +infinity makes exp(-l * sigma_t) exactly 0 for any sigma_t > 0.
+inline constexpr float kFullyDarkPathLength = std::numeric_limits<float>::infinity();
+
+// Every particle's hits in one flat buffer: particle i owns hits[offsets[i], offsets[i+1]).
+// Variable-length lists: the cutoff is a quality knob, not a memory layout (method.md, thesis 6.1).
+struct HitLists {
+    std::vector<SurfaceHit> hits;
+    std::vector<std::uint32_t> offsets{0};  // size particle_count() + 1, offsets.front() == 0
+
+    [[nodiscard]] std::size_t particle_count() const { return offsets.empty() ? 0 : offsets.size() - 1; }
+    [[nodiscard]] std::size_t hit_count() const { return hits.size(); }
+    [[nodiscard]] std::span<SurfaceHit> of(std::size_t i) {
+        return {hits.data() + offsets[i], hits.data() + offsets[i + 1]};
+    }
+    [[nodiscard]] std::span<const SurfaceHit> of(std::size_t i) const {
+        return {hits.data() + offsets[i], hits.data() + offsets[i + 1]};
+    }
+    // Appends one particle owning `list` (a copy).
+    void add_particle(std::span<const SurfaceHit> list) {
+        hits.insert(hits.end(), list.begin(), list.end());
+        offsets.push_back(static_cast<std::uint32_t>(hits.size()));
+    }
+    // No particles; keeps the capacity for the next frame.
+    void clear() {
+        hits.clear();
+        offsets.assign(1, 0);
+    }
+};
+
+// How resolve_optical_path_lengths() sorts each list by t. All three give bit-identical lengths.
+enum class HitSort : std::uint8_t {
+    radix,     // sort_by_float_key (radix_sort.hpp): rank sort for short lists, LSD radix sort for long ones;
+               // the cost per hit stays flat as the cutoff grows (method.md, thesis 6.2)
+    std_sort,  // std::sort, the baseline
+    bubble,    // the thesis's bubble sort, O(k^2), kept to reproduce table B.4
+};
+
+// Eq. 3.1 and the walk: the summed length of the stretches of the ray (from t = 0) that are inside smoke,
+// given one particle's hits sorted by t. The counter starts at -sum(values) (eq. 3.1: the number of
+// particles covering the ray origin); the ray is in smoke while the counter is > 0; gaps between separate
+// clouds are not counted. Hits with equal t act together, so their order within a tie does not matter.
+[[nodiscard]] double optical_path_length(std::span<const SurfaceHit> sorted_hits);
+
+// For each particle with status ok: sorts its hits by t with `method` (in place) and writes its optical
+// path length; occluded / cutoff -> kFullyDarkPathLength ("fully dark", thesis 4.3.3). Parallel over
+// particles (TBB); deterministic: the same lengths whatever the thread count.
+// status and lengths: one entry per particle of `lists` (std::invalid_argument otherwise).
+void resolve_optical_path_lengths(HitLists& lists, std::span<const DepthStatus> status, std::span<float> lengths,
+                                  HitSort method);
+
+}  // namespace smoketrace

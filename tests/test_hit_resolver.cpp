@@ -1,0 +1,385 @@
+// The hit resolver (thesis 4.3.3) and its sorts: float_sort_key, radix / insertion sort against
+// std::stable_sort, eq. 3.1 and the in-smoke walk against exact answers, and the three HitSort methods
+// against each other and against an independent interval-union computation.
+#include <smoketrace/hit_resolver.hpp>
+#include <smoketrace/radix_sort.hpp>
+
+#include <catch2/catch.hpp>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <bit>
+#include <cfloat>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <vector>
+
+using namespace smoketrace;
+
+namespace {
+
+// SplitMix64 (Steele, Lea, Flood 2014): a small deterministic generator, no std distributions.
+struct TestRng {
+    std::uint64_t state;
+    std::uint64_t next() {
+        std::uint64_t z = (state += 0x9E37'79B9'7F4A'7C15ull);
+        z = (z ^ (z >> 30)) * 0xBF58'476D'1CE4'E5B9ull;
+        z = (z ^ (z >> 27)) * 0x94D0'49BB'1331'11EBull;
+        return z ^ (z >> 31);
+    }
+    std::uint32_t bits32() { return static_cast<std::uint32_t>(next() >> 32); }
+    std::uint32_t below(std::uint32_t n) { return static_cast<std::uint32_t>((next() >> 32) * n >> 32); }
+    double uniform() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }  // [0, 1)
+};
+
+template <class T>
+void shuffle(std::vector<T>& v, TestRng& rng) {
+    for (std::size_t i = v.size(); i > 1; --i) std::swap(v[i - 1], v[rng.below(static_cast<std::uint32_t>(i))]);
+}
+
+struct Keyed {
+    std::uint32_t key;
+    std::uint32_t index;  // input position: checks stability
+    bool operator==(const Keyed&) const = default;
+};
+
+bool same_bits(float a, float b) { return std::bit_cast<std::uint32_t>(a) == std::bit_cast<std::uint32_t>(b); }
+
+// Key distributions that exercise every radix pass, skipped passes and ties.
+std::vector<Keyed> make_keys(std::size_t n, int kind, TestRng& rng) {
+    std::vector<Keyed> v(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        std::uint32_t k = 0;
+        switch (kind) {
+            case 0: k = rng.bits32(); break;                     // all four digits vary
+            case 1: k = rng.below(5) * 0x0101'0101u; break;      // few distinct keys: ties everywhere
+            case 2: k = rng.below(256) << 24; break;             // only the top digit varies
+            case 3: k = 0xDEAD'BEEFu; break;                     // all equal: every pass skipped
+            case 4: k = 0x3F80'0000u | (rng.bits32() & 0x0000'0FFFu); break;  // only the low 12 bits vary
+            case 5: k = (rng.below(4) << 30) | rng.below(4); break;  // top and bottom vary: middle passes skipped
+        }
+        v[i] = {k, static_cast<std::uint32_t>(i)};
+    }
+    return v;
+}
+
+const std::vector<std::size_t> kSortSizes = {0,   1,   2,   3,   kRadixSortMinItems - 1, kRadixSortMinItems,
+                                             kRadixSortMinItems + 1, 100, kRankSortMaxItems, 257, 1000, 4096, 100000};
+
+// Reference optical path length, independent of the walk: the measure of the union of the particles'
+// chords clipped to the ray [0, inf), by sorting the intervals and merging them, in double.
+struct Interval {
+    float a, b;  // entry and exit distance, a < b; a <= 0: the particle covers the ray origin
+};
+
+double union_length(std::vector<Interval> intervals) {
+    std::vector<std::pair<double, double>> clipped;
+    for (const Interval& iv : intervals) {
+        if (iv.b > 0.0f) clipped.emplace_back(std::max(0.0, static_cast<double>(iv.a)), static_cast<double>(iv.b));
+    }
+    std::sort(clipped.begin(), clipped.end());
+    double total = 0.0;
+    std::size_t i = 0;
+    while (i < clipped.size()) {
+        const double start = clipped[i].first;
+        double end = clipped[i].second;
+        for (++i; i < clipped.size() && clipped[i].first <= end; ++i) end = std::max(end, clipped[i].second);
+        total += end - start;
+    }
+    return total;
+}
+
+// The hits an optical-depth ray would report for these chords: no entry behind or at the origin.
+std::vector<SurfaceHit> hits_of(const std::vector<Interval>& intervals) {
+    std::vector<SurfaceHit> hits;
+    for (const Interval& iv : intervals) {
+        if (iv.a > 0.0f) hits.push_back({iv.a, +1});
+        if (iv.b > 0.0f) hits.push_back({iv.b, -1});
+    }
+    return hits;
+}
+
+// Random chords along one ray. On a grid (multiples of 1/8) endpoints coincide often: touching and
+// nested particles and ties in t. Otherwise endpoints are arbitrary floats.
+std::vector<Interval> random_intervals(TestRng& rng, std::size_t count, bool on_grid) {
+    std::vector<Interval> v;
+    while (v.size() < count) {
+        float a, b;
+        if (on_grid) {
+            a = static_cast<float>(static_cast<int>(rng.below(160)) - 16) * 0.125f;  // [-2, 18)
+            b = a + static_cast<float>(1 + rng.below(24)) * 0.125f;
+        } else {
+            a = static_cast<float>(rng.uniform() * 22.0 - 2.0);
+            b = static_cast<float>(static_cast<double>(a) + 0.01 + rng.uniform() * 3.0);
+        }
+        v.push_back({a, b});
+    }
+    return v;
+}
+
+std::vector<float> resolve(HitLists lists, std::span<const DepthStatus> status, HitSort method) {
+    std::vector<float> lengths(lists.particle_count(), -1.0f);
+    resolve_optical_path_lengths(lists, status, lengths, method);
+    return lengths;
+}
+
+}  // namespace
+
+TEST_CASE("float_sort_key orders floats like operator<", "[resolver]") {
+    const float denorm = std::numeric_limits<float>::denorm_min();
+    const float inf = std::numeric_limits<float>::infinity();
+    const std::vector<float> ladder = {-inf, -FLT_MAX, -1.5f, -1.0f, -FLT_MIN, -2 * denorm, -denorm, -0.0f,
+                                       0.0f, denorm,   2 * denorm, FLT_MIN, 1e-7f, 1.0f, 1.5f, FLT_MAX, inf};
+    for (std::size_t i = 1; i < ladder.size(); ++i) {
+        INFO("between " << ladder[i - 1] << " and " << ladder[i]);
+        CHECK(float_sort_key(ladder[i - 1]) < float_sort_key(ladder[i]));
+    }
+    // -0 and +0 compare equal as floats: adjacent keys, -0 first.
+    CHECK(float_sort_key(0.0f) == float_sort_key(-0.0f) + 1);
+
+    TestRng rng{1};
+    for (int i = 0; i < 200000; ++i) {
+        const float a = std::bit_cast<float>(rng.bits32());
+        const float b = std::bit_cast<float>(rng.bits32());
+        if (std::isnan(a) || std::isnan(b)) continue;
+        INFO(a << " vs " << b);
+        CHECK((a < b) == (float_sort_key(a) < float_sort_key(b)));
+        CHECK((a == b) == (float_sort_key(a) == float_sort_key(b)));  // random bits: never both zeros
+    }
+}
+
+TEST_CASE("radix, rank and insertion sort match std::stable_sort", "[resolver]") {
+    TestRng rng{2};
+    auto by_key = [](const Keyed& x) { return x.key; };
+    for (const std::size_t n : kSortSizes) {
+        for (int kind = 0; kind < 6; ++kind) {
+            INFO("n = " << n << ", key kind " << kind);
+            std::vector<Keyed> input = make_keys(n, kind, rng);
+            std::vector<Keyed> expected = input;
+            std::stable_sort(expected.begin(), expected.end(),
+                             [](const Keyed& a, const Keyed& b) { return a.key < b.key; });
+
+            std::vector<Keyed> items = input, scratch(n);
+            radix_sort(std::span{items}, std::span{scratch}, by_key);
+            CHECK(items == expected);
+
+            for (const unsigned digit_bits : {1u, 4u, 7u, 8u, 11u}) {  // fixed widths, as the benchmark compares
+                INFO("digit bits " << digit_bits);
+                items = input;
+                detail::radix_sort_impl(std::span{items}, std::span{scratch}, by_key, digit_bits);
+                CHECK(items == expected);
+            }
+            for (const std::size_t buckets_per_item : {1u, 16u}) {  // other automatic widths
+                items = input;
+                detail::radix_sort_impl(std::span{items}, std::span{scratch}, by_key, 0, buckets_per_item);
+                CHECK(items == expected);
+            }
+
+            items = input;  // beyond kRankSortMaxItems: handed to the radix sort
+            rank_sort(std::span{items}, std::span{scratch}, by_key);
+            CHECK(items == expected);
+            if (n <= 4096) {  // O(n^2)
+                items = input;
+                insertion_sort(std::span{items}, by_key);
+                CHECK(items == expected);
+            }
+        }
+    }
+}
+
+TEST_CASE("radix_sort accepts a scratch buffer longer than the items", "[resolver]") {
+    TestRng rng{3};
+    std::vector<Keyed> items = make_keys(300, 0, rng), scratch(1000);
+    std::vector<Keyed> expected = items;
+    std::stable_sort(expected.begin(), expected.end(), [](const Keyed& a, const Keyed& b) { return a.key < b.key; });
+    radix_sort(std::span{items}, std::span{scratch}, [](const Keyed& x) { return x.key; });
+    CHECK(items == expected);
+}
+
+TEST_CASE("sort_by_float_key sorts floats stably on both sides of the threshold", "[resolver]") {
+    struct Layer {
+        float depth;
+        std::uint32_t index;
+        bool operator==(const Layer&) const = default;
+    };
+    TestRng rng{4};
+    for (const std::size_t n : kSortSizes) {
+        for (int kind = 0; kind < 3; ++kind) {
+            INFO("n = " << n << ", kind " << kind);
+            std::vector<Layer> items(n);
+            for (std::size_t i = 0; i < n; ++i) {
+                float d = 0.0f;
+                if (kind == 0) {  // any non-NaN float, negatives, denormals and infinities included
+                    do d = std::bit_cast<float>(rng.bits32());
+                    while (std::isnan(d));
+                } else if (kind == 1) {  // distances along a ray with many ties
+                    d = static_cast<float>(rng.below(64)) * 0.25f;
+                } else {  // signed zeros: -0 must come before +0, ties stable
+                    d = rng.below(2) ? 0.0f : -0.0f;
+                }
+                items[i] = {d, static_cast<std::uint32_t>(i)};
+            }
+            std::vector<Layer> expected = items;
+            std::stable_sort(expected.begin(), expected.end(), [](const Layer& a, const Layer& b) {
+                return float_sort_key(a.depth) < float_sort_key(b.depth);
+            });
+            std::vector<Layer> scratch(n);
+            sort_by_float_key(std::span{items}, std::span{scratch}, [](const Layer& l) { return l.depth; });
+            CHECK(items == expected);
+        }
+    }
+}
+
+// Hand-built rays. Every endpoint and every difference is exactly representable, so the expected lengths
+// are exact and compared with ==.
+TEST_CASE("optical_path_length: eq. 3.1 and the in-smoke walk on hand-built rays", "[resolver]") {
+    auto length = [](std::vector<SurfaceHit> hits) {
+        std::sort(hits.begin(), hits.end(), [](const SurfaceHit& a, const SurfaceHit& b) { return a.t < b.t; });
+        return optical_path_length(hits);
+    };
+    SECTION("empty list: nothing in smoke") { CHECK(length({}) == 0.0); }
+    SECTION("single particle seen from its centre: starts inside, leaves at its radius") {
+        CHECK(length({{0.75f, -1}}) == 0.75);
+    }
+    SECTION("two overlapping particles form one stretch") {
+        CHECK(length({{1.0f, -1}, {0.5f, +1}, {2.0f, -1}}) == 2.0);
+    }
+    SECTION("two disjoint clouds: the gap does not count") {
+        CHECK(length({{1.0f, -1}, {3.0f, +1}, {4.5f, -1}}) == 2.5);
+    }
+    SECTION("a particle nested in another adds nothing") {
+        CHECK(length({{0.5f, -1}, {1.0f, +1}, {4.0f, -1}, {2.0f, +1}, {3.0f, -1}}) == 3.5);
+    }
+    SECTION("origin covered by 3 particles: counter starts at 3") {
+        CHECK(length({{1.0f, -1}, {2.0f, -1}, {3.0f, -1}, {4.0f, +1}, {6.0f, -1}}) == 5.0);
+    }
+    SECTION("origin outside smoke: counter starts at 0, the stretch before the first entry does not count") {
+        CHECK(length({{1.0f, +1}, {2.0f, -1}}) == 1.0);
+    }
+    SECTION("touching particles: one leaves where the next enters") {
+        CHECK(length({{1.0f, -1}, {1.0f, +1}, {2.0f, -1}}) == 2.0);
+    }
+}
+
+TEST_CASE("optical_path_length does not depend on the order of equal-t hits", "[resolver]") {
+    SECTION("every order of two tie groups gives the same union") {
+        // Counter 2 at t = 0. At t = 2 one particle ends, two begin, one more ends: in some orders the counter
+        // touches 0 inside the group. At t = 5 two end and one begins. Union [0, 5] u [7, 8] u [8.5, 9].
+        std::vector<SurfaceHit> hits = {{1.0f, -1}, {2.0f, -1}, {2.0f, +1}, {2.0f, +1}, {2.0f, -1}, {5.0f, -1},
+                                        {5.0f, +1}, {5.0f, -1}, {7.0f, +1}, {8.0f, -1}, {8.5f, +1}, {9.0f, -1}};
+        auto by_value = [](const SurfaceHit& a, const SurfaceHit& b) { return a.value < b.value; };
+        std::sort(hits.begin() + 1, hits.begin() + 5, by_value);
+        std::sort(hits.begin() + 5, hits.begin() + 8, by_value);
+        int orders = 0;
+        do {
+            do {
+                CHECK(optical_path_length(hits) == 6.5);
+                ++orders;
+            } while (std::next_permutation(hits.begin() + 5, hits.begin() + 8, by_value));
+        } while (std::next_permutation(hits.begin() + 1, hits.begin() + 5, by_value));
+        CHECK(orders == 6 * 3);  // distinct orders of {-1,-1,+1,+1} times those of {-1,-1,+1}
+    }
+    SECTION("a tie where a per-hit walk would round differently") {
+        // The origin's particle ends at x0; after a gap, smoke from e to t2 with two particles touching at t1.
+        // Closing and reopening the stretch at t1 adds (t1 - e) + (t2 - t1) to x0 in double, which rounds
+        // differently from adding (t2 - e) once (values found by search; large t makes the rounding visible).
+        const float x0 = 0x1.450e96p-7f, e = 0x1.aca7dep+2f, t1 = 0x1.5eae0cp+25f, t2 = 0x1.2b2d7cp+26f;
+        const std::vector<SurfaceHit> exit_first = {{x0, -1}, {e, +1}, {t1, -1}, {t1, +1}, {t2, -1}};
+        const std::vector<SurfaceHit> entry_first = {{x0, -1}, {e, +1}, {t1, +1}, {t1, -1}, {t2, -1}};
+        // Guard that the case discriminates: a walk that closes a stretch at every hit depends on the order.
+        auto per_hit_walk = [](const std::vector<SurfaceHit>& hits) {
+            int counter = 1;
+            double length = 0.0, enter = 0.0;
+            for (const SurfaceHit& h : hits) {
+                const int before = counter;
+                counter += h.value;
+                if (before <= 0 && counter > 0) enter = h.t;
+                if (before > 0 && counter <= 0) length += static_cast<double>(h.t) - enter;
+            }
+            return length;
+        };
+        REQUIRE(per_hit_walk(exit_first) != per_hit_walk(entry_first));
+
+        const double expected = static_cast<double>(x0) + (static_cast<double>(t2) - static_cast<double>(e));
+        CHECK(optical_path_length(exit_first) == expected);
+        CHECK(optical_path_length(entry_first) == expected);
+    }
+}
+
+TEST_CASE("the three HitSort methods give bit-identical lengths equal to the interval union", "[resolver]") {
+    // 4000 particles: lists of 0..160 chords (up to ~320 hits, past the thesis's largest cutoff), half on a
+    // grid to force ties, a few particles occluded or over the cutoff.
+    TestRng rng{5};
+    constexpr std::size_t kParticles = 4000;
+    HitLists lists;
+    std::vector<DepthStatus> status(kParticles, DepthStatus::ok);
+    std::vector<double> expected(kParticles);
+    std::vector<std::size_t> stretches(kParticles);
+    for (std::size_t i = 0; i < kParticles; ++i) {
+        const std::vector<Interval> intervals = random_intervals(rng, rng.below(161), i % 2 == 0);
+        std::vector<SurfaceHit> hits = hits_of(intervals);
+        shuffle(hits, rng);  // any-hit order
+        lists.add_particle(hits);
+        expected[i] = union_length(intervals);
+        stretches[i] = intervals.size();
+        if (i % 97 == 3) status[i] = DepthStatus::occluded;
+        if (i % 89 == 5) status[i] = DepthStatus::cutoff;
+    }
+
+    const std::vector<float> radix = resolve(lists, status, HitSort::radix);
+    const std::vector<float> std_sort = resolve(lists, status, HitSort::std_sort);
+    const std::vector<float> bubble = resolve(lists, status, HitSort::bubble);
+    std::vector<float> radix_one_thread;
+    tbb::task_arena(1).execute([&] { radix_one_thread = resolve(lists, status, HitSort::radix); });
+
+    for (std::size_t i = 0; i < kParticles; ++i) {
+        INFO("particle " << i << ", " << lists.of(i).size() << " hits");
+        REQUIRE(same_bits(radix[i], std_sort[i]));
+        REQUIRE(same_bits(radix[i], bubble[i]));
+        REQUIRE(same_bits(radix[i], radix_one_thread[i]));
+        if (status[i] != DepthStatus::ok) {
+            CHECK(radix[i] == std::numeric_limits<float>::infinity());
+            continue;
+        }
+        // The walk sums exact float differences in double (rounding <= one double ulp per stretch) and the
+        // caller stores a float (rounding <= half a float ulp, 2^-24 relative).
+        const double tolerance = expected[i] * (0x1.0p-24 + static_cast<double>(stretches[i] + 1) * DBL_EPSILON);
+        CHECK(std::abs(static_cast<double>(radix[i]) - expected[i]) <= tolerance);
+    }
+}
+
+TEST_CASE("occluded and cutoff particles are fully dark whatever their hits", "[resolver]") {
+    HitLists lists;
+    lists.add_particle(std::vector<SurfaceHit>{{1.0f, -1}});
+    lists.add_particle(std::vector<SurfaceHit>{{2.0f, -1}, {0.5f, +1}, {1.0f, -1}});
+    lists.add_particle(std::vector<SurfaceHit>{});
+    lists.add_particle(std::vector<SurfaceHit>{{3.0f, -1}});
+    const std::vector<DepthStatus> status = {DepthStatus::occluded, DepthStatus::cutoff, DepthStatus::ok,
+                                             DepthStatus::ok};
+    for (const HitSort method : {HitSort::radix, HitSort::std_sort, HitSort::bubble}) {
+        const std::vector<float> lengths = resolve(lists, status, method);
+        CHECK(lengths[0] == std::numeric_limits<float>::infinity());
+        CHECK(lengths[1] == std::numeric_limits<float>::infinity());
+        CHECK(lengths[2] == 0.0f);
+        CHECK(lengths[3] == 3.0f);
+    }
+}
+
+TEST_CASE("resolve_optical_path_lengths sorts each ok list in place and checks its spans", "[resolver]") {
+    HitLists lists;
+    lists.add_particle(std::vector<SurfaceHit>{{2.0f, -1}, {0.5f, +1}, {1.0f, -1}});
+    std::vector<float> lengths(1);
+    const std::vector<DepthStatus> ok = {DepthStatus::ok};
+    resolve_optical_path_lengths(lists, ok, lengths, HitSort::radix);
+    CHECK(lists.hits[0].t == 0.5f);
+    CHECK(lists.hits[1].t == 1.0f);
+    CHECK(lists.hits[2].t == 2.0f);
+
+    std::vector<float> too_few;
+    CHECK_THROWS_AS(resolve_optical_path_lengths(lists, ok, too_few, HitSort::radix), std::invalid_argument);
+    CHECK_THROWS_AS(resolve_optical_path_lengths(lists, {}, lengths, HitSort::radix), std::invalid_argument);
+    lists.hits.pop_back();  // offsets now point past the buffer
+    CHECK_THROWS_AS(resolve_optical_path_lengths(lists, ok, lengths, HitSort::radix), std::invalid_argument);
+}
