@@ -1,0 +1,576 @@
+// Scene files (see scene_file.hpp for the format and the defaults).
+//
+// Validation is one pass over the JSON tree with a Node (value + JSON pointer) per visited value; each
+// reader checks type, range and single-precision representability and fails with the node's path.
+#include <smoketrace/scene_file.hpp>
+
+#include <nlohmann/json.hpp>
+
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
+#include <glm/vec3.hpp>
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <initializer_list>
+#include <limits>
+#include <set>
+#include <sstream>
+
+namespace smoketrace {
+
+namespace {
+
+using nlohmann::json;
+
+// ---- Named tolerances --------------------------------------------------------------------------------
+
+// A ground quad whose area is below this fraction of (longest edge)² is a sliver without a usable normal:
+// float corners carry ~1e-7 relative error, so 1e-6 is ten times that noise.
+constexpr double kMinRelativeGroundArea = 1e-6;
+// Corners may lie off their common plane by this fraction of the longest edge. Float coordinates are good
+// to ~1e-7 relative and typed decimals with 5 significant digits to ~1e-5; a lifted corner is far above 1e-4.
+constexpr double kGroundPlanarityTolerance = 1e-4;
+// Each corner's turn (cross product of adjacent edges along the normal) must exceed this fraction of
+// (longest edge)²; a smaller turn means three corners are collinear (a triangle, not a quad) or the
+// winding folds back (not convex).
+constexpr double kMinRelativeGroundTurn = 1e-6;
+// The camera's up vector must make at least this sine with the view direction; below it the camera's
+// right vector is float noise.
+constexpr double kMinUpViewSine = 1e-6;
+// Default camera: elevation of the view above the horizon and the margin around the framed sphere.
+constexpr double kDefaultCameraElevationDeg = 20.0;  // "from the front, a bit above"
+constexpr double kDefaultCameraMargin = 1.1;         // 10 % empty border around the smoke
+
+constexpr std::uint32_t kMaxGroups = 1u << 20;     // one update spread over 2^20 frames is ~5 h at 60 fps
+constexpr std::uint32_t kMaxFrames = 1'000'000;    // ~4.6 h at 60 fps: anything more is a typo
+constexpr std::size_t kMaxShownValueChars = 60;    // "(got …)" shows at most this much of a value
+
+// ---- Paths and messages ------------------------------------------------------------------------------
+
+// A JSON pointer token (RFC 6901): "~" → "~0", "/" → "~1".
+std::string pointer_token(std::string_view key) {
+    std::string out;
+    for (char c : key) {
+        if (c == '~') out += "~0";
+        else if (c == '/') out += "~1";
+        else out += c;
+    }
+    return out;
+}
+
+std::string shown_path(const std::string& path) { return path.empty() ? "(document root)" : path; }
+
+// The value as the file wrote it (nlohmann prints numbers round-trip), shortened.
+std::string shown_value(const json& j) {
+    if (j.is_number_float() && !std::isfinite(j.get<double>()))
+        return "a number beyond the double range";
+    std::string s = j.dump();
+    if (s.size() > kMaxShownValueChars) s = s.substr(0, kMaxShownValueChars - 3) + "...";
+    return s;
+}
+
+std::string shown_number(double v) {
+    char buffer[64];
+    const auto result = std::to_chars(buffer, buffer + sizeof buffer, v);
+    return std::string(buffer, result.ptr);
+}
+
+struct Node {
+    const json* value;
+    std::string path;
+
+    [[nodiscard]] Node child(std::string_view key) const { return {&(*value)[std::string(key)], path + "/" + pointer_token(key)}; }
+    [[nodiscard]] Node element(std::size_t i) const { return {&(*value)[i], path + "/" + std::to_string(i)}; }
+};
+
+// Allowed range of a number, with its wording for messages.
+struct Bounds {
+    double lo = -std::numeric_limits<double>::infinity();
+    bool lo_open = false;
+    double hi = std::numeric_limits<double>::infinity();
+    bool hi_open = false;
+
+    [[nodiscard]] bool contains(double v) const {
+        return (lo_open ? v > lo : v >= lo) && (hi_open ? v < hi : v <= hi);
+    }
+    [[nodiscard]] std::string describe() const {
+        const bool has_lo = std::isfinite(lo), has_hi = std::isfinite(hi);
+        if (has_lo && !has_hi) return std::string(lo_open ? "must be > " : "must be >= ") + shown_number(lo);
+        if (!has_lo && has_hi) return std::string(hi_open ? "must be < " : "must be <= ") + shown_number(hi);
+        return std::string("must be in ") + (lo_open ? "(" : "[") + shown_number(lo) + ", " + shown_number(hi) +
+               (hi_open ? ")" : "]");
+    }
+};
+constexpr Bounds kAny{};
+constexpr Bounds kPositive{0.0, true};
+constexpr Bounds kNonNegative{0.0, false};
+constexpr Bounds kUnit{0.0, false, 1.0, false};
+
+class Reader {
+public:
+    explicit Reader(std::string source) : source_(std::move(source)) {}
+
+    [[noreturn]] void fail(const std::string& path, const std::string& problem) const {
+        throw SceneFileError(source_ + ": " + shown_path(path) + ": " + problem);
+    }
+    [[noreturn]] void fail(const Node& n, const std::string& problem) const { fail(n.path, problem); }
+    [[noreturn]] void wrong_type(const Node& n, std::string_view expected) const {
+        fail(n, "must be " + std::string(expected) + " (got " + n.value->type_name() + " " + shown_value(*n.value) + ")");
+    }
+
+    void require_object(const Node& n, std::initializer_list<std::string_view> allowed) const {
+        if (!n.value->is_object()) wrong_type(n, "an object");
+        for (const auto& [key, value] : n.value->items()) {
+            if (std::find(allowed.begin(), allowed.end(), key) != allowed.end()) continue;
+            std::string list;
+            for (std::string_view a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
+            fail(n.path + "/" + pointer_token(key), "unknown key (allowed here: " + list + ")");
+        }
+    }
+
+    [[nodiscard]] static std::optional<Node> optional(const Node& n, std::string_view key) {
+        if (!n.value->contains(std::string(key))) return std::nullopt;
+        return n.child(key);
+    }
+    [[nodiscard]] Node required(const Node& n, std::string_view key) const {
+        if (!n.value->contains(std::string(key))) fail(n.path + "/" + pointer_token(key), "required key is missing");
+        return n.child(key);
+    }
+
+    [[nodiscard]] double number(const Node& n) const {
+        if (!n.value->is_number()) wrong_type(n, "a number");
+        const double v = n.value->get<double>();
+        if (!std::isfinite(v)) fail(n, "must be finite (got " + shown_value(*n.value) + ")");
+        return v;
+    }
+
+    // A finite number representable as a normal float (or zero), within `bounds`.
+    [[nodiscard]] float real(const Node& n, const Bounds& bounds = kAny) const {
+        const double v = number(n);
+        const double magnitude = std::abs(v);
+        if (magnitude > static_cast<double>(std::numeric_limits<float>::max()))
+            fail(n, "too large for single precision (got " + shown_value(*n.value) + ")");
+        if (magnitude != 0.0 && magnitude < static_cast<double>(std::numeric_limits<float>::min()))
+            fail(n, "too close to 0 for single precision (got " + shown_value(*n.value) + ")");
+        const auto f = static_cast<float>(v);
+        if (!bounds.contains(f)) fail(n, bounds.describe() + " (got " + shown_value(*n.value) + ")");
+        return f;
+    }
+
+    [[nodiscard]] glm::vec3 vec3(const Node& n, const Bounds& bounds = kAny) const {
+        if (!n.value->is_array() || n.value->size() != 3) wrong_type(n, "an array of 3 numbers");
+        return {real(n.element(0), bounds), real(n.element(1), bounds), real(n.element(2), bounds)};
+    }
+
+    [[nodiscard]] std::uint64_t integer(const Node& n, std::uint64_t lo, std::uint64_t hi) const {
+        if (!n.value->is_number_integer()) wrong_type(n, "an integer");
+        const std::string range = hi == std::numeric_limits<std::uint64_t>::max()
+                                      ? "must be >= " + std::to_string(lo)
+                                      : "must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+        if (n.value->is_number_unsigned()) {
+            const auto v = n.value->get<std::uint64_t>();
+            if (v < lo || v > hi) fail(n, range + " (got " + shown_value(*n.value) + ")");
+            return v;
+        }
+        const auto v = n.value->get<std::int64_t>();  // a signed integer in nlohmann is always negative
+        if (v < 0 || static_cast<std::uint64_t>(v) < lo || static_cast<std::uint64_t>(v) > hi)
+            fail(n, range + " (got " + shown_value(*n.value) + ")");
+        return static_cast<std::uint64_t>(v);
+    }
+    [[nodiscard]] std::uint32_t u32(const Node& n, std::uint32_t lo, std::uint32_t hi) const {
+        return static_cast<std::uint32_t>(integer(n, lo, hi));
+    }
+
+    [[nodiscard]] bool boolean(const Node& n) const {
+        if (!n.value->is_boolean()) wrong_type(n, "true or false");
+        return n.value->get<bool>();
+    }
+
+    [[nodiscard]] std::string string(const Node& n) const {
+        if (!n.value->is_string()) wrong_type(n, "a string");
+        return n.value->get<std::string>();
+    }
+
+private:
+    std::string source_;
+};
+
+// ---- Paths during parsing ----------------------------------------------------------------------------
+
+// nlohmann keeps the last of two equal keys silently, and it reports a number that overflows a double
+// (1e999) without saying where. The parser callback sees keys and values but not paths, so this tracker
+// follows the path itself: duplicate keys fail on the spot, and an overflow is reported at the path of
+// the value being parsed when it happened.
+class ParsePathTracker {
+public:
+    explicit ParsePathTracker(const Reader& reader) : reader_(reader) {}
+
+    bool on_event(json::parse_event_t event, const json& parsed) {
+        switch (event) {
+            case json::parse_event_t::object_start:
+            case json::parse_event_t::array_start: {
+                std::string segment = next_segment();
+                if (!stack_.empty() && stack_.back().array) ++stack_.back().next_index;
+                stack_.push_back(Frame{event == json::parse_event_t::array_start, std::move(segment), {}, {}, 0});
+                break;
+            }
+            case json::parse_event_t::key: {
+                Frame& top = stack_.back();
+                top.key = parsed.get<std::string>();
+                if (!top.keys.insert(top.key).second) reader_.fail(path_of_next_value(), "duplicate key");
+                break;
+            }
+            case json::parse_event_t::value:
+                if (!stack_.empty() && stack_.back().array) ++stack_.back().next_index;
+                break;
+            case json::parse_event_t::object_end:
+            case json::parse_event_t::array_end:
+                stack_.pop_back();
+                break;
+        }
+        return true;
+    }
+
+    // The JSON pointer of the value the parser is reading now (the member after the last key, or the
+    // next array element).
+    [[nodiscard]] std::string path_of_next_value() const {
+        std::string p;
+        for (const Frame& f : stack_) p += f.segment;
+        return p + next_segment();
+    }
+
+private:
+    struct Frame {
+        bool array;
+        std::string segment;         // how the parent addresses this container ("" for the root)
+        std::string key;             // objects: the current key
+        std::set<std::string> keys;  // objects: the keys seen so far
+        std::size_t next_index;      // arrays: index of the next element
+    };
+
+    [[nodiscard]] std::string next_segment() const {
+        if (stack_.empty()) return {};
+        const Frame& top = stack_.back();
+        std::string segment(1, '/');  // appended, not "/" + …: GCC 12 warns falsely (-Wrestrict) on that
+        segment += top.array ? std::to_string(top.next_index) : pointer_token(top.key);
+        return segment;
+    }
+
+    const Reader& reader_;
+    std::vector<Frame> stack_;
+};
+
+json parse_json(std::string_view text, const Reader& reader, const std::string& source) {
+    ParsePathTracker tracker(reader);
+    try {
+        return json::parse(text.begin(), text.end(), [&tracker](int /*depth*/, json::parse_event_t event, json& parsed) {
+            return tracker.on_event(event, parsed);
+        });
+    } catch (const json::parse_error& e) {
+        // e.byte is 1-based; n+1 means "at the end of the input" (truncated file).
+        const std::size_t offset = std::min<std::size_t>(e.byte == 0 ? 0 : e.byte - 1, text.size());
+        const auto before = text.substr(0, offset);
+        const std::size_t line = 1 + static_cast<std::size_t>(std::count(before.begin(), before.end(), '\n'));
+        const std::size_t line_start = before.rfind('\n');
+        const std::size_t column = offset - (line_start == std::string_view::npos ? 0 : line_start + 1) + 1;
+        std::string reason = e.what();
+        if (const auto p = reason.find("parse error"); p != std::string::npos)
+            if (const auto colon = reason.find(": ", p); colon != std::string::npos) reason = reason.substr(colon + 2);
+        std::string where = offset >= text.size() ? "at the end of the input (byte " + std::to_string(offset + 1) + ")"
+                                                  : "at byte " + std::to_string(offset + 1);
+        throw SceneFileError(source + ": malformed JSON " + where + ", line " + std::to_string(line) + ", column " +
+                             std::to_string(column) + ": " + reason);
+    } catch (const json::out_of_range& e) {
+        // 406 "number overflow parsing '1e999'": the literal is between the quotes.
+        std::string literal = e.what();
+        const auto open = literal.find('\''), close = literal.rfind('\'');
+        literal = open != std::string::npos && close > open ? literal.substr(open + 1, close - open - 1) : "?";
+        reader.fail(tracker.path_of_next_value(), "must be finite (got " + literal + ", beyond the double range)");
+    }
+}
+
+// ---- Sections ----------------------------------------------------------------------------------------
+
+LightDescription read_light(const Reader& r, const Node& n) {
+    r.require_object(n, {"direction", "color", "rotation_per_frame_deg"});
+    LightDescription light;
+    const Node dir = r.required(n, "direction");
+    const glm::dvec3 d(r.vec3(dir));
+    const double length = glm::length(d);
+    if (length == 0.0) r.fail(dir, "must not be the zero vector");
+    light.direction = glm::vec3(d / length);
+    if (auto c = Reader::optional(n, "color")) light.color = r.vec3(*c, kNonNegative);
+    if (auto a = Reader::optional(n, "rotation_per_frame_deg")) light.rotation_per_frame_deg = r.real(*a);
+    return light;
+}
+
+Particle read_particle(const Reader& r, const Node& n) {
+    r.require_object(n, {"center", "radius", "velocity", "spin", "growth", "rotation"});
+    Particle p;
+    p.center = r.vec3(r.required(n, "center"));
+    p.radius = r.real(r.required(n, "radius"), kPositive);
+    if (auto v = Reader::optional(n, "velocity")) p.velocity = r.vec3(*v);
+    if (auto s = Reader::optional(n, "spin")) p.spin = r.real(*s);
+    if (auto g = Reader::optional(n, "growth")) p.growth = r.real(*g, Bounds{-1.0, true});
+    if (auto a = Reader::optional(n, "rotation")) p.rotation = r.real(*a);
+    return p;
+}
+
+TubeSettings read_tubes(const Reader& r, const Node& n) {
+    r.require_object(n, {"count", "seed", "tube_radius", "tube_length", "separation", "particle_radius", "drift",
+                         "jitter_speed", "spin_speed", "growth", "random_rotation"});
+    TubeSettings t;
+    if (auto v = Reader::optional(n, "count")) {
+        const std::uint64_t count = r.integer(*v, 0, std::numeric_limits<std::uint64_t>::max());
+        if (count > kMaxSceneParticles)
+            r.fail(*v, "too many particles (" + std::to_string(count) + " > " + std::to_string(kMaxSceneParticles) +
+                           ", the most a scene may hold)");
+        t.particles = static_cast<std::uint32_t>(count);
+    }
+    if (auto v = Reader::optional(n, "seed")) t.seed = r.integer(*v, 0, std::numeric_limits<std::uint64_t>::max());
+    if (auto v = Reader::optional(n, "tube_radius")) t.tube_radius = r.real(*v, kPositive);
+    if (auto v = Reader::optional(n, "tube_length")) t.tube_length = r.real(*v, kPositive);
+    if (auto v = Reader::optional(n, "separation")) t.separation = r.real(*v, kNonNegative);
+    if (auto v = Reader::optional(n, "particle_radius")) t.particle_radius = r.real(*v, kPositive);
+    if (auto v = Reader::optional(n, "drift")) t.drift = r.vec3(*v);
+    if (auto v = Reader::optional(n, "jitter_speed")) t.jitter_speed = r.real(*v, kNonNegative);
+    if (auto v = Reader::optional(n, "spin_speed")) t.spin_speed = r.real(*v, kNonNegative);
+    if (auto v = Reader::optional(n, "growth")) t.growth = r.real(*v, Bounds{-1.0, true});
+    if (auto v = Reader::optional(n, "random_rotation")) t.random_rotation = r.boolean(*v);
+    return t;
+}
+
+SmokeDescription read_smoke(const Reader& r, const Node& n) {
+    r.require_object(n, {"particles", "tubes", "sigma_t", "alpha", "shape"});
+    SmokeDescription smoke;
+    const auto list = Reader::optional(n, "particles");
+    const auto tubes = Reader::optional(n, "tubes");
+    if (list && tubes) r.fail(n, "has both \"particles\" and \"tubes\"; give exactly one");
+    if (!list && !tubes) r.fail(n, "needs \"particles\" (a list) or \"tubes\" (the generator)");
+    if (list) {
+        if (!list->value->is_array()) r.wrong_type(*list, "an array of particles");
+        if (list->value->size() > kMaxSceneParticles)
+            r.fail(*list, "too many particles (" + std::to_string(list->value->size()) + " > " +
+                              std::to_string(kMaxSceneParticles) + ", the most a scene may hold)");
+        smoke.particles.reserve(list->value->size());
+        for (std::size_t i = 0; i < list->value->size(); ++i) smoke.particles.push_back(read_particle(r, list->element(i)));
+    } else {
+        smoke.tubes = read_tubes(r, *tubes);
+        smoke.particles = generate_tubes(*smoke.tubes);
+    }
+    if (auto v = Reader::optional(n, "sigma_t")) smoke.sigma_t = r.real(*v, kNonNegative);
+    if (auto v = Reader::optional(n, "alpha")) smoke.alpha = r.real(*v, kUnit);
+    if (auto v = Reader::optional(n, "shape")) {
+        const std::string text = r.string(*v);
+        const auto shape = parse_stand_in_shape(text);
+        if (!shape) r.fail(*v, "unknown shape \"" + text + "\" (use \"sphere\", \"icosahedron\" or \"icosphere:1\"…\"icosphere:4\")");
+        smoke.shape = *shape;
+    }
+    return smoke;
+}
+
+GroundDescription read_ground(const Reader& r, const Node& n) {
+    r.require_object(n, {"corners", "color"});
+    GroundDescription ground;
+    const Node corners = r.required(n, "corners");
+    if (!corners.value->is_array() || corners.value->size() != 4) r.wrong_type(corners, "an array of 4 points");
+    std::array<glm::dvec3, 4> v;
+    for (std::size_t i = 0; i < 4; ++i) {
+        ground.corners[i] = r.vec3(corners.element(i));
+        v[i] = glm::dvec3(ground.corners[i]);
+    }
+
+    // Newell's normal: twice the vector area, robust for any planar polygon and pointing to the side from
+    // which the corners run counter-clockwise.
+    glm::dvec3 newell(0.0);
+    double longest_edge = 0.0;
+    for (std::size_t i = 0; i < 4; ++i) {
+        newell += glm::cross(v[i], v[(i + 1) % 4]);
+        longest_edge = std::max(longest_edge, glm::length(v[(i + 1) % 4] - v[i]));
+    }
+    const double area = 0.5 * glm::length(newell);
+    if (!(area > kMinRelativeGroundArea * longest_edge * longest_edge))
+        r.fail(corners, "degenerate quad (area " + shown_number(area) + ")");
+    const glm::dvec3 normal = newell / (2.0 * area);
+
+    // Off-plane distances from the plane through the centroid with Newell's normal (the least-squares-like
+    // plane of the four corners); one lifted corner moves all four off it, so the quad as a whole is named.
+    const glm::dvec3 centroid = 0.25 * (v[0] + v[1] + v[2] + v[3]);
+    double off = 0.0;
+    for (std::size_t i = 0; i < 4; ++i) off = std::max(off, std::abs(glm::dot(v[i] - centroid, normal)));
+    if (off > kGroundPlanarityTolerance * longest_edge)
+        r.fail(corners, "not planar: the corners are up to " + shown_number(off) + " off their common plane (tolerance " +
+                            shown_number(kGroundPlanarityTolerance * longest_edge) + ")");
+    for (std::size_t i = 0; i < 4; ++i) {
+        const glm::dvec3 a = v[(i + 3) % 4], b = v[i], c = v[(i + 1) % 4];
+        const double turn = glm::dot(glm::cross(b - a, c - b), normal);
+        if (!(turn > kMinRelativeGroundTurn * longest_edge * longest_edge))
+            r.fail(corners.element(i), "the quad is not convex at this corner (corners must go around the quad in "
+                                       "order, and no three may be collinear)");
+    }
+    ground.normal = glm::vec3(normal);
+    if (auto c = Reader::optional(n, "color")) ground.color = r.vec3(*c, kNonNegative);
+    return ground;
+}
+
+CameraDescription read_camera(const Reader& r, const Node& n, const SceneDescription& scene) {
+    r.require_object(n, {"position", "look_at", "up", "fov_deg", "width", "height"});
+    float fov = CameraDescription{}.fov_deg;
+    std::uint32_t width = CameraDescription{}.width, height = CameraDescription{}.height;
+    if (auto v = Reader::optional(n, "fov_deg")) fov = r.real(*v, Bounds{0.0, true, 180.0, true});
+    if (auto v = Reader::optional(n, "width")) width = r.u32(*v, 1, std::uint32_t(kMaxImageSide));
+    if (auto v = Reader::optional(n, "height")) height = r.u32(*v, 1, std::uint32_t(kMaxImageSide));
+    if (std::uint64_t{width} * height > kMaxImagePixels)
+        r.fail(n, "image too large (" + std::to_string(width) + "x" + std::to_string(height) + " > " +
+                      std::to_string(kMaxImagePixels) + " pixels)");
+
+    CameraDescription camera = default_camera(scene.smoke.particles, scene.ground, fov, width, height);
+    if (auto v = Reader::optional(n, "position")) camera.position = r.vec3(*v);
+    if (auto v = Reader::optional(n, "look_at")) camera.look_at = r.vec3(*v);
+    const auto up = Reader::optional(n, "up");
+    if (up) camera.up = r.vec3(*up);
+
+    const glm::dvec3 view = glm::dvec3(camera.look_at) - glm::dvec3(camera.position);
+    if (glm::length(view) == 0.0) r.fail(n, "position and look_at are the same point");
+    const glm::dvec3 up_d(camera.up);
+    const std::string up_path = up ? up->path : n.path + "/up";
+    if (glm::length(up_d) == 0.0) r.fail(up_path, "must not be the zero vector");
+    const double sine = glm::length(glm::cross(glm::normalize(view), glm::normalize(up_d)));
+    if (!(sine >= kMinUpViewSine)) r.fail(up_path, "is parallel to the view direction (look_at - position)");
+    return camera;
+}
+
+RenderSettings read_render(const Reader& r, const Node& n) {
+    r.require_object(n, {"mode", "cutoff", "groups", "frames", "softness", "transmittance_threshold", "compositing"});
+    RenderSettings s;
+    if (auto v = Reader::optional(n, "mode")) {
+        const std::string m = r.string(*v);
+        if (m == "basic") s.mode = RenderMode::basic;
+        else if (m == "simple-shadow") s.mode = RenderMode::simple_shadow;
+        else if (m == "full") s.mode = RenderMode::full;
+        else r.fail(*v, "unknown mode \"" + m + "\" (use \"basic\", \"simple-shadow\" or \"full\")");
+    }
+    if (auto v = Reader::optional(n, "cutoff")) s.cutoff = r.u32(*v, 0, std::numeric_limits<std::uint32_t>::max());
+    if (auto v = Reader::optional(n, "groups")) s.groups = r.u32(*v, 1, kMaxGroups);
+    if (auto v = Reader::optional(n, "frames")) s.frames = r.u32(*v, 1, kMaxFrames);
+    if (auto v = Reader::optional(n, "softness")) s.softness = r.real(*v, kNonNegative);
+    if (auto v = Reader::optional(n, "transmittance_threshold"))
+        s.transmittance_threshold = r.real(*v, Bounds{0.0, false, 1.0, true});
+    if (auto v = Reader::optional(n, "compositing")) {
+        const std::string c = r.string(*v);
+        if (c == "over") s.compositing = Compositing::over;
+        else if (c == "thesis") s.compositing = Compositing::thesis;
+        else r.fail(*v, "unknown compositing \"" + c + "\" (use \"over\" or \"thesis\")");
+    }
+    return s;
+}
+
+}  // namespace
+
+// ---- Public API --------------------------------------------------------------------------------------
+
+glm::vec3 LightDescription::direction_at_frame(std::int64_t frame) const {
+    if (rotation_per_frame_deg == 0.0f || frame == 0) return direction;
+    // Reduce in degrees first (exact for fmod) so that large frame numbers keep full precision.
+    const double degrees = std::fmod(static_cast<double>(rotation_per_frame_deg) * static_cast<double>(frame), 360.0);
+    const double radians = degrees * (3.14159265358979323846 / 180.0);
+    const double c = std::cos(radians), s = std::sin(radians);
+    const glm::dvec3 d(direction);
+    return glm::vec3(glm::dvec3(c * d.x - s * d.y, s * d.x + c * d.y, d.z));
+}
+
+const char* to_string(RenderMode m) {
+    switch (m) {
+        case RenderMode::basic: return "basic";
+        case RenderMode::simple_shadow: return "simple-shadow";
+        case RenderMode::full: return "full";
+    }
+    return "?";
+}
+
+const char* to_string(Compositing c) {
+    switch (c) {
+        case Compositing::over: return "over";
+        case Compositing::thesis: return "thesis";
+    }
+    return "?";
+}
+
+CameraDescription default_camera(const std::vector<Particle>& particles, const std::optional<GroundDescription>& ground,
+                                 float fov_deg, std::uint32_t width, std::uint32_t height) {
+    // Bounding sphere: centre of the box, radius to the farthest surface point.
+    glm::dvec3 center(0.0);
+    double radius = 1.0;
+    if (!particles.empty()) {
+        glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+        for (const Particle& p : particles) {
+            lo = glm::min(lo, glm::dvec3(p.center) - double(p.radius));
+            hi = glm::max(hi, glm::dvec3(p.center) + double(p.radius));
+        }
+        center = 0.5 * (lo + hi);
+        radius = 0.0;
+        for (const Particle& p : particles) radius = std::max(radius, glm::length(glm::dvec3(p.center) - center) + p.radius);
+    } else if (ground) {
+        for (const glm::vec3& c : ground->corners) center += 0.25 * glm::dvec3(c);
+        radius = 0.0;
+        for (const glm::vec3& c : ground->corners) radius = std::max(radius, glm::length(glm::dvec3(c) - center));
+    }
+
+    const double to_radians = 3.14159265358979323846 / 180.0;
+    const double half_vertical = 0.5 * fov_deg * to_radians;
+    const double half_horizontal = std::atan(std::tan(half_vertical) * double(width) / double(height));
+    const double half = std::min(half_vertical, half_horizontal);
+    const double distance = kDefaultCameraMargin * radius / std::sin(half);
+    const double elevation = kDefaultCameraElevationDeg * to_radians;
+    const glm::dvec3 toward_camera(0.0, std::sin(elevation), std::cos(elevation));
+
+    CameraDescription camera;
+    camera.position = glm::vec3(center + distance * toward_camera);
+    camera.look_at = glm::vec3(center);
+    camera.up = {0.0f, 1.0f, 0.0f};
+    camera.fov_deg = fov_deg;
+    camera.width = width;
+    camera.height = height;
+    return camera;
+}
+
+SceneDescription parse_scene(std::string_view json_text, std::string_view source_name) {
+    const std::string source(source_name);
+    const Reader r(source);
+    const json document = parse_json(json_text, r, source);
+    const Node root{&document, ""};
+    r.require_object(root, {"light", "ambient", "background", "smoke", "ground", "camera", "render"});
+
+    SceneDescription scene;
+    scene.source = source;
+    scene.light = read_light(r, r.required(root, "light"));
+    if (auto v = Reader::optional(root, "ambient")) scene.ambient = r.vec3(*v, kNonNegative);
+    if (auto v = Reader::optional(root, "background")) scene.background = r.vec3(*v, kNonNegative);
+    scene.smoke = read_smoke(r, r.required(root, "smoke"));
+    if (auto v = Reader::optional(root, "ground")) scene.ground = read_ground(r, *v);
+    if (auto v = Reader::optional(root, "render")) scene.render = read_render(r, *v);
+    if (auto v = Reader::optional(root, "camera")) {
+        scene.camera = read_camera(r, *v, scene);
+    } else {
+        const CameraDescription d;
+        scene.camera = default_camera(scene.smoke.particles, scene.ground, d.fov_deg, d.width, d.height);
+    }
+    return scene;
+}
+
+SceneDescription load_scene_file(const std::filesystem::path& path) {
+    const std::string name = path.string();
+    std::error_code ec;
+    if (std::filesystem::is_directory(path, ec)) throw SceneFileError(name + ": is a directory, not a scene file");
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw SceneFileError(name + ": cannot open the file for reading");
+    std::ostringstream text;
+    text << in.rdbuf();
+    if (in.bad()) throw SceneFileError(name + ": read error");
+    return parse_scene(text.str(), name);
+}
+
+}  // namespace smoketrace
