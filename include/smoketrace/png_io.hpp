@@ -1,0 +1,33 @@
+#pragma once
+// PNG files in and out (stb_image / stb_image_write).
+//
+// Writing never leaves a half-written file: the PNG is encoded in memory, then handed to
+// write_file_atomically() (atomic_file.hpp: temporary file beside the target, renamed over it). Every
+// failure throws std::runtime_error whose message names the path and the problem.
+#include <smoketrace/image.hpp>
+
+#include <cstdint>
+#include <filesystem>
+
+namespace smoketrace {
+
+enum class PngChannels { rgb = 3, rgba = 4 };
+
+// Linear image -> 8-bit sRGB PNG (RGB through the sRGB transfer function, alpha stored linearly when
+// kept). Throws, naming the path and the first offending pixel, if any pixel is NaN or infinite: a
+// non-finite pixel is a renderer bug and must not be hidden by the clamp to [0, 1].
+void write_png_srgb(const std::filesystem::path& path, const ImageRgba& image,
+                    PngChannels channels = PngChannels::rgb);
+
+// Raw RGBA8 bytes (width·height·4, top row first) -> RGBA PNG, written as given (no colour conversion).
+void write_png_rgba8(const std::filesystem::path& path, int width, int height, const std::uint8_t* rgba);
+void write_png_rgba8(const std::filesystem::path& path, const Rgba8Image& image);
+
+// Reads any 8- or 16-bit PNG as RGBA8 (grey and RGB gain opaque alpha; 16-bit is rounded to 8).
+// Throws std::runtime_error naming the file and the problem: cannot be read (errno text), not a PNG
+// (signature), truncated or corrupt (chunk structure and CRCs are checked before decoding), not
+// decodable (stb's failure reason), or, with the second overload, not of the expected size.
+[[nodiscard]] Rgba8Image read_png_rgba8(const std::filesystem::path& path);
+[[nodiscard]] Rgba8Image read_png_rgba8(const std::filesystem::path& path, int expected_width, int expected_height);
+
+}  // namespace smoketrace

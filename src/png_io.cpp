@@ -1,0 +1,223 @@
+// PNG reading and writing, and all-or-nothing file writes (see png_io.hpp).
+#include <smoketrace/png_io.hpp>
+
+#include <smoketrace/atomic_file.hpp>
+
+#include <stb_image.h>
+#include <stb_image_write.h>
+
+#include <array>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <ostream>
+#include <stdexcept>
+#include <string>
+#include <system_error>
+#include <vector>
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+namespace smoketrace {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// Files larger than this are refused before reading: stb takes the length as an int, and no texture or
+// render smoketrace deals with comes near it.
+constexpr std::size_t kMaxPngFileBytes = std::size_t(1) << 30;
+
+std::string errno_text(int error) { return std::error_code(error, std::generic_category()).message(); }
+
+[[noreturn]] void write_error(const fs::path& path, const std::string& problem) {
+    throw std::runtime_error("cannot write '" + path.string() + "': " + problem);
+}
+
+[[noreturn]] void read_error(const fs::path& path, const std::string& problem) {
+    throw std::runtime_error("cannot read '" + path.string() + "': " + problem);
+}
+
+struct FileDescriptor {
+    int fd;
+    ~FileDescriptor() { ::close(fd); }
+};
+
+// Appends stb_image_write's output to a byte string.
+void append_to_string(void* context, void* data, int size) {
+    static_cast<std::string*>(context)->append(static_cast<const char*>(data), std::size_t(size));
+}
+
+void check_png_size(const fs::path& path, int width, int height) {
+    if (width < 1 || height < 1 || width > kMaxImageSide || height > kMaxImageSide)
+        write_error(path, "image size " + std::to_string(width) + "x" + std::to_string(height) +
+                              " is outside [1, " + std::to_string(kMaxImageSide) + "]");
+}
+
+void write_png(const fs::path& path, int width, int height, int channels, const std::uint8_t* data) {
+    std::string encoded;
+    // stb reads the compression level and filter from globals it never writes; we leave them alone so
+    // concurrent writes need no lock.
+    if (stbi_write_png_to_func(append_to_string, &encoded, width, height, channels, data, width * channels) == 0)
+        write_error(path, "PNG encoding failed");
+    write_file_atomically(path, [&](std::ostream& out) { out.write(encoded.data(), std::streamsize(encoded.size())); });
+}
+
+// --- PNG structure check -------------------------------------------------------------------------------
+// stb_image reads past the end of a truncated file as zeros and reports whatever that leads to, and it
+// ignores chunk CRCs. Walking the chunk list first turns "truncated" and "corrupt" into plain messages.
+
+constexpr std::array<std::uint8_t, 8> kPngSignature{137, 80, 78, 71, 13, 10, 26, 10};
+
+std::uint32_t crc32_update(std::uint32_t crc, const std::uint8_t* data, std::size_t size) {
+    // The CRC of the PNG specification (ISO 3309 / ITU-T V.42, reflected polynomial 0xEDB88320).
+    static const std::array<std::uint32_t, 256> table = [] {
+        std::array<std::uint32_t, 256> t{};
+        for (std::uint32_t n = 0; n < 256; ++n) {
+            std::uint32_t c = n;
+            for (int k = 0; k < 8; ++k) c = (c & 1u) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+            t[n] = c;
+        }
+        return t;
+    }();
+    for (std::size_t i = 0; i < size; ++i) crc = table[(crc ^ data[i]) & 0xFFu] ^ (crc >> 8);
+    return crc;
+}
+
+std::uint32_t read_be32(const std::uint8_t* p) {
+    return (std::uint32_t(p[0]) << 24) | (std::uint32_t(p[1]) << 16) | (std::uint32_t(p[2]) << 8) | std::uint32_t(p[3]);
+}
+
+std::string chunk_name(const std::uint8_t* type) {
+    std::string name;
+    for (int i = 0; i < 4; ++i) {
+        const char c = char(type[i]);
+        name += (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') ? std::string(1, c) : "?";
+    }
+    return name;
+}
+
+// Throws (naming the file) unless `bytes` is a PNG whose chunks are complete, whose CRCs match, which
+// starts with IHDR and reaches IEND, and whose size is within kMaxImageSide.
+void check_png_structure(const fs::path& path, const std::vector<std::uint8_t>& bytes) {
+    if (bytes.size() < kPngSignature.size() || std::memcmp(bytes.data(), kPngSignature.data(), kPngSignature.size()) != 0)
+        read_error(path, "not a PNG file (the PNG signature is missing)");
+    std::size_t at = kPngSignature.size();
+    bool first = true;
+    while (true) {
+        if (bytes.size() - at < 8)
+            read_error(path, "truncated PNG: the file ends at byte " + std::to_string(bytes.size()) +
+                                 " before the IEND chunk");
+        const std::uint32_t length = read_be32(&bytes[at]);
+        const std::uint8_t* type = &bytes[at + 4];
+        const std::string name = chunk_name(type);
+        if (length > 0x7FFF'FFFFu)  // the PNG specification's limit on a chunk length
+            read_error(path, "corrupt PNG: chunk '" + name + "' at byte " + std::to_string(at) + " has an invalid length");
+        const std::size_t needed = 12 + std::size_t(length);  // length, type, data, CRC
+        if (bytes.size() - at < needed)
+            read_error(path, "truncated PNG: chunk '" + name + "' at byte " + std::to_string(at) + " needs " +
+                                 std::to_string(needed) + " bytes, the file has " + std::to_string(bytes.size() - at) + " left");
+        const std::uint32_t stored = read_be32(&bytes[at + 8 + length]);
+        const std::uint32_t computed = crc32_update(0xFFFF'FFFFu, type, 4 + std::size_t(length)) ^ 0xFFFF'FFFFu;
+        if (stored != computed)
+            read_error(path, "corrupt PNG: CRC mismatch in chunk '" + name + "' at byte " + std::to_string(at));
+        if (first) {
+            if (name != "IHDR" || length < 8) read_error(path, "corrupt PNG: the first chunk is not a valid IHDR");
+            const std::uint32_t w = read_be32(type + 4), h = read_be32(type + 8);
+            if (w < 1 || h < 1 || w > std::uint32_t(kMaxImageSide) || h > std::uint32_t(kMaxImageSide))
+                read_error(path, "PNG size " + std::to_string(w) + "x" + std::to_string(h) + " is outside [1, " +
+                                     std::to_string(kMaxImageSide) + "]");
+            first = false;
+        }
+        at += needed;
+        if (name == "IEND") return;
+    }
+}
+
+std::vector<std::uint8_t> read_whole_file(const fs::path& path) {
+    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) read_error(path, errno_text(errno));
+    const FileDescriptor closer{fd};
+    struct stat info{};
+    if (::fstat(fd, &info) != 0) read_error(path, errno_text(errno));
+    if (S_ISDIR(info.st_mode)) read_error(path, errno_text(EISDIR));
+    if (std::size_t(info.st_size) > kMaxPngFileBytes)
+        read_error(path, "file is larger than " + std::to_string(kMaxPngFileBytes) + " bytes");
+    std::vector<std::uint8_t> bytes;
+    std::array<std::uint8_t, 1 << 16> buffer;
+    while (true) {
+        const ssize_t n = ::read(fd, buffer.data(), buffer.size());
+        if (n < 0) {
+            if (errno == EINTR) continue;
+            read_error(path, errno_text(errno));
+        }
+        if (n == 0) break;
+        bytes.insert(bytes.end(), buffer.data(), buffer.data() + n);
+        if (bytes.size() > kMaxPngFileBytes)
+            read_error(path, "file is larger than " + std::to_string(kMaxPngFileBytes) + " bytes");
+    }
+    return bytes;
+}
+
+}  // namespace
+
+void write_png_rgba8(const fs::path& path, int width, int height, const std::uint8_t* rgba) {
+    check_png_size(path, width, height);
+    if (rgba == nullptr) write_error(path, "no pixel data");
+    write_png(path, width, height, 4, rgba);
+}
+
+void write_png_rgba8(const fs::path& path, const Rgba8Image& image) {
+    check_png_size(path, image.width, image.height);
+    if (image.pixels.size() != std::size_t(image.width) * std::size_t(image.height) * 4)
+        write_error(path, "pixel buffer size does not match " + std::to_string(image.width) + "x" +
+                              std::to_string(image.height) + " RGBA");
+    write_png(path, image.width, image.height, 4, image.pixels.data());
+}
+
+void write_png_srgb(const fs::path& path, const ImageRgba& image, PngChannels channels) {
+    check_png_size(path, image.width, image.height);
+    if (image.pixels.size() != std::size_t(image.width) * std::size_t(image.height))
+        write_error(path, "pixel buffer size does not match " + std::to_string(image.width) + "x" +
+                              std::to_string(image.height));
+    for (std::size_t i = 0; i < image.pixels.size(); ++i) {
+        const glm::vec4 p = image.pixels[i];
+        if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z) || !std::isfinite(p.w))
+            write_error(path, "pixel (" + std::to_string(i % std::size_t(image.width)) + ", " +
+                                  std::to_string(i / std::size_t(image.width)) + ") is not finite");
+    }
+    Rgba8Image encoded = to_srgb8(image);
+    if (channels == PngChannels::rgb) {  // drop alpha in place: RGBA -> RGB, front to back
+        for (std::size_t i = 0; i < image.pixels.size(); ++i)
+            for (std::size_t c = 0; c < 3; ++c) encoded.pixels[i * 3 + c] = encoded.pixels[i * 4 + c];
+    }
+    write_png(path, image.width, image.height, int(channels), encoded.pixels.data());
+}
+
+Rgba8Image read_png_rgba8(const fs::path& path) {
+    const std::vector<std::uint8_t> bytes = read_whole_file(path);
+    check_png_structure(path, bytes);
+    int width = 0, height = 0, channels_in_file = 0;
+    const std::unique_ptr<stbi_uc, void (*)(void*)> decoded(
+        stbi_load_from_memory(bytes.data(), int(bytes.size()), &width, &height, &channels_in_file, 4), stbi_image_free);
+    if (!decoded) {
+        const char* reason = stbi_failure_reason();
+        read_error(path, std::string("cannot decode PNG: ") + (reason ? reason : "unknown reason"));
+    }
+    Rgba8Image image(width, height);
+    std::memcpy(image.pixels.data(), decoded.get(), image.pixels.size());
+    return image;
+}
+
+Rgba8Image read_png_rgba8(const fs::path& path, int expected_width, int expected_height) {
+    Rgba8Image image = read_png_rgba8(path);
+    if (image.width != expected_width || image.height != expected_height)
+        read_error(path, "expected " + std::to_string(expected_width) + "x" + std::to_string(expected_height) +
+                             " pixels, the file has " + std::to_string(image.width) + "x" + std::to_string(image.height));
+    return image;
+}
+
+}  // namespace smoketrace

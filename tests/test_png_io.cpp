@@ -1,0 +1,278 @@
+// PNG in and out, and the sRGB transfer function: exact values, round trips, and every failure a user can
+// cause (missing, not a PNG, truncated, corrupt, wrong size, unwritable destination) giving a message that
+// names the file and leaving no output behind.
+#include <catch2/catch.hpp>
+
+#include <smoketrace/image.hpp>
+#include <smoketrace/png_io.hpp>
+
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <vector>
+#include <unistd.h>
+
+using namespace smoketrace;
+namespace fs = std::filesystem;
+
+namespace {
+
+// A fresh empty folder per test, removed afterwards.
+struct TempDir {
+    fs::path path;
+    TempDir() {
+        static std::atomic<int> counter{0};
+        path = fs::temp_directory_path() /
+               ("smoketrace_png_" + std::to_string(::getpid()) + "_" + std::to_string(counter.fetch_add(1)));
+        fs::remove_all(path);
+        fs::create_directories(path);
+    }
+    ~TempDir() { fs::remove_all(path); }
+    std::vector<fs::path> entries() const {
+        std::vector<fs::path> out;
+        for (const auto& e : fs::directory_iterator(path)) out.push_back(e.path());
+        return out;
+    }
+};
+
+std::vector<std::uint8_t> read_bytes(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+void write_bytes(const fs::path& p, const std::vector<std::uint8_t>& bytes) {
+    std::ofstream out(p, std::ios::binary);
+    out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+}
+
+// Deterministic test pattern: every byte value occurs, neighbours differ (exercises PNG filters).
+Rgba8Image pattern(int w, int h) {
+    Rgba8Image im(w, h);
+    for (std::size_t i = 0; i < im.pixels.size(); ++i) im.pixels[i] = std::uint8_t((i * 2654435761u) >> 13);
+    return im;
+}
+
+// Reference sRGB encoding (IEC 61966-2-1) in double precision, independent of the threshold table.
+double srgb_encode(double x) { return x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1.0 / 2.4) - 0.055; }
+
+// A value whose scaled encoding lies this close to a half-integer is a rounding tie that float input
+// cannot resolve either way; the reference's own pow() error is ~1e-16, so 1e-9 is generous and still
+// excludes no sample of the sweep in practice.
+constexpr double kTieMargin = 1e-9;
+
+std::string message_of(const std::function<void()>& f) {
+    try {
+        f();
+    } catch (const std::exception& e) {
+        return e.what();
+    }
+    return "(no exception)";
+}
+
+}  // namespace
+
+TEST_CASE("sRGB: known values of the transfer function", "[png]") {
+    CHECK(linear_to_srgb8(0.0f) == 0);
+    CHECK(linear_to_srgb8(1.0f) == 255);
+    CHECK(linear_to_srgb8(0.5f) == 188);  // 1.055·0.5^(1/2.4) − 0.055 = 0.73536 → 187.52
+    // Code 128 starts at decode(127.5 / 255) = (0.555 / 1.055)^2.4 = 0.2140411: either side of it.
+    CHECK(linear_to_srgb8(0.2141f) == 128);  // 255 · encode = 127.516
+    CHECK(linear_to_srgb8(0.2139f) == 127);  // 255 · encode = 127.461
+    CHECK(linear_to_srgb8(0.001f) == 3);     // linear segment: 12.92·0.001·255 = 3.29
+    CHECK(linear_to_srgb8(-0.25f) == 0);
+    CHECK(linear_to_srgb8(7.0f) == 255);
+    CHECK(linear_to_srgb8(std::numeric_limits<float>::quiet_NaN()) == 0);
+    CHECK(linear_to_srgb8(std::numeric_limits<float>::infinity()) == 255);
+    CHECK(linear_to_srgb8(-std::numeric_limits<float>::infinity()) == 0);
+}
+
+TEST_CASE("sRGB: matches round(255 · encode(x)) over a dense sweep and at every code boundary", "[png]") {
+    auto check = [](float x) {
+        const double scaled = 255.0 * srgb_encode(std::min(std::max(double(x), 0.0), 1.0));
+        if (std::fabs(scaled - std::floor(scaled) - 0.5) < kTieMargin) return;
+        INFO("x = " << x);
+        REQUIRE(int(linear_to_srgb8(x)) == int(std::floor(scaled + 0.5)));
+    };
+    constexpr int kSweep = 200000;
+    for (int i = 0; i <= kSweep; ++i) check(float(i) / kSweep);
+    // Around each decision threshold: the floats just below and above decode((k - 0.5) / 255).
+    for (int k = 1; k <= 255; ++k) {
+        const double s = (k - 0.5) / 255.0;
+        const double t = s <= 0.04045 ? s / 12.92 : std::pow((s + 0.055) / 1.055, 2.4);
+        float x = float(t);
+        for (int step = 0; step < 3; ++step) x = std::nextafter(x, 0.0f);
+        for (int step = 0; step < 6; ++step, x = std::nextafter(x, 2.0f)) check(x);
+    }
+}
+
+TEST_CASE("sRGB: decoding then encoding every code gives the code back", "[png]") {
+    for (int k = 0; k < 256; ++k) {
+        INFO("code " << k);
+        CHECK(int(linear_to_srgb8(float(srgb8_to_linear(std::uint8_t(k))))) == k);
+    }
+}
+
+TEST_CASE("unorm8: linear data rounds to nearest, clamps, NaN to 0", "[png]") {
+    CHECK(unorm8(0.0f) == 0);
+    CHECK(unorm8(1.0f) == 255);
+    CHECK(unorm8(0.5f) == 128);  // 127.5 rounds half up
+    CHECK(unorm8(1.0f / 255.0f) == 1);
+    CHECK(unorm8(0.4f / 255.0f) == 0);
+    CHECK(unorm8(-1.0f) == 0);
+    CHECK(unorm8(2.0f) == 255);
+    CHECK(unorm8(std::numeric_limits<float>::quiet_NaN()) == 0);
+}
+
+TEST_CASE("PNG: RGBA8 round trip is byte-exact", "[png]") {
+    TempDir dir;
+    const Rgba8Image im = pattern(37, 23);
+    const fs::path p = dir.path / "a.png";
+    write_png_rgba8(p, im);
+    const Rgba8Image back = read_png_rgba8(p);
+    REQUIRE(back.width == 37);
+    REQUIRE(back.height == 23);
+    CHECK(back.pixels == im.pixels);
+    CHECK(dir.entries().size() == 1);  // no temporary file left beside it
+}
+
+TEST_CASE("PNG: sRGB writer encodes RGB and keeps alpha linear", "[png]") {
+    TempDir dir;
+    ImageRgba im(3, 2);
+    im.at(0, 0) = {0.5f, 0.0f, 1.0f, 0.5f};
+    im.at(1, 0) = {0.2141f, 2.0f, -1.0f, 1.0f};
+    im.at(2, 1) = {0.001f, 0.5f, 0.5f, 0.0f};
+    for (const PngChannels channels : {PngChannels::rgb, PngChannels::rgba}) {
+        const fs::path p = dir.path / "s.png";
+        write_png_srgb(p, im, channels);
+        const Rgba8Image back = read_png_rgba8(p, 3, 2);
+        for (int y = 0; y < 2; ++y)
+            for (int x = 0; x < 3; ++x) {
+                const glm::vec4 v = im.at(x, y);
+                const std::uint8_t* t = back.texel(x, y);
+                INFO("pixel " << x << "," << y);
+                CHECK(t[0] == linear_to_srgb8(v.x));
+                CHECK(t[1] == linear_to_srgb8(v.y));
+                CHECK(t[2] == linear_to_srgb8(v.z));
+                CHECK(t[3] == (channels == PngChannels::rgba ? unorm8(v.w) : 255));  // stb gives RGB opaque alpha
+            }
+    }
+}
+
+TEST_CASE("PNG: a non-finite pixel is refused and nothing is written", "[png]") {
+    TempDir dir;
+    ImageRgba im(4, 4, glm::vec4(0.5f));
+    im.at(2, 3).y = std::numeric_limits<float>::quiet_NaN();
+    const fs::path p = dir.path / "nan.png";
+    const std::string msg = message_of([&] { write_png_srgb(p, im); });
+    CHECK_THAT(msg, Catch::Contains(p.string()) && Catch::Contains("pixel (2, 3)") && Catch::Contains("not finite"));
+    CHECK(dir.entries().empty());
+}
+
+TEST_CASE("PNG: rewriting a file replaces it whole", "[png]") {
+    TempDir dir;
+    const fs::path p = dir.path / "r.png";
+    write_png_rgba8(p, pattern(8, 8));
+    const Rgba8Image second = pattern(5, 9);
+    write_png_rgba8(p, second);
+    CHECK(read_png_rgba8(p).pixels == second.pixels);
+    CHECK(dir.entries().size() == 1);
+}
+
+TEST_CASE("PNG errors: missing file names the path and the system's reason", "[png]") {
+    TempDir dir;
+    const fs::path p = dir.path / "nope.png";
+    const std::string msg = message_of([&] { (void)read_png_rgba8(p); });
+    CHECK_THAT(msg, Catch::Contains(p.string()) && Catch::Contains("No such file or directory"));
+}
+
+TEST_CASE("PNG errors: a file that is not a PNG", "[png]") {
+    TempDir dir;
+    const fs::path p = dir.path / "text.png";
+    std::ofstream(p) << "this is not an image\n";
+    CHECK_THAT(message_of([&] { (void)read_png_rgba8(p); }), Catch::Contains(p.string()) && Catch::Contains("not a PNG"));
+    const fs::path empty = dir.path / "empty.png";
+    std::ofstream{empty};
+    CHECK_THAT(message_of([&] { (void)read_png_rgba8(empty); }), Catch::Contains(empty.string()) && Catch::Contains("not a PNG"));
+    CHECK_THAT(message_of([&] { (void)read_png_rgba8(dir.path); }), Catch::Contains(dir.path.string()) && Catch::Contains("directory"));
+}
+
+TEST_CASE("PNG errors: truncated and corrupt files", "[png]") {
+    TempDir dir;
+    const fs::path good = dir.path / "good.png";
+    write_png_rgba8(good, pattern(64, 64));
+    const std::vector<std::uint8_t> bytes = read_bytes(good);
+    REQUIRE(bytes.size() > 100);
+
+    SECTION("half of a real PNG") {
+        const fs::path p = dir.path / "half.png";
+        write_bytes(p, std::vector<std::uint8_t>(bytes.begin(), bytes.begin() + std::ptrdiff_t(bytes.size() / 2)));
+        CHECK_THAT(message_of([&] { (void)read_png_rgba8(p); }), Catch::Contains(p.string()) && Catch::Contains("truncated"));
+    }
+    SECTION("all but the last byte (the IEND CRC)") {
+        const fs::path p = dir.path / "short.png";
+        write_bytes(p, std::vector<std::uint8_t>(bytes.begin(), bytes.end() - 1));
+        CHECK_THAT(message_of([&] { (void)read_png_rgba8(p); }),
+                   Catch::Contains(p.string()) && Catch::Contains("truncated") && Catch::Contains("IEND"));
+    }
+    SECTION("the signature alone") {
+        const fs::path p = dir.path / "sig.png";
+        write_bytes(p, std::vector<std::uint8_t>(bytes.begin(), bytes.begin() + 8));
+        CHECK_THAT(message_of([&] { (void)read_png_rgba8(p); }), Catch::Contains(p.string()) && Catch::Contains("truncated"));
+    }
+    SECTION("one flipped bit in the image data") {
+        std::vector<std::uint8_t> bad = bytes;
+        bad[bad.size() / 2] ^= 0x10;  // inside IDAT: a 64x64 pattern compresses to one chunk filling the middle
+        const fs::path p = dir.path / "flip.png";
+        write_bytes(p, bad);
+        CHECK_THAT(message_of([&] { (void)read_png_rgba8(p); }),
+                   Catch::Contains(p.string()) && Catch::Contains("CRC mismatch") && Catch::Contains("IDAT"));
+    }
+}
+
+TEST_CASE("PNG errors: wrong size when a size is expected", "[png]") {
+    TempDir dir;
+    const fs::path p = dir.path / "a.png";
+    write_png_rgba8(p, pattern(37, 23));
+    CHECK_THAT(message_of([&] { (void)read_png_rgba8(p, 64, 64); }),
+               Catch::Contains(p.string()) && Catch::Contains("expected 64x64") && Catch::Contains("37x23"));
+    CHECK(read_png_rgba8(p, 37, 23).width == 37);
+}
+
+TEST_CASE("PNG errors: writing into a missing folder names the path and leaves nothing", "[png]") {
+    TempDir dir;
+    const fs::path p = dir.path / "missing" / "out.png";
+    const std::string msg = message_of([&] { write_png_rgba8(p, pattern(4, 4)); });
+    CHECK_THAT(msg, Catch::Contains(p.string()) && Catch::Contains("does not exist"));
+    CHECK_FALSE(fs::exists(p));
+    CHECK(dir.entries().empty());
+}
+
+TEST_CASE("PNG errors: a destination that cannot be replaced leaves no temporary file", "[png]") {
+    // The target is a folder: the temporary file is written in full, the rename fails, the temporary
+    // must be removed and the folder left as it was.
+    TempDir dir;
+    const fs::path p = dir.path / "taken.png";
+    fs::create_directory(p);
+    const std::string msg = message_of([&] { write_png_rgba8(p, pattern(4, 4)); });
+    CHECK_THAT(msg, Catch::Contains(p.string()));
+    CHECK(fs::is_directory(p));
+    CHECK(dir.entries().size() == 1);
+}
+
+TEST_CASE("PNG errors: bad sizes and buffers are refused before writing", "[png]") {
+    TempDir dir;
+    const fs::path p = dir.path / "z.png";
+    const std::vector<std::uint8_t> bytes(16, 0);
+    CHECK_THAT(message_of([&] { write_png_rgba8(p, 0, 4, bytes.data()); }), Catch::Contains(p.string()));
+    CHECK_THAT(message_of([&] { write_png_rgba8(p, 2, 2, nullptr); }), Catch::Contains(p.string()));
+    Rgba8Image wrong(2, 2);
+    wrong.pixels.pop_back();
+    CHECK_THAT(message_of([&] { write_png_rgba8(p, wrong); }), Catch::Contains(p.string()));
+    CHECK(dir.entries().empty());
+}
