@@ -1,5 +1,6 @@
 #include <smoketrace/atomic_file.hpp>
 
+#include <atomic>
 #include <cerrno>
 #include <cstring>
 #include <fstream>
@@ -14,7 +15,16 @@ void write_file_atomically(const std::filesystem::path& path, const std::functio
     std::error_code ec;
     if (!fs::is_directory(folder, ec))
         throw std::runtime_error(path.string() + ": folder '" + folder.string() + "' does not exist");
-    const fs::path tmp = folder / ("." + path.filename().string() + ".tmp" + std::to_string(::getpid()));
+    // Unique per process and per call, so two threads (or two processes) writing the same target
+    // never share a temporary file.
+    static std::atomic<unsigned> serial{0};
+    std::string name(1, '.');
+    name += path.filename().string();
+    name += ".tmp";
+    name += std::to_string(::getpid());
+    name += '-';
+    name += std::to_string(serial.fetch_add(1));
+    const fs::path tmp = folder / name;
     struct Cleanup {
         const fs::path& p;
         bool armed = true;

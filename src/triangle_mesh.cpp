@@ -1,5 +1,6 @@
 // Mesh BLAS construction (see triangle_mesh.hpp).
 #include <smoketrace/triangle_mesh.hpp>
+#include <smoketrace/ray_triangle.hpp>
 
 #include <glm/geometric.hpp>
 #include <stdexcept>
@@ -8,9 +9,7 @@
 namespace smoketrace {
 
 bool is_degenerate(const glm::vec3& v0, const glm::vec3& v1, const glm::vec3& v2) {
-    const glm::dvec3 e1 = glm::dvec3(v1) - glm::dvec3(v0);
-    const glm::dvec3 e2 = glm::dvec3(v2) - glm::dvec3(v0);
-    const glm::dvec3 n = glm::cross(e1, e2);
+    const glm::dvec3 n = triangle_normal(v0, v1, v2);
     return n.x == 0.0 && n.y == 0.0 && n.z == 0.0;
 }
 

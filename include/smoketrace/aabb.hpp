@@ -3,6 +3,7 @@
 #include <smoketrace/ray.hpp>
 
 #include <cmath>
+#include <cstddef>
 #include <glm/common.hpp>
 #include <glm/vec3.hpp>
 #include <limits>
@@ -35,20 +36,28 @@ constexpr float rounding_gamma(int n) {
     return (static_cast<float>(n) * u) / (1.0f - static_cast<float>(n) * u);
 }
 
-// A ray prepared for many box tests: reciprocal direction and, per axis, which slab plane is met
-// first. Choosing the near plane by the sign bit of the reciprocal (not by comparing the two
-// distances) is what makes −0 and +0 directions correct: 1/−0 = −∞ picks hi as the near plane.
+// The box as six floats lo.x, lo.y, lo.z, hi.x, hi.y, hi.z: the slab test below picks a plane by index.
+static_assert(sizeof(Aabb) == 6 * sizeof(float) && offsetof(Aabb, hi) == 3 * sizeof(float));
+inline const float* planes(const Aabb& b) { return &b.lo.x; }
+
+// A ray prepared for many box tests: reciprocal direction and, per axis, the index (into planes()) of
+// the slab plane met first. Choosing the near plane by the sign bit of the reciprocal (not by comparing
+// the two distances) is what makes −0 and +0 directions correct: 1/−0 = −∞ picks hi as the near plane.
 struct BoxRay {
     glm::vec3 origin;
     glm::vec3 inv_dir;
-    int near_is_hi[3];  // 1 where the direction component is negative (or −0)
+    int near[3];  // a or a + 3: the plane entered first on axis a
+    int far[3];
     float tmin;
 
     explicit BoxRay(const Ray& r)
-        : origin(r.origin), inv_dir(1.0f / r.direction.x, 1.0f / r.direction.y, 1.0f / r.direction.z),
-          near_is_hi{std::signbit(inv_dir.x) ? 1 : 0, std::signbit(inv_dir.y) ? 1 : 0,
-                     std::signbit(inv_dir.z) ? 1 : 0},
-          tmin(r.tmin) {}
+        : origin(r.origin), inv_dir(1.0f / r.direction.x, 1.0f / r.direction.y, 1.0f / r.direction.z), tmin(r.tmin) {
+        for (int a = 0; a < 3; ++a) {
+            const bool negative = std::signbit(inv_dir[a]);
+            near[a] = negative ? a + 3 : a;
+            far[a] = negative ? a : a + 3;
+        }
+    }
 };
 
 // Far distances are widened by 1 + 2·gamma(3) (pbrt-v4 6.1.2): the three rounded operations of a slab
@@ -58,22 +67,28 @@ inline constexpr float kSlabFarScale = 1.0f + 2.0f * rounding_gamma(3);
 // Slab test: true if the ray meets the closed box for some t in [tmin, tmax]; t_enter receives the
 // entry distance (clamped to tmin). tmax is widened by the same factor as the far distances, so a
 // primitive lying in a face of its box, hit at exactly tmax, is never lost to the rounding of the
-// box's entry distance. A direction component of ±0 gives 1/d = ±∞; where the origin also
-// lies exactly on that slab plane, (plane − o)·(1/d) is 0·∞ = NaN. That NaN never reaches the result:
-// the comparisons below are written "candidate > current ? candidate : current", which keeps the
-// current value when the candidate is NaN — exactly right, because such a ray lies in the closed slab
-// and that slab must not constrain it. t_enter and the return value are therefore never NaN.
-inline bool intersect(const Aabb& b, const BoxRay& r, float tmax, float& t_enter) {
-    float t0 = r.tmin;
-    float t1 = tmax * kSlabFarScale;
-    for (int a = 0; a < 3; ++a) {
-        const float near_plane = r.near_is_hi[a] ? b.hi[a] : b.lo[a];
-        const float far_plane = r.near_is_hi[a] ? b.lo[a] : b.hi[a];
-        const float tn = (near_plane - r.origin[a]) * r.inv_dir[a];
-        const float tf = (far_plane - r.origin[a]) * r.inv_dir[a] * kSlabFarScale;
-        t0 = tn > t0 ? tn : t0;
-        t1 = tf < t1 ? tf : t1;
-    }
+// box's entry distance.
+//
+// A direction component of ±0 gives 1/d = ±∞; where the origin also lies exactly on that slab plane,
+// (plane − o)·(1/d) is 0·∞ = NaN. That NaN never reaches the result: the comparisons below are written
+// "candidate > current ? candidate : current", which keeps the current value when the candidate is NaN —
+// exactly right, because such a ray lies in the closed slab and that slab must not constrain it.
+// t_enter and the return value are therefore never NaN.
+[[gnu::always_inline]] inline bool intersect(const Aabb& b, const BoxRay& r, float tmax, float& t_enter) {
+    const float* p = planes(b);
+    const float nx = (p[r.near[0]] - r.origin.x) * r.inv_dir.x;
+    const float ny = (p[r.near[1]] - r.origin.y) * r.inv_dir.y;
+    const float nz = (p[r.near[2]] - r.origin.z) * r.inv_dir.z;
+    const float fx = (p[r.far[0]] - r.origin.x) * r.inv_dir.x * kSlabFarScale;
+    const float fy = (p[r.far[1]] - r.origin.y) * r.inv_dir.y * kSlabFarScale;
+    const float fz = (p[r.far[2]] - r.origin.z) * r.inv_dir.z * kSlabFarScale;
+    float t0 = r.tmin, t1 = tmax * kSlabFarScale;
+    t0 = nx > t0 ? nx : t0;
+    t0 = ny > t0 ? ny : t0;
+    t0 = nz > t0 ? nz : t0;
+    t1 = fx < t1 ? fx : t1;
+    t1 = fy < t1 ? fy : t1;
+    t1 = fz < t1 ? fz : t1;
     t_enter = t0;
     return t0 <= t1;
 }

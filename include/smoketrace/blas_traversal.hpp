@@ -29,12 +29,12 @@ struct BlasCounters {
     std::uint32_t any_hit_invocations = 0;
 };
 
-// Everything about a ray that the BLAS kernels need, prepared once per ray (per instance in trace()).
+// What the primitive kernels need of a ray, prepared once per ray (per instance in trace()). The box
+// set-up (BoxRay) is separate: a single-leaf BLAS is tested without it.
 struct BlasRay {
     Ray ray;
-    BoxRay box;
     TriangleRay tri;
-    explicit BlasRay(const Ray& r) : ray(r), box(r), tri(r) {}
+    explicit BlasRay(const Ray& r) : ray(r), tri(r) {}
 };
 
 // Runs `on_hit(const BlasHit&)` for every triangle of the leaf slots [first, first + count) that the ray
@@ -92,7 +92,7 @@ inline bool blas_any_hit_search(const Blas& blas, const Ray& ray, AnyHit&& any_h
         tmax = candidate.t;
         return d == AnyHitDecision::accept_and_end;
     };
-    traverse_bvh(blas.bvh(), r.box, tmax, [&](std::uint32_t first, std::uint32_t count) {
+    traverse_bvh(blas.bvh(), BoxRay(ray), tmax, [&](std::uint32_t first, std::uint32_t count) {
         if constexpr (std::is_same_v<Blas, MeshBlas>)
             return mesh_leaf_hits(blas, r, tmax, first, count, counters.traversal, on_hit);
         else

@@ -17,6 +17,7 @@
 // vertex of a closed mesh is reported once per crossing: never by none, never by two.
 #include <smoketrace/ray.hpp>
 
+#include <glm/common.hpp>
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 #include <cmath>
@@ -28,19 +29,22 @@ namespace smoketrace {
 // direction to (0, 0, 1).
 struct TriangleRay {
     glm::vec3 origin;
+    glm::vec3 direction;
     int kx, ky, kz;
     float sx, sy, sz;
     float tmin;
 
-    explicit TriangleRay(const Ray& r) : origin(r.origin), tmin(r.tmin) {
+    explicit TriangleRay(const Ray& r) : origin(r.origin), direction(r.direction), tmin(r.tmin) {
         const glm::vec3 a = glm::abs(r.direction);
         kz = (a.x > a.y) ? (a.x > a.z ? 0 : 2) : (a.y > a.z ? 1 : 2);
         kx = (kz + 1) % 3;
         ky = (kx + 1) % 3;
         if (r.direction[kz] < 0.0f) std::swap(kx, ky);  // keep the winding of the 2D projection
-        sx = r.direction[kx] / r.direction[kz];
-        sy = r.direction[ky] / r.direction[kz];
+        // One division: watertightness needs every triangle of a ray to see the same shear, not the
+        // correctly rounded one.
         sz = 1.0f / r.direction[kz];
+        sx = r.direction[kx] * sz;
+        sy = r.direction[ky] * sz;
     }
 };
 
@@ -49,6 +53,15 @@ struct TriangleHit {
     glm::vec2 barycentrics;  // weights of v1 and v2 (DXR's convention); v0's is 1 − b.x − b.y
     bool front_face;
 };
+
+// The geometric normal (v1 − v0) × (v2 − v0) in double. The differences of floats are exact in double
+// for any mesh whose coordinates span fewer than 29 binades, and the products of those 24-bit values are
+// exact, so the normal is exactly zero iff the float triangle is degenerate (repeated or collinear vertices).
+inline glm::dvec3 triangle_normal(const glm::vec3& v0, const glm::vec3& v1, const glm::vec3& v2) {
+    const glm::dvec3 e1 = glm::dvec3(v1) - glm::dvec3(v0);
+    const glm::dvec3 e2 = glm::dvec3(v2) - glm::dvec3(v0);
+    return {e1.y * e2.z - e1.z * e2.y, e1.z * e2.x - e1.x * e2.z, e1.x * e2.y - e1.y * e2.x};
+}
 
 namespace detail {
 // Top-left ownership of the edge p → q, winding-normalised by the sign of the 2D determinant.
@@ -61,7 +74,7 @@ inline bool owns_edge(float px, float py, float qx, float qy, bool ccw) {
 }  // namespace detail
 
 // Returns true and fills `hit` when the ray meets the triangle at t in [tmin, tmax].
-// Degenerate triangles (repeated vertices, or seen edge-on) have a zero determinant and never hit.
+// Degenerate triangles (repeated or collinear vertices) and triangles seen edge-on never hit.
 // The edge functions are evaluated in double: a product of two floats is exact there, so each sign is
 // the exact sign for the sheared vertex positions and no FMA contraction can break the symmetry.
 inline bool intersect_triangle(const TriangleRay& r, const glm::vec3& v0, const glm::vec3& v1,
@@ -86,8 +99,17 @@ inline bool intersect_triangle(const TriangleRay& r, const glm::vec3& v0, const 
     if (v == 0.0 && !detail::owns_edge(cx, cy, ax, ay, ccw)) return false;
     if (w == 0.0 && !detail::owns_edge(ax, ay, bx, by, ccw)) return false;
 
-    const double az = double(r.sz) * a[r.kz], bz = double(r.sz) * b[r.kz], cz = double(r.sz) * c[r.kz];
-    const double t = (u * az + v * bz + w * cz) / det;
+    // The distance comes from the plane, in double, and not from the edge-weighted sum of the sheared
+    // vertex depths: that sum carries an error proportional to the vertices' distance from the origin,
+    // which for a large triangle seen from close by exceeds the box test's widening and would let a box
+    // reject its own triangle's hit. The plane form's error is relative to t itself. It also rejects the
+    // triangles the 2D test cannot see as degenerate: exactly collinear vertices (zero normal) whose
+    // sheared projection rounded to a sliver, and a ray in the triangle's plane.
+    const glm::dvec3 n = triangle_normal(v0, v1, v2);
+    const double n_dot_d = n.x * r.direction.x + n.y * r.direction.y + n.z * r.direction.z;
+    if (n_dot_d == 0.0) return false;
+    const glm::dvec3 p = glm::dvec3(v0) - glm::dvec3(r.origin);
+    const double t = (n.x * p.x + n.y * p.y + n.z * p.z) / n_dot_d;
     if (!(t >= double(r.tmin) && t <= double(tmax))) return false;  // also rejects NaN
     hit.t = static_cast<float>(t);
     if (!(hit.t >= r.tmin && hit.t <= tmax)) return false;  // rounding to float must stay in range

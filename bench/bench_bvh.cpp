@@ -1,0 +1,374 @@
+// Bench section "bvh": smoketrace's mesh BLAS against Embree 3 on the same mesh and the same rays, in one
+// run: build (triangles per second; our SAH cost), closest hit and all hits (rays per second).
+//
+// Embree at its best for speed: its default (medium) and its high-quality (spatial split) builds, each
+// with and without RTC_SCENE_FLAG_ROBUST; closest hit also on scenes without the context-filter flag.
+// Embree's build time is its rtcCommitScene alone (vertex and index buffers are shared, set up untimed);
+// ours is the whole MeshBlas constructor (boxes, degenerate check, tree, leaf-ordered triangle copy).
+// Traversal runs on one thread (the headline figures) and on all threads (extra rows). All hits:
+// Embree's intersection-filter path (a context filter that records the hit and rejects it) against our
+// any-hit traversal with a callback that records the hit and ignores it; both record into the same
+// fixed per-ray buffer, so neither allocates.
+//
+// Headline ratios (report()):
+//   build_ratio_vs_embree_hq     our build time / Embree high-quality build time   (target ≤ 2)
+//   build_ratio_vs_embree        our build time / Embree medium build time
+//   closest_hit_ratio_vs_embree  our rays/s / the fastest Embree configuration's   (target ≥ 0.5)
+//   all_hits_ratio_vs_embree     our rays/s / the fastest Embree configuration's   (target ≥ 1)
+#include "bench_registry.hpp"
+#include "timing.hpp"
+
+#include "support/embree_reference.hpp"
+
+#include <smoketrace/blas_traversal.hpp>
+#include <smoketrace/prng.hpp>
+
+#include <glm/geometric.hpp>
+#include <tbb/blocked_range.h>
+#include <tbb/combinable.h>
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+#include <tbb/parallel_for.h>
+
+#include <array>
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <iomanip>
+#include <iostream>
+#include <limits>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace smoketrace::bench {
+namespace {
+
+namespace er = smoketrace::embree_reference;
+
+struct EmbreeConfig {
+    const char* name;
+    er::SceneOptions options;
+};
+const EmbreeConfig kEmbreeConfigs[] = {
+    {"embree_medium", {RTC_BUILD_QUALITY_MEDIUM, false, true}},
+    {"embree_medium_robust", {RTC_BUILD_QUALITY_MEDIUM, true, true}},
+    {"embree_high", {RTC_BUILD_QUALITY_HIGH, false, true}},
+    {"embree_high_robust", {RTC_BUILD_QUALITY_HIGH, true, true}},
+    // Closest hit only: the leanest scenes, without the context-filter flag.
+    {"embree_medium_nofilter", {RTC_BUILD_QUALITY_MEDIUM, false, false}},
+    {"embree_high_nofilter", {RTC_BUILD_QUALITY_HIGH, false, false}},
+};
+
+// Rays from random points on a sphere of radius 6 around the mesh, aimed at random points of the box
+// around it: incoherent, most hit the sphere or the terrain (the Embree tests use the same recipe).
+std::vector<Ray> bench_rays(std::size_t n, std::uint64_t seed) {
+    Pcg32 rng(seed);
+    const glm::vec3 centre(0.0f, 0.0f, -0.5f);
+    std::vector<Ray> rays;
+    rays.reserve(n);
+    while (rays.size() < n) {
+        const glm::vec3 u(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
+        if (glm::length(u) < 0.1f || glm::length(u) > 1.0f) continue;
+        Ray r;
+        r.origin = centre + 6.0f * glm::normalize(u);
+        const glm::vec3 target = centre + 2.5f * glm::vec3(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
+        r.direction = target - r.origin;
+        rays.push_back(r);
+    }
+    return rays;
+}
+
+// Per-ray hit record with a fixed capacity: both tracers write every candidate here (beyond the
+// capacity only counted), so the all-hits work is identical and allocation-free.
+struct HitRecord {
+    static constexpr std::uint32_t kCapacity = 64;
+    std::array<std::uint32_t, kCapacity> prim;
+    std::array<float, kCapacity> t;
+    std::uint32_t count = 0;
+    void add(std::uint32_t p, float tt) {
+        if (count < kCapacity) {
+            prim[count] = p;
+            t[count] = tt;
+        }
+        ++count;
+    }
+};
+
+// What a traversal pass returns: its work, so the optimiser cannot drop it and the two tracers can be
+// seen to do the same job.
+struct PassResult {
+    std::uint64_t hits = 0;  // closest: rays that hit; all hits: candidates reported
+    double t_sum = 0.0;
+};
+
+// --- smoketrace ---------------------------------------------------------------------------------------
+
+PassResult ours_closest(const MeshBlas& blas, const std::vector<Ray>& rays, std::size_t begin, std::size_t end) {
+    PassResult res;
+    for (std::size_t i = begin; i < end; ++i) {
+        BlasHit hit;
+        BlasCounters counters;
+        if (closest_hit(blas, rays[i], hit, counters)) {
+            ++res.hits;
+            res.t_sum += hit.t;
+        }
+    }
+    return res;
+}
+
+PassResult ours_all_hits(const MeshBlas& blas, const std::vector<Ray>& rays, std::size_t begin, std::size_t end) {
+    PassResult res;
+    HitRecord record;
+    for (std::size_t i = begin; i < end; ++i) {
+        record.count = 0;
+        BlasHit committed;
+        BlasCounters counters;
+        any_hit_traversal(blas, rays[i], [&](const BlasHit& h) {
+            record.add(h.primitive, h.t);
+            return AnyHitDecision::ignore;
+        }, committed, counters);
+        res.hits += record.count;
+        if (record.count) res.t_sum += record.t[0];
+    }
+    return res;
+}
+
+// --- Embree -------------------------------------------------------------------------------------------
+
+PassResult embree_closest(const er::Scene& scene, const std::vector<Ray>& rays, std::size_t begin, std::size_t end) {
+    PassResult res;
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    for (std::size_t i = begin; i < end; ++i) {
+        const Ray& r = rays[i];
+        RTCRayHit rh;
+        rh.ray.org_x = r.origin.x;
+        rh.ray.org_y = r.origin.y;
+        rh.ray.org_z = r.origin.z;
+        rh.ray.tnear = r.tmin;
+        rh.ray.dir_x = r.direction.x;
+        rh.ray.dir_y = r.direction.y;
+        rh.ray.dir_z = r.direction.z;
+        rh.ray.time = 0.0f;
+        rh.ray.tfar = r.tmax;
+        rh.ray.mask = ~0u;
+        rh.ray.id = 0;
+        rh.ray.flags = 0;
+        rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+        rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+        rtcIntersect1(scene.handle(), &context, &rh);
+        if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
+            ++res.hits;
+            res.t_sum += rh.ray.tfar;
+        }
+    }
+    return res;
+}
+
+PassResult embree_all_hits(const er::Scene& scene, const std::vector<Ray>& rays, std::size_t begin, std::size_t end) {
+    PassResult res;
+    HitRecord record;
+    for (std::size_t i = begin; i < end; ++i) {
+        record.count = 0;
+        scene.all_hits(rays[i], [&](const er::EmbreeHit& h) { record.add(h.primitive, h.t); });
+        res.hits += record.count;
+        if (record.count) res.t_sum += record.t[0];
+    }
+    return res;
+}
+
+// --- timing -------------------------------------------------------------------------------------------
+//
+// The machine is shared and its load drifts over the minutes a run takes, so contenders are timed
+// round-robin (repeat 1 of every contender, then repeat 2, ...) and compared by their medians: a slow
+// phase then hits all of them alike instead of whichever happened to run during it.
+
+// One pass over all rays, on this thread or on all threads.
+template <class Pass>
+PassResult run_pass(bool all_threads, std::size_t n, const Pass& pass) {
+    if (!all_threads) return pass(std::size_t(0), n);
+    tbb::combinable<PassResult> partial;
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const tbb::blocked_range<std::size_t>& r) {
+        const PassResult p = pass(r.begin(), r.end());
+        PassResult& acc = partial.local();
+        acc.hits += p.hits;
+        acc.t_sum += p.t_sum;
+    });
+    return partial.combine([](PassResult a, const PassResult& b) {
+        a.hits += b.hits;
+        a.t_sum += b.t_sum;
+        return a;
+    });
+}
+
+// Something to time: one call is one repeat (a build, or a pass over all rays). std::function is fine
+// here: it is called once per repeat, the hot loops inside are templates.
+struct Contender {
+    std::string name;
+    int threads;
+    std::function<PassResult()> run;
+    std::function<void()> prepare;  // untimed set-up before each repeat (Embree's scene and its buffers)
+    std::vector<double> ms{};
+    PassResult result{};
+
+    Contender(std::string n, int t, std::function<PassResult()> r, std::function<void()> p = [] {})
+        : name(std::move(n)), threads(t), run(std::move(r)), prepare(std::move(p)) {}
+};
+
+void time_round_robin(std::vector<Contender>& contenders, int repeats) {
+    for (int k = 0; k < repeats; ++k)
+        for (Contender& c : contenders) {
+            c.prepare();
+            const auto t0 = std::chrono::steady_clock::now();
+            c.result = c.run();
+            const auto t1 = std::chrono::steady_clock::now();
+            c.ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+        }
+}
+
+struct Row {
+    std::string measure, implementation;
+    int threads;
+    std::size_t triangles, rays;
+    Stats ms;
+    double per_second;        // triangles/s (build) or rays/s (traversal)
+    double ours_over_this;    // build: our time / this time; traversal: our rays/s / this rays/s
+    std::uint64_t work;       // traversal: hits (closest) or reported candidates (all hits)
+};
+
+// Formats through a local stream so std::cout's flags (the summary's format) are left alone.
+void print_row(const Row& r) {
+    std::ostringstream line;
+    line << "  " << std::left << std::setw(10) << r.measure << std::setw(24) << r.implementation << std::right
+         << std::setw(4) << r.threads << std::setw(11) << std::fixed << std::setprecision(2) << r.ms.median
+         << std::setw(14) << std::setprecision(3) << r.per_second / 1e6 << std::setw(10) << r.ours_over_this
+         << std::setw(12) << r.work << "\n";
+    std::cout << line.str();
+}
+
+void run_bvh(const BenchOptions& options) {
+    const int level = options.quick ? 6 : 7;
+    const int grid = options.quick ? 160 : 384;
+    const std::size_t ray_count = options.quick ? 50000 : 500000;
+    const TriangleMesh mesh = er::make_sphere_over_terrain(level, grid);
+    const std::vector<Ray> rays = bench_rays(ray_count, 2024);
+    const std::size_t tris = mesh.triangles.size();
+    const int all_threads = tbb::info::default_concurrency();
+    std::cout << "  mesh: icosphere level " << level << " over a " << grid << "x" << grid << " height field, " << tris
+              << " triangles; " << ray_count << " incoherent rays; medians of " << options.repeats
+              << " round-robin repeats\n";
+    std::cout << "  " << std::left << std::setw(10) << "measure" << std::setw(24) << "implementation" << std::right
+              << std::setw(4) << "thr" << std::setw(11) << "median ms" << std::setw(14) << "M tris|rays/s"
+              << std::setw(10) << "ours/this" << std::setw(12) << "work" << "\n";
+    std::vector<Row> rows;
+
+    // ---- build: ours (all threads, one thread) and every Embree configuration ----
+    er::Device device;                 // all threads
+    er::Device device_1("threads=1");  // single-threaded builds (extra rows)
+    std::unique_ptr<MeshBlas> blas;
+    std::vector<std::unique_ptr<er::Scene>> scenes(std::size(kEmbreeConfigs));
+    std::vector<Contender> builds;
+    builds.push_back({"smoketrace", all_threads, [&] {
+                          blas = std::make_unique<MeshBlas>(mesh);
+                          return PassResult{};
+                      }});
+    builds.push_back({"smoketrace", 1, [&] {
+                          tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+                          MeshBlas b(mesh);
+                          return PassResult{};
+                      }});
+    for (std::size_t i = 0; i < std::size(kEmbreeConfigs); ++i) {
+        const EmbreeConfig& c = kEmbreeConfigs[i];
+        builds.push_back({c.name, all_threads, [&, i] { scenes[i]->commit(); return PassResult{}; }, [&, i] {
+                              scenes[i] = std::make_unique<er::Scene>(device, c.options);
+                              scenes[i]->attach_mesh(mesh);
+                          }});
+    }
+    std::unique_ptr<er::Scene> scene_1;
+    for (const EmbreeConfig* c : {&kEmbreeConfigs[0], &kEmbreeConfigs[2]})
+        builds.push_back({c->name, 1, [&] { scene_1->commit(); return PassResult{}; }, [&, c] {
+                              scene_1 = std::make_unique<er::Scene>(device_1, c->options);
+                              scene_1->attach_mesh(mesh);
+                          }});
+    time_round_robin(builds, options.repeats);
+    scene_1.reset();
+    const double ours_build = stats_of(builds[0].ms).median, ours_build_1 = stats_of(builds[1].ms).median;
+    double embree_medium_ms = 0, embree_high_ms = 0;
+    for (const Contender& c : builds) {
+        const Stats st = stats_of(c.ms);
+        const double ours = c.threads == 1 ? ours_build_1 : ours_build;
+        rows.push_back({"build", c.name, c.threads, tris, 0, st, tris / (st.median * 1e-3), ours / st.median, 0});
+        print_row(rows.back());
+        if (c.threads == all_threads && c.name == "embree_medium") embree_medium_ms = st.median;
+        if (c.threads == all_threads && c.name == "embree_high") embree_high_ms = st.median;
+    }
+    const double sah = blas->bvh().sah_cost();
+    std::cout << "  smoketrace SAH cost " << sah << " (" << blas->bvh().node_count() << " nodes, depth "
+              << blas->bvh().depth() << ")\n";
+
+    // ---- traversal: closest hit and all hits, one thread (headline) and all threads (extra) ----
+    double best_closest = 0, best_all = 0, ours_closest_rps = 0, ours_all_rps = 0;
+    for (int threads : {1, all_threads}) {
+        if (threads == all_threads && all_threads == 1) break;
+        const bool parallel = threads > 1;
+        for (const char* measure : {"closest", "all_hits"}) {
+            const bool closest = std::string(measure) == "closest";
+            std::vector<Contender> passes;
+            passes.push_back({"smoketrace", threads, [&] {
+                                  return closest ? run_pass(parallel, ray_count, [&](std::size_t b, std::size_t e) { return ours_closest(*blas, rays, b, e); })
+                                                 : run_pass(parallel, ray_count, [&](std::size_t b, std::size_t e) { return ours_all_hits(*blas, rays, b, e); });
+                              }});
+            for (std::size_t i = 0; i < std::size(kEmbreeConfigs); ++i) {
+                if (!closest && !kEmbreeConfigs[i].options.context_filter) continue;
+                const er::Scene& scene = *scenes[i];
+                passes.push_back({kEmbreeConfigs[i].name, threads, [&, closest] {
+                                      return closest ? run_pass(parallel, ray_count, [&](std::size_t b, std::size_t e) { return embree_closest(scene, rays, b, e); })
+                                                     : run_pass(parallel, ray_count, [&](std::size_t b, std::size_t e) { return embree_all_hits(scene, rays, b, e); });
+                                  }});
+            }
+            time_round_robin(passes, options.repeats);
+            const double ours_rps = ray_count / (stats_of(passes[0].ms).median * 1e-3);
+            for (const Contender& c : passes) {
+                const Stats st = stats_of(c.ms);
+                const double rps = ray_count / (st.median * 1e-3);
+                rows.push_back({measure, c.name, threads, tris, ray_count, st, rps, ours_rps / rps, c.result.hits});
+                print_row(rows.back());
+                if (threads == 1 && c.name != "smoketrace") (closest ? best_closest : best_all) = std::max(closest ? best_closest : best_all, rps);
+            }
+            if (threads == 1) (closest ? ours_closest_rps : ours_all_rps) = ours_rps;
+        }
+    }
+
+    // ---- CSV (temp + rename: never a half-written file) ----
+    const std::string path = options.results_dir + "/bvh.csv";
+    {
+        std::ofstream out(path + ".tmp");
+        out << "measure,implementation,threads,triangles,rays,median_ms,min_ms,max_ms,per_second,ours_over_this,work\n";
+        out << std::setprecision(9);
+        for (const Row& r : rows)
+            out << r.measure << ',' << r.implementation << ',' << r.threads << ',' << r.triangles << ',' << r.rays << ','
+                << r.ms.median << ',' << r.ms.min << ',' << r.ms.max << ',' << r.per_second << ',' << r.ours_over_this << ','
+                << r.work << '\n';
+        out << "sah_cost,smoketrace,," << tris << ",," << sah << ",,,,,\n";
+    }
+    std::filesystem::rename(path + ".tmp", path);
+
+    report("bvh_triangles", double(tris));
+    report("bvh_sah_cost", sah);
+    report("build_ratio_vs_embree_hq", ours_build / embree_high_ms);
+    report("build_ratio_vs_embree", ours_build / embree_medium_ms);
+    report("closest_hit_ratio_vs_embree", ours_closest_rps / best_closest);
+    report("all_hits_ratio_vs_embree", ours_all_rps / best_all);
+}
+
+const RegisterSection kBvhSection{{"bvh",
+                                   "mesh BLAS vs Embree 3: build (tris/s, SAH), closest hit and all hits (rays/s)",
+                                   &run_bvh}};
+
+}  // namespace
+}  // namespace smoketrace::bench

@@ -1,0 +1,793 @@
+// The BVH (bvh.hpp, bvh_builder.hpp), its traversal (bvh_traversal.hpp, blas_traversal.hpp), the mesh
+// BLAS (triangle_mesh.hpp) and the stand-in meshes (stand_in_shapes.hpp), each against brute force.
+#include <smoketrace/blas_traversal.hpp>
+#include <smoketrace/bvh.hpp>
+#include <smoketrace/bvh_builder.hpp>
+#include <smoketrace/bvh_traversal.hpp>
+#include <smoketrace/prng.hpp>
+#include <smoketrace/stand_in_shapes.hpp>
+#include <smoketrace/triangle_mesh.hpp>
+
+#include <catch2/catch.hpp>
+#include <glm/geometric.hpp>
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <iomanip>
+#include <limits>
+#include <map>
+#include <set>
+#include <utility>
+#include <vector>
+
+using namespace smoketrace;
+
+namespace {
+
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+// ---------------------------------------------------------------------------------------------------
+// Inputs
+
+std::vector<Aabb> random_boxes(std::size_t n, std::uint64_t seed) {
+    Pcg32 rng(seed);
+    std::vector<Aabb> boxes(n);
+    for (auto& b : boxes) {
+        const glm::vec3 c(rng.uniform(-10, 10), rng.uniform(-10, 10), rng.uniform(-10, 10));
+        const glm::vec3 e(rng.uniform(0, 0.5f), rng.uniform(0, 0.5f), rng.uniform(0, 0.5f));
+        b = Aabb{c - e, c + e};
+    }
+    return boxes;
+}
+
+// A soup of n triangles in [-1, 1]^3 with sizes up to `size`; every 97th triangle is degenerate
+// (a repeated vertex) so that the BLAS has something to leave out.
+TriangleMesh random_soup(std::size_t n, float size, std::uint64_t seed) {
+    Pcg32 rng(seed);
+    TriangleMesh m;
+    for (std::size_t i = 0; i < n; ++i) {
+        const glm::vec3 c(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
+        const auto base = static_cast<unsigned>(m.vertices.size());
+        for (int k = 0; k < 3; ++k)
+            m.vertices.push_back(c + size * glm::vec3(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1)));
+        m.triangles.push_back(i % 97 == 96 ? glm::uvec3(base, base, base + 2) : glm::uvec3(base, base + 1, base + 2));
+    }
+    return m;
+}
+
+// Rays from random origins in [-2, 2]^3 (some inside the soup) towards random points of [-1, 1]^3,
+// with unnormalised directions.
+std::vector<Ray> random_rays(std::size_t n, std::uint64_t seed) {
+    Pcg32 rng(seed);
+    std::vector<Ray> rays(n);
+    for (auto& r : rays) {
+        r.origin = glm::vec3(rng.uniform(-2, 2), rng.uniform(-2, 2), rng.uniform(-2, 2));
+        const glm::vec3 target(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
+        r.direction = (target - r.origin) * rng.uniform(0.5f, 2.0f);
+    }
+    return rays;
+}
+
+Aabb triangle_box(const TriangleMesh& m, std::size_t i) {
+    Aabb b;
+    for (int k = 0; k < 3; ++k) b.grow(m.vertices[m.triangles[i][k]]);
+    return b;
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Brute force
+
+struct RefHit {
+    std::uint32_t prim;
+    float t;
+    glm::vec2 barycentrics;
+    bool front;
+};
+
+// Every triangle of the mesh the ray hits in [tmin, tmax], by the same triangle function as the BLAS.
+std::vector<RefHit> brute_force_hits(const TriangleMesh& m, const Ray& r) {
+    std::vector<RefHit> hits;
+    const TriangleRay tr(r);
+    for (std::size_t i = 0; i < m.triangles.size(); ++i) {
+        const glm::uvec3 t = m.triangles[i];
+        TriangleHit h;
+        if (intersect_triangle(tr, m.vertices[t.x], m.vertices[t.y], m.vertices[t.z], r.tmax, h))
+            hits.push_back({std::uint32_t(i), h.t, h.barycentrics, h.front_face});
+    }
+    return hits;
+}
+
+float min_t(const std::vector<RefHit>& hits) {
+    float t = kInf;
+    for (const auto& h : hits) t = std::min(t, h.t);
+    return t;
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Structure checks
+
+struct TreeFacts {
+    std::size_t nodes_reached = 0;
+    int depth = 0;
+    double sah = 0.0;  // recomputed from brute-force boxes, in double
+};
+
+// Walks the tree from the root and checks every structural promise of bvh.hpp and bvh_builder.hpp.
+// Node boxes are required to be EXACTLY the union of their primitives' boxes (tight), which also
+// implies that each child box lies inside its parent's.
+TreeFacts check_structure(const Bvh& bvh, const std::vector<Aabb>& boxes, unsigned max_leaf_size,
+                          const SahCosts& costs = {}) {
+    TreeFacts facts;
+    const std::size_t n = boxes.size();
+    REQUIRE(bvh.prim_indices.size() == n);
+    REQUIRE(bvh.nodes.size() >= 1);
+    REQUIRE(reinterpret_cast<std::uintptr_t>(bvh.nodes.data()) % 64 == 0);
+    std::vector<int> slot_owner(n, 0);   // leaf slots covered
+    std::vector<int> node_seen(bvh.nodes.size(), 0);
+    Aabb root_box;
+    for (const auto& b : boxes) root_box.grow(b);
+    const double root_area = root_box.area();
+
+    struct Item {
+        std::uint32_t node;
+        int depth;
+    };
+    std::vector<Item> stack{{0u, 0}};
+    while (!stack.empty()) {
+        const Item it = stack.back();
+        stack.pop_back();
+        REQUIRE(it.node < bvh.nodes.size());
+        REQUIRE(it.node != 1);  // the padding slot is never referenced
+        REQUIRE(++node_seen[it.node] == 1);
+        ++facts.nodes_reached;
+        facts.depth = std::max(facts.depth, it.depth);
+        const BvhNode& node = bvh.nodes[it.node];
+        Aabb expected;
+        if (node.is_leaf()) {
+            REQUIRE(node.count <= max_leaf_size);
+            REQUIRE(std::size_t(node.first) + node.count <= n);
+            for (std::uint32_t k = node.first; k < node.first + node.count; ++k) {
+                ++slot_owner[k];
+                expected.grow(boxes[bvh.prim_indices[k]]);
+            }
+            facts.sah += costs.intersection * node.count * (double(expected.area()) / root_area);
+        } else {
+            REQUIRE(node.first % 2 == 0);          // pairs start at even indices (one cache line)
+            REQUIRE(node.first > it.node);         // depth-first: children after their parent
+            REQUIRE(node.first + 1 < bvh.nodes.size());
+            const Aabb& l = bvh.nodes[node.first].bounds;
+            const Aabb& r = bvh.nodes[node.first + 1].bounds;
+            for (int a = 0; a < 3; ++a) {
+                REQUIRE(l.lo[a] >= node.bounds.lo[a]);
+                REQUIRE(l.hi[a] <= node.bounds.hi[a]);
+                REQUIRE(r.lo[a] >= node.bounds.lo[a]);
+                REQUIRE(r.hi[a] <= node.bounds.hi[a]);
+            }
+            expected = merge(l, r);
+            facts.sah += costs.traversal * (double(expected.area()) / root_area);
+            stack.push_back({node.first, it.depth + 1});
+            stack.push_back({node.first + 1, it.depth + 1});
+        }
+        REQUIRE(node.bounds.lo == expected.lo);
+        REQUIRE(node.bounds.hi == expected.hi);
+    }
+    // Every leaf slot in exactly one leaf, and the slots name every primitive exactly once.
+    for (std::size_t k = 0; k < n; ++k) REQUIRE(slot_owner[k] == 1);
+    std::vector<std::uint32_t> sorted = bvh.prim_indices;
+    std::sort(sorted.begin(), sorted.end());
+    for (std::size_t k = 0; k < n; ++k) REQUIRE(sorted[k] == k);
+    // Every node but the padding slot is reachable.
+    REQUIRE(facts.nodes_reached == bvh.node_count());
+    REQUIRE(facts.depth == bvh.depth());
+    REQUIRE(facts.depth <= kMaxBvhDepth);
+    return facts;
+}
+
+// SAH agreement: sah_cost() sums float box areas; the recomputation uses the same float areas divided in
+// double, so the two sums differ only by the order and precision of the additions.
+constexpr double kSahRelTol = 1e-9;
+
+TEST_CASE("BVH builder: structure invariants on random boxes", "[bvh]") {
+    for (std::size_t n : {1u, 2u, 3u, 5u, 17u, 1000u, 50000u})
+        for (unsigned leaf : {1u, 2u, 4u, 8u}) {
+            const auto boxes = random_boxes(n, 1000 + n);
+            BvhBuildSettings settings;
+            settings.max_leaf_size = leaf;
+            const Bvh bvh = build_bvh(boxes, settings);
+            INFO("n " << n << " max leaf " << leaf);
+            const TreeFacts facts = check_structure(bvh, boxes, leaf);
+            const double sah = bvh.sah_cost();
+            REQUIRE(sah > 0.0);
+            REQUIRE(std::abs(sah - facts.sah) <= kSahRelTol * facts.sah);
+            if (n == 1) REQUIRE(bvh.node_count() == 1);
+        }
+}
+
+TEST_CASE("BVH builder: SAH cost follows the cost constants", "[bvh]") {
+    const auto boxes = random_boxes(5000, 7);
+    BvhBuildSettings settings;
+    settings.costs = {2.0f, 0.5f};
+    const Bvh bvh = build_bvh(boxes, settings);
+    const TreeFacts facts = check_structure(bvh, boxes, settings.max_leaf_size, settings.costs);
+    REQUIRE(std::abs(bvh.sah_cost(settings.costs) - facts.sah) <= kSahRelTol * facts.sah);
+    // Root alone costs traversal·1: the sum can never be below it.
+    REQUIRE(bvh.sah_cost(settings.costs) > settings.costs.traversal);
+}
+
+// Adversarial input for binned SAH: six chains of boxes along ±x, ±y, ±z at distances 8^-i from the
+// origin, each box a quarter of its distance wide. Sixteen uniform bins put all but the outermost box of
+// a chain into one bin, so every SAH split peels off about one box: an unbounded builder would go about
+// as deep as a chain is long, times the number of chains it interleaves.
+struct ChainItem {
+    glm::vec3 centre;
+    float size;
+};
+std::vector<ChainItem> six_chain_items() {
+    std::vector<ChainItem> items;
+    for (int chain = 0; chain < 6; ++chain)
+        for (int i = 0; i < 41; ++i) {  // 8^-40 = 2^-120: the smallest box is still a normal float
+            const float x = std::ldexp(1.0f, -3 * i);
+            glm::vec3 c(0.0f);
+            c[chain % 3] = chain < 3 ? x : -x;
+            items.push_back({c, 0.25f * x});
+        }
+    return items;
+}
+std::vector<Aabb> six_chains() {
+    std::vector<Aabb> boxes;
+    for (const auto& it : six_chain_items()) boxes.push_back(Aabb{it.centre - it.size, it.centre + it.size});
+    return boxes;
+}
+
+TEST_CASE("BVH builder: empty input, empty boxes and the depth bound on adversarial inputs", "[bvh]") {
+    REQUIRE(build_bvh(std::vector<Aabb>{}).empty());
+    std::vector<Aabb> with_empty = random_boxes(10, 3);
+    with_empty[4] = Aabb{};
+    REQUIRE_THROWS(build_bvh(with_empty));
+
+    SECTION("six exponentially spaced chains") {
+        const auto boxes = six_chains();
+        const Bvh bvh = build_bvh(boxes);
+        check_structure(bvh, boxes, 4);
+        // The input is adversarial: ~250 primitives (a balanced tree: depth 8) drive binned SAH to the
+        // depth budget, where the builder's forced halving takes over.
+        REQUIRE(bvh.depth() >= kMaxBvhDepth - 8);
+    }
+    SECTION("six chains mixed with random boxes") {
+        std::vector<Aabb> boxes = six_chains();
+        const auto noise = random_boxes(20000, 5);
+        boxes.insert(boxes.end(), noise.begin(), noise.end());
+        const Bvh bvh = build_bvh(boxes);
+        check_structure(bvh, boxes, 4);
+    }
+    SECTION("many identical boxes: no split plane separates them") {
+        const std::vector<Aabb> boxes(3000, Aabb{glm::vec3(1.0f), glm::vec3(2.0f)});
+        const Bvh bvh = build_bvh(boxes);
+        check_structure(bvh, boxes, 4);
+    }
+    SECTION("nested boxes of doubling size around one centre") {
+        std::vector<Aabb> boxes;
+        for (int i = 0; i < 120; ++i) {
+            const glm::vec3 e(std::ldexp(1.0f, i - 60));
+            boxes.push_back(Aabb{-e, e});
+        }
+        const Bvh bvh = build_bvh(boxes, BvhBuildSettings{{}, 1});
+        check_structure(bvh, boxes, 1);
+    }
+}
+
+TEST_CASE("BVH builder: the same node array with 1, 2 and 8 threads", "[bvh]") {
+    const auto boxes = random_boxes(200000, 77);
+    auto build_with = [&](int threads) {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+        return build_bvh(boxes);
+    };
+    const Bvh one = build_with(1);
+    check_structure(one, boxes, 4);
+    for (int threads : {2, 8}) {
+        const Bvh many = build_with(threads);
+        INFO("threads " << threads);
+        REQUIRE(many.nodes.size() == one.nodes.size());
+        REQUIRE(many.prim_indices == one.prim_indices);
+        for (std::size_t i = 0; i < one.nodes.size(); ++i) {
+            REQUIRE(many.nodes[i].bounds.lo == one.nodes[i].bounds.lo);
+            REQUIRE(many.nodes[i].bounds.hi == one.nodes[i].bounds.hi);
+            REQUIRE(many.nodes[i].first == one.nodes[i].first);
+            REQUIRE(many.nodes[i].count == one.nodes[i].count);
+        }
+    }
+}
+
+// Closest hit through traverse_bvh over a mesh stored in input order (used where no MeshBlas exists).
+bool closest_hit_by_index(const Bvh& bvh, const TriangleMesh& m, const Ray& ray, RefHit& best) {
+    const TriangleRay tr(ray);
+    float tmax = ray.tmax;
+    bool found = false;
+    TraversalStats stats;
+    traverse_bvh(bvh, BoxRay(ray), tmax, [&](std::uint32_t first, std::uint32_t count) {
+        for (std::uint32_t k = first; k < first + count; ++k) {
+            const std::uint32_t prim = bvh.prim_indices[k];
+            const glm::uvec3 t = m.triangles[prim];
+            TriangleHit h;
+            if (intersect_triangle(tr, m.vertices[t.x], m.vertices[t.y], m.vertices[t.z], tmax, h)) {
+                best = {prim, h.t, h.barycentrics, h.front_face};
+                tmax = h.t;
+                found = true;
+            }
+        }
+        return false;
+    }, stats);
+    return found;
+}
+
+TEST_CASE("BVH refit: boxes stay tight after the primitives move, and traversal stays exact", "[bvh]") {
+    TriangleMesh m = random_soup(3000, 0.1f, 31);
+    m.triangles.erase(std::remove_if(m.triangles.begin(), m.triangles.end(),
+                                     [](const glm::uvec3& t) { return t.x == t.y; }),
+                      m.triangles.end());
+    std::vector<Aabb> boxes(m.triangles.size());
+    for (std::size_t i = 0; i < boxes.size(); ++i) boxes[i] = triangle_box(m, i);
+    Bvh bvh = build_bvh(boxes);
+    const auto topology = bvh.nodes;
+
+    // Move every vertex (a swirl plus noise): triangles change size and place.
+    Pcg32 rng(32);
+    for (auto& v : m.vertices)
+        v = glm::vec3(v.y * 0.8f + 0.3f, -v.x * 1.2f, v.z + 0.5f * v.x) +
+            0.05f * glm::vec3(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
+    for (std::size_t i = 0; i < boxes.size(); ++i) boxes[i] = triangle_box(m, i);
+    bvh.refit(boxes);
+
+    for (std::size_t i = 0; i < topology.size(); ++i) {
+        REQUIRE(bvh.nodes[i].first == topology[i].first);
+        REQUIRE(bvh.nodes[i].count == topology[i].count);
+    }
+    check_structure(bvh, boxes, 4);  // tight: every box is exactly the union of its primitives' boxes
+
+    for (const Ray& r : random_rays(3000, 33)) {
+        const auto hits = brute_force_hits(m, r);
+        RefHit got{};
+        const bool found = closest_hit_by_index(bvh, m, r, got);
+        REQUIRE(found == !hits.empty());
+        if (found) REQUIRE(got.t == min_t(hits));
+    }
+}
+
+// ---------------------------------------------------------------------------------------------------
+// The mesh BLAS and its queries
+
+TEST_CASE("MeshBlas: leaf triangles are the input triangles, degenerate ones left out", "[bvh]") {
+    const TriangleMesh m = random_soup(2000, 0.2f, 41);
+    const MeshBlas blas(m);
+    std::size_t degenerate = 0;
+    for (const auto& t : m.triangles) degenerate += is_degenerate(m.vertices[t.x], m.vertices[t.y], m.vertices[t.z]);
+    REQUIRE(degenerate == 2000 / 97);
+    REQUIRE(blas.input_triangle_count() == 2000);
+    REQUIRE(blas.degenerate_count() == degenerate);
+    REQUIRE(blas.leaf_triangles().size() == 2000 - degenerate);
+    std::set<std::uint32_t> ids;
+    std::vector<Aabb> boxes;
+    for (std::uint32_t k = 0; k < blas.leaf_triangles().size(); ++k) {
+        const std::uint32_t id = blas.primitive_id(k);
+        REQUIRE(id < 2000);
+        REQUIRE(ids.insert(id).second);
+        const glm::uvec3 t = m.triangles[id];
+        REQUIRE_FALSE(is_degenerate(m.vertices[t.x], m.vertices[t.y], m.vertices[t.z]));
+        REQUIRE(blas.leaf_triangles()[k].v0 == m.vertices[t.x]);
+        REQUIRE(blas.leaf_triangles()[k].v1 == m.vertices[t.y]);
+        REQUIRE(blas.leaf_triangles()[k].v2 == m.vertices[t.z]);
+    }
+    // The tree's leaf ranges cover exactly the kept triangles.
+    std::vector<Aabb> leaf_order_boxes;
+    for (const auto& t : blas.leaf_triangles()) {
+        Aabb b;
+        b.grow(t.v0);
+        b.grow(t.v1);
+        b.grow(t.v2);
+        leaf_order_boxes.push_back(b);
+    }
+    Bvh identity = blas.bvh();
+    for (std::uint32_t k = 0; k < identity.prim_indices.size(); ++k) identity.prim_indices[k] = k;
+    check_structure(identity, leaf_order_boxes, 4);
+
+    TriangleMesh bad = m;
+    bad.triangles[5].y = std::uint32_t(bad.vertices.size());
+    REQUIRE_THROWS_AS(MeshBlas(bad), std::out_of_range);
+    REQUIRE(MeshBlas(TriangleMesh{}).bvh().empty());
+}
+
+// Why closest hit must equal brute force EXACTLY (t bit for bit): the BLAS tests each triangle with
+// intersect_triangle on bit-identical vertex copies and the same per-ray set-up, so a triangle's t is
+// the same float in both; the traversal can only differ by not testing a triangle, and the conservative
+// slab test (test_geometry.cpp) never culls the box of the nearest one. Ties (two triangles at the same
+// float t) may be resolved either way: the primitive must be one of the tied ones.
+TEST_CASE("Closest hit equals brute force over all triangles on random soups", "[bvh]") {
+    for (float size : {0.02f, 0.1f, 0.4f}) {
+        const TriangleMesh m = random_soup(2000, size, 51 + std::uint64_t(size * 100));
+        for (unsigned leaf : {1u, 4u, 8u}) {
+            BvhBuildSettings settings;
+            settings.max_leaf_size = leaf;
+            const MeshBlas blas(m, settings);
+            int hit_rays = 0;
+            for (const Ray& r : random_rays(4000, 52)) {
+                const auto hits = brute_force_hits(m, r);
+                BlasHit got;
+                BlasCounters counters;
+                const bool found = closest_hit(blas, r, got, counters);
+                INFO("size " << size << " leaf " << leaf);
+                REQUIRE(found == !hits.empty());
+                REQUIRE(counters.any_hit_invocations == 0);
+                if (!found) continue;
+                ++hit_rays;
+                REQUIRE(got.t == min_t(hits));
+                const auto same = std::find_if(hits.begin(), hits.end(),
+                                               [&](const RefHit& h) { return h.prim == got.primitive; });
+                REQUIRE(same != hits.end());
+                REQUIRE(same->t == got.t);
+                REQUIRE(same->barycentrics == got.barycentrics);
+                REQUIRE(same->front == got.front_face);
+            }
+            CHECK(hit_rays > 200);
+        }
+    }
+}
+
+TEST_CASE("Any-hit traversal that ignores every candidate reports exactly the brute-force hits", "[bvh]") {
+    const TriangleMesh m = random_soup(3000, 0.15f, 61);
+    const MeshBlas blas(m);
+    Pcg32 rng(62);
+    long total = 0;
+    for (Ray r : random_rays(4000, 63)) {
+        // Half the rays get a finite window [tmin, tmax].
+        if (rng.next_u32() & 1) {
+            r.tmin = rng.uniform(0.0f, 0.5f);
+            r.tmax = r.tmin + rng.uniform(0.0f, 1.0f);
+        }
+        auto expected = brute_force_hits(m, r);
+        std::vector<std::pair<std::uint32_t, float>> seen;
+        BlasHit committed;
+        committed.primitive = 12345;
+        BlasCounters counters;
+        const bool accepted = any_hit_traversal(blas, r, [&](const BlasHit& h) {
+            seen.emplace_back(h.primitive, h.t);
+            return AnyHitDecision::ignore;
+        }, committed, counters);
+        REQUIRE_FALSE(accepted);
+        REQUIRE(committed.primitive == 12345);  // nothing committed
+        REQUIRE(counters.any_hit_invocations == seen.size());
+        std::vector<std::pair<std::uint32_t, float>> want;
+        for (const auto& h : expected) {
+            REQUIRE(h.t >= r.tmin);
+            want.emplace_back(h.prim, h.t);
+        }
+        std::sort(seen.begin(), seen.end());
+        std::sort(want.begin(), want.end());
+        REQUIRE(seen == want);
+        total += long(seen.size());
+    }
+    CHECK(total > 10000);
+}
+
+TEST_CASE("Any-hit decisions: ignore, accept and accept_and_end", "[bvh]") {
+    const TriangleMesh m = random_soup(2000, 0.2f, 71);
+    const MeshBlas blas(m);
+    const auto rays = random_rays(3000, 72);
+    int multi_hit_rays = 0;
+    for (const Ray& r : rays) {
+        const auto hits = brute_force_hits(m, r);
+        if (hits.size() < 2) continue;
+        ++multi_hit_rays;
+
+        {  // accept everything: the closest hit, and no candidate beyond the committed t
+            float committed_t = r.tmax;
+            BlasHit committed;
+            BlasCounters counters;
+            const bool found = any_hit_traversal(blas, r, [&](const BlasHit& h) {
+                REQUIRE(h.t <= committed_t);  // tmax shrank to the last accepted hit
+                REQUIRE(h.t >= r.tmin);
+                committed_t = h.t;
+                return AnyHitDecision::accept;
+            }, committed, counters);
+            REQUIRE(found);
+            REQUIRE(committed.t == min_t(hits));
+            REQUIRE(counters.any_hit_invocations >= 1);
+            REQUIRE(counters.any_hit_invocations <= hits.size());
+        }
+        {  // accept only even primitives (an alpha test): ignored candidates do not shrink tmax
+            float committed_t = r.tmax;
+            std::map<std::uint32_t, int> offered;
+            BlasHit committed;
+            BlasCounters counters;
+            const bool found = any_hit_traversal(blas, r, [&](const BlasHit& h) {
+                REQUIRE(h.t <= committed_t);
+                ++offered[h.primitive];
+                if (h.primitive % 2) return AnyHitDecision::ignore;
+                committed_t = h.t;
+                return AnyHitDecision::accept;
+            }, committed, counters);
+            float best_even = kInf;
+            for (const auto& h : hits)
+                if (h.prim % 2 == 0) best_even = std::min(best_even, h.t);
+            REQUIRE(found == (best_even < kInf));
+            if (found) {
+                REQUIRE(committed.t == best_even);
+                REQUIRE(committed.primitive % 2 == 0);
+            }
+            // Every hit not beyond the final committed t must have been offered, exactly once.
+            for (const auto& h : hits)
+                if (h.t <= committed_t) REQUIRE(offered[h.prim] == 1);
+            for (const auto& [prim, times] : offered) REQUIRE(times == 1);
+        }
+        {  // accept_and_end on the first candidate ends the search
+            BlasHit committed;
+            BlasCounters counters;
+            int calls = 0;
+            const bool found = any_hit_traversal(blas, r, [&](const BlasHit&) {
+                ++calls;
+                return AnyHitDecision::accept_and_end;
+            }, committed, counters);
+            REQUIRE(found);
+            REQUIRE(calls == 1);
+            REQUIRE(counters.any_hit_invocations == 1);
+            const auto same = std::find_if(hits.begin(), hits.end(), [&](const RefHit& h) { return h.prim == committed.primitive; });
+            REQUIRE(same != hits.end());
+            REQUIRE(same->t == committed.t);
+        }
+        {  // accept_and_end on the second candidate, after ignoring the first
+            BlasHit committed;
+            BlasCounters counters;
+            std::vector<BlasHit> offered;
+            const bool found = any_hit_traversal(blas, r, [&](const BlasHit& h) {
+                offered.push_back(h);
+                return offered.size() == 2 ? AnyHitDecision::accept_and_end : AnyHitDecision::ignore;
+            }, committed, counters);
+            REQUIRE(found);
+            REQUIRE(offered.size() == 2);
+            REQUIRE(committed.primitive == offered[1].primitive);
+            REQUIRE(committed.t == offered[1].t);
+            REQUIRE(counters.any_hit_invocations == 2);
+        }
+    }
+    CHECK(multi_hit_rays > 300);
+}
+
+// The exact counters of an ignore-everything traversal: tmax never shrinks, so the traversal visits
+// exactly the nodes whose box and all of whose ancestors' boxes the ray enters.
+struct ExpectedCounters {
+    std::uint32_t nodes = 0, boxes = 0, prims = 0;
+};
+void expected_counters(const Bvh& bvh, const BoxRay& br, float tmax, std::uint32_t node, ExpectedCounters& c) {
+    ++c.nodes;
+    const BvhNode& n = bvh.nodes[node];
+    if (n.is_leaf()) {
+        c.prims += n.count;
+        return;
+    }
+    for (std::uint32_t child : {n.first, n.first + 1}) {
+        ++c.boxes;
+        float t;
+        if (intersect(bvh.nodes[child].bounds, br, tmax, t)) expected_counters(bvh, br, tmax, child, c);
+    }
+}
+
+TEST_CASE("Traversal counters: exact for an ignore-all search, plausible for closest hit", "[bvh]") {
+    const TriangleMesh m = random_soup(4000, 0.1f, 81);
+    const MeshBlas blas(m);
+    long closest_nodes = 0, all_nodes = 0;
+    for (const Ray& r : random_rays(3000, 82)) {
+        ExpectedCounters want;
+        want.boxes = 1;  // the root
+        float t;
+        if (intersect(blas.bvh().nodes[0].bounds, BoxRay(r), r.tmax, t)) expected_counters(blas.bvh(), BoxRay(r), r.tmax, 0, want);
+        const auto hits = brute_force_hits(m, r);
+
+        BlasHit committed;
+        BlasCounters all;
+        any_hit_traversal(blas, r, [](const BlasHit&) { return AnyHitDecision::ignore; }, committed, all);
+        REQUIRE(all.traversal.nodes_visited == want.nodes);
+        REQUIRE(all.traversal.boxes_tested == want.boxes);
+        REQUIRE(all.traversal.primitives_tested == want.prims);
+        REQUIRE(all.any_hit_invocations == hits.size());
+
+        BlasCounters closest;
+        closest_hit(blas, r, committed, closest);
+        const TraversalStats& s = closest.traversal;
+        REQUIRE(s.nodes_visited <= s.boxes_tested);  // a node is visited only after its box was tested
+        REQUIRE(s.boxes_tested <= 1 + 2 * s.nodes_visited);
+        REQUIRE(s.nodes_visited <= all.traversal.nodes_visited);  // shrinking tmax only prunes
+        REQUIRE(s.primitives_tested <= all.traversal.primitives_tested);
+        REQUIRE(s.primitives_tested <= blas.leaf_triangles().size());
+        REQUIRE(closest.any_hit_invocations == 0);
+        if (!hits.empty()) REQUIRE(s.primitives_tested >= 1);
+        closest_nodes += s.nodes_visited;
+        all_nodes += all.traversal.nodes_visited;
+    }
+    // Front-to-back order with tmax pruning visits fewer nodes than the exhaustive search.
+    CHECK(closest_nodes < all_nodes);
+    // Counters accumulate across calls (per-ray counters are the caller's fresh struct).
+    BlasCounters twice;
+    BlasHit h;
+    const Ray r = random_rays(1, 83)[0];
+    closest_hit(blas, r, h, twice);
+    const auto once = twice.traversal.nodes_visited;
+    closest_hit(blas, r, h, twice);
+    CHECK(twice.traversal.nodes_visited == 2 * once);
+}
+
+TEST_CASE("Traversal stays exact on a maximally deep tree", "[bvh]") {
+    // Triangles on the six adversarial chains: the tree reaches the depth bound, so the traversal stack
+    // (kMaxBvhDepth + 1 entries) is used to its limit. Each triangle spans its chain box exactly.
+    TriangleMesh m;
+    const auto items = six_chain_items();
+    std::vector<glm::vec3> centroids;
+    for (const auto& it : items) {
+        const auto base = std::uint32_t(m.vertices.size());
+        m.vertices.push_back(it.centre + it.size * glm::vec3(-1, -1, -1));
+        m.vertices.push_back(it.centre + it.size * glm::vec3(1, 1, -1));
+        m.vertices.push_back(it.centre + it.size * glm::vec3(-1, 1, 1));
+        m.triangles.push_back({base, base + 1, base + 2});
+        centroids.push_back((m.vertices[base] + m.vertices[base + 1] + m.vertices[base + 2]) / 3.0f);
+    }
+    for (unsigned leaf : {1u, 4u}) {
+        const MeshBlas blas(m, BvhBuildSettings{{}, leaf});
+        REQUIRE(blas.bvh().depth() >= kMaxBvhDepth - 8);
+        REQUIRE(blas.bvh().depth() <= kMaxBvhDepth);
+        // Rays aimed at each triangle's centroid from a distance of a few times its size.
+        Pcg32 rng(91);
+        for (std::size_t i = 0; i < items.size(); ++i)
+            for (int k = 0; k < 20; ++k) {
+                const glm::vec3 u(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
+                Ray r;
+                r.origin = centroids[i] + 8.0f * items[i].size * u;
+                r.direction = -u;
+                const auto hits = brute_force_hits(m, r);
+                BlasHit got;
+                BlasCounters c;
+                REQUIRE(closest_hit(blas, r, got, c) == !hits.empty());
+                if (!hits.empty()) REQUIRE(got.t == min_t(hits));
+                std::size_t all = 0;
+                any_hit_traversal(blas, r, [&](const BlasHit&) { ++all; return AnyHitDecision::ignore; }, got, c);
+                REQUIRE(all == hits.size());
+            }
+    }
+}
+
+TEST_CASE("Closest hit keeps a triangle lying in a face of its box when a commit lands just behind it", "[bvh]") {
+    // A ground triangle (flat box) and a small upright triangle whose hit lies one float ulp behind the
+    // ground's: brute force (the same triangle function) says the ground is nearer, so closest_hit must
+    // return it. The ground's box entry is computed from the plane z = 0 exactly, while the triangle
+    // test's t carries an error relative to the distance of its far vertices (|v − o| ~ 1400 here against
+    // t·|d| ~ 3): the box of the nearer triangle must not be skipped by the pop test.
+    Ray r;
+    r.origin = {0.1f, 0.7f, 1.0f};
+    r.direction = {0.3f, -1.9f, -0.7f};
+    const glm::vec3 g0(-1000, -1000, 0), g1(1000, -1000, 0), g2(0, 1000, 0);
+    TriangleHit ground;
+    REQUIRE(intersect_triangle(TriangleRay(r), g0, g1, g2, kInf, ground));
+    const float t_blocker = std::nextafter(ground.t, kInf);
+    const glm::vec3 p = r.origin + t_blocker * r.direction;
+    TriangleMesh m;
+    m.vertices = {g0, g1, g2, {p.x, p.y - 0.01f, p.z - 0.01f}, {p.x, p.y + 0.01f, p.z - 0.01f}, {p.x, p.y, p.z + 0.01f}};
+    m.triangles = {{0, 1, 2}, {3, 4, 5}};
+    const auto hits = brute_force_hits(m, r);
+    REQUIRE(hits.size() == 2);
+    REQUIRE(hits[0].t < hits[1].t);  // precondition: the ground is the nearer by the triangle function
+    const MeshBlas blas(m, BvhBuildSettings{{}, 1});
+    BlasHit got;
+    BlasCounters c;
+    REQUIRE(closest_hit(blas, r, got, c));
+    INFO("ground t " << std::setprecision(9) << hits[0].t << ", blocker t " << hits[1].t << ", returned t " << got.t);
+    CHECK(got.primitive == 0);
+    CHECK(got.t == hits[0].t);
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Stand-in meshes
+
+// A float vertex of a unit-scale mesh is within half an ulp per coordinate of its double position;
+// 4 float epsilons of the radius bounds both that and the length of the rounded vector.
+constexpr double kVertexTol = 4.0 * std::numeric_limits<float>::epsilon();
+
+// Closed and consistently oriented: every directed edge exactly once, and its reverse exactly once.
+void check_closed(const TriangleMesh& m) {
+    std::map<std::pair<std::uint32_t, std::uint32_t>, int> directed;
+    for (const auto& t : m.triangles)
+        for (int e = 0; e < 3; ++e) ++directed[{t[e], t[(e + 1) % 3]}];
+    for (const auto& [edge, count] : directed) {
+        REQUIRE(count == 1);
+        const auto reverse = directed.find({edge.second, edge.first});
+        REQUIRE(reverse != directed.end());
+        REQUIRE(reverse->second == 1);
+    }
+    // Euler characteristic of a sphere: V − E + F = 2.
+    REQUIRE(long(m.vertices.size()) - long(directed.size() / 2) + long(m.triangles.size()) == 2);
+}
+
+// Every face counter-clockwise seen from outside (normal away from the centre), and the mesh strictly
+// convex: every other vertex strictly on the inner side of each face's plane.
+void check_outward_and_convex(const TriangleMesh& m) {
+    for (const auto& t : m.triangles) {
+        const glm::dvec3 a(m.vertices[t.x]), b(m.vertices[t.y]), c(m.vertices[t.z]);
+        const glm::dvec3 n = glm::cross(b - a, c - a);
+        REQUIRE(glm::dot(n, a + b + c) > 0.0);
+        for (std::size_t k = 0; k < m.vertices.size(); ++k) {
+            if (k == t.x || k == t.y || k == t.z) continue;
+            REQUIRE(glm::dot(n, glm::dvec3(m.vertices[k]) - a) < 0.0);
+        }
+    }
+}
+
+TEST_CASE("Icosahedron: the normalised cyclic permutations of (0, ±1, ±φ), 20 outward faces", "[bvh]") {
+    for (float radius : {1.0f, 0.25f, 3.0f}) {
+        const TriangleMesh m = make_icosahedron(radius);
+        REQUIRE(m.vertices.size() == 12);
+        REQUIRE(m.triangles.size() == 20);
+        const double phi = (1.0 + std::sqrt(5.0)) / 2.0;
+        std::vector<glm::dvec3> expected;
+        for (double s1 : {-1.0, 1.0})
+            for (double s2 : {-phi, phi}) {
+                expected.push_back(glm::normalize(glm::dvec3(0, s1, s2)) * double(radius));
+                expected.push_back(glm::normalize(glm::dvec3(s1, s2, 0)) * double(radius));
+                expected.push_back(glm::normalize(glm::dvec3(s2, 0, s1)) * double(radius));
+            }
+        std::vector<int> matched(12, 0);
+        for (const auto& v : m.vertices) {
+            REQUIRE(std::abs(glm::length(glm::dvec3(v)) - radius) <= kVertexTol * radius);  // on the sphere
+            int matches = 0;
+            for (int k = 0; k < 12; ++k)
+                if (glm::length(glm::dvec3(v) - expected[k]) <= kVertexTol * radius) {
+                    ++matches;
+                    ++matched[k];
+                }
+            REQUIRE(matches == 1);
+        }
+        for (int k = 0; k < 12; ++k) REQUIRE(matched[k] == 1);
+        // All 30 edges have the icosahedron's edge length 2r/|(0, 1, φ)|.
+        const double edge = 2.0 * radius / std::sqrt(1.0 + phi * phi);
+        for (const auto& t : m.triangles)
+            for (int e = 0; e < 3; ++e) {
+                const double len = glm::length(glm::dvec3(m.vertices[t[e]]) - glm::dvec3(m.vertices[t[(e + 1) % 3]]));
+                REQUIRE(std::abs(len - edge) <= 2.0 * kVertexTol * radius);
+            }
+        check_closed(m);
+        check_outward_and_convex(m);
+    }
+}
+
+TEST_CASE("Icospheres: 20·4^L faces on the sphere, closed, outward, convex", "[bvh]") {
+    const TriangleMesh ico = make_icosahedron(1.0f);
+    for (int level = 0; level <= 4; ++level) {
+        const float radius = level % 2 ? 2.0f : 1.0f;
+        const TriangleMesh m = make_icosphere(level, radius);
+        INFO("level " << level);
+        REQUIRE(m.triangles.size() == 20u << (2 * level));
+        REQUIRE(m.vertices.size() == (10u << (2 * level)) + 2);
+        for (const auto& v : m.vertices) REQUIRE(std::abs(glm::length(glm::dvec3(v)) - radius) <= kVertexTol * radius);
+        check_closed(m);
+        check_outward_and_convex(m);
+        if (level == 0) {
+            REQUIRE(m.vertices == ico.vertices);
+            REQUIRE(m.triangles == ico.triangles);
+        }
+        // A ray through the centre crosses the closed surface twice: in through a front face, out through
+        // a back face.
+        const MeshBlas blas(m);
+        std::vector<BlasHit> seen;
+        Ray r;
+        r.origin = {0.3f, -5.0f, 0.2f};
+        r.direction = {-0.05f, 1.0f, 0.02f};
+        BlasHit h;
+        BlasCounters c;
+        any_hit_traversal(blas, r, [&](const BlasHit& hit) { seen.push_back(hit); return AnyHitDecision::ignore; }, h, c);
+        REQUIRE(seen.size() == 2);
+        std::sort(seen.begin(), seen.end(), [](const BlasHit& a, const BlasHit& b) { return a.t < b.t; });
+        REQUIRE(seen[0].front_face);
+        REQUIRE_FALSE(seen[1].front_face);
+    }
+    REQUIRE_THROWS(make_icosphere(-1));
+    REQUIRE_THROWS(make_icosphere(9));
+}
+
+}  // namespace
