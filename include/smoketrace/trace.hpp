@@ -133,7 +133,7 @@ TraceResult trace(const Scene& scene, const Ray& ray, std::uint32_t flags, std::
             ++c.instances_entered;
             const glm::dvec3 o = inst.world_to_object_linear * (world_origin - inst.object_to_world_translation);
             const glm::dvec3 d = inst.world_to_object_linear * world_dir;
-            const BlasRay obj(Ray{glm::vec3(o), ray.tmin, glm::vec3(d), ray.tmax});
+            const BlasRay obj(Ray{glm::vec3(o), ray.tmin, glm::vec3(d), ray.tmax});  // see BlasRay
 
             auto on_hit = [&](const BlasHit& h) {
                 const bool front = h.front_face != flip_facing;
@@ -166,14 +166,18 @@ TraceResult trace(const Scene& scene, const Ray& ray, std::uint32_t flags, std::
                 }
                 return ended;
             };
-            if (triangles) {
-                traverse_bvh(blas.mesh.bvh(), obj.box, tmax, [&](std::uint32_t f, std::uint32_t n) {
-                    return mesh_leaf_hits(blas.mesh, obj, tmax, f, n, blas_stats, on_hit);
-                }, blas_stats);
+            // A BLAS that is a single leaf (a billboard quad, a particle's unit sphere) needs no
+            // traversal: the TLAS has already tested a box around it.
+            const Bvh& bvh = triangles ? blas.mesh.bvh() : blas.spheres.bvh();
+            auto leaf = [&](std::uint32_t f, std::uint32_t n) {
+                return triangles ? mesh_leaf_hits(blas.mesh, obj, tmax, f, n, blas_stats, on_hit)
+                                 : sphere_leaf_hits(blas.spheres, obj, tmax, f, n, blas_stats, on_hit);
+            };
+            if (bvh.nodes[0].is_leaf()) {
+                ++blas_stats.nodes_visited;
+                leaf(bvh.nodes[0].first, bvh.nodes[0].count);
             } else {
-                traverse_bvh(blas.spheres.bvh(), obj.box, tmax, [&](std::uint32_t f, std::uint32_t n) {
-                    return sphere_leaf_hits(blas.spheres, obj, tmax, f, n, blas_stats, on_hit);
-                }, blas_stats);
+                traverse_bvh(bvh, BoxRay(obj.ray), tmax, leaf, blas_stats);
             }
             if (ended) return true;
         }

@@ -1,0 +1,440 @@
+// The two-level Scene: what commit() does per frame (none / refit / rebuild, scene.hpp), the TLAS it
+// leaves behind (exact boxes, node masks = OR of the subtree), and that a refit tree, however degraded
+// by motion, answers every query with exactly the hits a freshly built one gives.
+#include <smoketrace/bvh_builder.hpp>
+#include <smoketrace/prng.hpp>
+#include <smoketrace/scene.hpp>
+#include <smoketrace/stand_in_shapes.hpp>
+#include <smoketrace/trace.hpp>
+
+#include <catch2/catch.hpp>
+
+#include <glm/geometric.hpp>
+#include <glm/gtc/quaternion.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <stdexcept>
+#include <tuple>
+#include <vector>
+
+using namespace smoketrace;
+
+namespace {
+
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+// A random rotation (normalised random quaternion), per-axis scale in [0.5, 1.5], a mirror with
+// probability 1/4, and a translation in [0, extent)³.
+AffineTransform random_transform(Pcg32& rng, float extent) {
+    glm::dquat q(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
+    q = glm::normalize(q);
+    glm::dmat3 scale(1.0);
+    for (int a = 0; a < 3; ++a) scale[a][a] = rng.uniform(0.5f, 1.5f);
+    if (rng.uniform01() < 0.25f) scale[0][0] = -scale[0][0];
+    AffineTransform m;
+    m.linear = glm::mat3_cast(q) * scale;
+    m.translation = {rng.uniform(0, extent), rng.uniform(0, extent), rng.uniform(0, extent)};
+    return m;
+}
+
+std::uint8_t random_mask(Pcg32& rng) { return std::uint8_t(1u << (rng.next_u32() % 8)); }
+
+// n instances of three bottom levels (icosphere:1 mesh, non-opaque; a two-sphere set; an opaque
+// icosahedron) at random transforms in [0, extent)³, random one-bit masks.
+void populate(Scene& s, Pcg32& rng, int n, float extent) {
+    const auto mesh = s.add_bottom_level(BottomLevel::from_mesh(make_icosphere(1, 1.0f), false));
+    const auto spheres =
+        s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 0.8f}, Sphere{{0.5f, 0, 0}, 0.6f}}, false));
+    const auto ico = s.add_bottom_level(BottomLevel::from_mesh(make_icosahedron(1.0f), true));
+    const std::uint32_t blas[] = {mesh, spheres, ico};
+    for (int i = 0; i < n; ++i)
+        s.add_instance(Instance{blas[i % 3], random_transform(rng, extent), random_mask(rng), std::uint32_t(1000 + i),
+                                instance_flag_none});
+}
+
+// Moves every instance by a random step of up to `step` per axis (keeping its linear part).
+void jitter(Scene& s, Pcg32& rng, float step) {
+    for (std::uint32_t i = 0; i < s.instance_count(); ++i) {
+        AffineTransform m = s.instance(i).object_to_world;
+        m.translation += glm::dvec3(rng.uniform(-step, step), rng.uniform(-step, step), rng.uniform(-step, step));
+        s.set_transform(i, m);
+    }
+}
+
+Ray random_ray(Pcg32& rng, float extent) {
+    const glm::vec3 o(rng.uniform(-2, extent + 2), rng.uniform(-2, extent + 2), -5.0f);
+    const glm::vec3 target(rng.uniform(0, extent), rng.uniform(0, extent), rng.uniform(0, extent));
+    return Ray{o, 0.0f, target - o, kInf};
+}
+
+// Every candidate, as a sortable tuple; the any-hit ignores all (optical-depth pattern). With opaque
+// geometry in the scene the candidate set depends on the traversal order (an opaque hit met early
+// shrinks tmax and hides the non-opaque hits behind it), so only the candidates nearer than the final
+// committed hit are defined (rule 6: tmax never drops below it); `cut` keeps just those.
+using HitKey = std::tuple<float, std::uint32_t, std::uint32_t, int>;
+std::vector<HitKey> all_hits(const Scene& s, const Ray& r, std::uint8_t mask, std::uint32_t flags = ray_flag_none) {
+    std::vector<HitKey> keys;
+    const TraceResult res = trace(s, r, flags, mask, [&](const TraceHit& h) {
+        keys.emplace_back(h.t, h.instance_index, h.primitive_index, int(h.kind));
+        return AnyHitDecision::ignore;
+    });
+    if (res.hit) std::erase_if(keys, [&](const HitKey& k) { return !(std::get<0>(k) < res.committed.t); });
+    std::sort(keys.begin(), keys.end());
+    return keys;
+}
+
+// Checks the committed TLAS against its definition: every leaf box is exactly the union of its
+// instances' world boxes, every inner box exactly the union of its children's, every node mask exactly
+// the OR of the masks below it; every instance sits in exactly one leaf.
+void check_tlas_invariants(const Scene& s) {
+    const Bvh& t = s.tlas();
+    REQUIRE(t.nodes.size() == s.tlas_node_masks().size());
+    std::vector<int> seen(s.instance_count(), 0);
+    int bad_box = 0, bad_mask = 0;
+    for (std::size_t k = 0; k < t.nodes.size(); ++k) {
+        if (k == 1) continue;  // padding slot of the pair layout
+        const BvhNode& n = t.nodes[k];
+        Aabb box;
+        std::uint8_t mask = 0;
+        if (n.is_leaf()) {
+            for (std::uint32_t j = n.first; j < n.first + n.count; ++j) {
+                const std::uint32_t i = t.prim_indices[j];
+                ++seen[i];
+                box.grow(s.instance_bounds(i));
+                mask |= s.instance(i).mask;
+            }
+        } else {
+            box = merge(t.nodes[n.first].bounds, t.nodes[n.first + 1].bounds);
+            mask = s.tlas_node_masks()[n.first] | s.tlas_node_masks()[n.first + 1];
+        }
+        bad_box += (box.lo != n.bounds.lo || box.hi != n.bounds.hi) ? 1 : 0;
+        bad_mask += mask != s.tlas_node_masks()[k] ? 1 : 0;
+    }
+    CHECK(bad_box == 0);
+    CHECK(bad_mask == 0);
+    CHECK(std::all_of(seen.begin(), seen.end(), [](int c) { return c == 1; }));
+}
+
+std::vector<unsigned char> tlas_bytes(const Scene& s) {
+    const auto& n = s.tlas().nodes;
+    std::vector<unsigned char> b(n.size() * sizeof(BvhNode));
+    if (!n.empty()) std::memcpy(b.data(), n.data(), b.size());
+    return b;
+}
+
+}  // namespace
+
+TEST_CASE("scene: commit() does no TLAS work when nothing changed", "[scene]") {
+    Pcg32 rng(1);
+    Scene s;
+    populate(s, rng, 200, 30.0f);
+    CHECK_FALSE(s.committed());
+    CHECK(s.commit() == TlasUpdate::rebuild);
+    CHECK(s.committed());
+    const auto before = tlas_bytes(s);
+    const auto* data = s.tlas().nodes.data();
+    const double sah = s.tlas_sah_cost_at_build();
+    for (int frame = 0; frame < 3; ++frame) CHECK(s.commit() == TlasUpdate::none);
+    CHECK(s.tlas().nodes.data() == data);
+    CHECK(tlas_bytes(s) == before);
+    CHECK(s.tlas_sah_cost_at_build() == sah);
+    // Setting a mask to the value it already has is no change either.
+    s.set_mask(7, s.instance(7).mask);
+    CHECK(s.commit() == TlasUpdate::none);
+    CHECK(std::string(to_string(TlasUpdate::none)) == "none");
+    CHECK(std::string(to_string(TlasUpdate::refit)) == "refit");
+    CHECK(std::string(to_string(TlasUpdate::rebuild)) == "rebuild");
+}
+
+TEST_CASE("scene: setting every transform to the value it already has is no change", "[scene]") {
+    // An application that writes all transforms every frame, most of them unchanged (resting
+    // particles), must not pay a TLAS refit for it: "a frame with no transform change does no TLAS
+    // work", as set_mask() already treats an unchanged mask.
+    Pcg32 rng(12);
+    Scene s;
+    populate(s, rng, 100, 30.0f);
+    REQUIRE(s.commit() == TlasUpdate::rebuild);
+    for (std::uint32_t i = 0; i < s.instance_count(); ++i) s.set_transform(i, s.instance(i).object_to_world);
+    CHECK(s.committed());
+    CHECK(s.commit() == TlasUpdate::none);
+}
+
+TEST_CASE("scene: transforms and masks refit, adding and removing instances rebuild", "[scene]") {
+    Pcg32 rng(2);
+    Scene s;
+    populate(s, rng, 100, 30.0f);
+    REQUIRE(s.commit() == TlasUpdate::rebuild);
+    const std::vector<std::uint32_t> order = s.tlas().prim_indices;
+
+    // A small move: refit, same topology (leaf order kept), boxes updated.
+    AffineTransform m = s.instance(3).object_to_world;
+    m.translation.x += 0.01;
+    s.set_transform(3, m);
+    CHECK_FALSE(s.committed());
+    CHECK(s.commit() == TlasUpdate::refit);
+    CHECK(s.tlas().prim_indices == order);
+    check_tlas_invariants(s);
+
+    // A mask change alone: refit, node masks follow.
+    s.set_mask(5, std::uint8_t(s.instance(5).mask ^ 0x81));
+    CHECK(s.commit() == TlasUpdate::refit);
+    check_tlas_invariants(s);
+
+    // Adding an instance: rebuild, even together with transform changes.
+    jitter(s, rng, 0.01f);
+    s.add_instance(Instance{0, random_transform(rng, 30.0f), 0x40, 7, instance_flag_none});
+    CHECK(s.commit() == TlasUpdate::rebuild);
+    CHECK(s.instance_count() == 101);
+    check_tlas_invariants(s);
+    CHECK(s.commit() == TlasUpdate::none);
+
+    // Removing one: rebuild.
+    s.remove_instance(0);
+    CHECK(s.commit() == TlasUpdate::rebuild);
+    CHECK(s.instance_count() == 100);
+    check_tlas_invariants(s);
+}
+
+TEST_CASE("scene: removing an instance removes its geometry and renumbers the later ones", "[scene]") {
+    // Three unit spheres on the z axis at z = 0, 3, 6, user ids 10, 11, 12.
+    Scene s;
+    const auto b = s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 1.0f}}, true));
+    for (std::uint32_t i = 0; i < 3; ++i)
+        s.add_instance(Instance{b, AffineTransform::translate_scale({0, 0, 3.0 * i}, 1.0), 0xFF, 10 + i, 0});
+    s.commit();
+    const Ray down{{0, 0, 20}, 0.0f, {0, 0, -1}, kInf};
+    TraceResult r = trace(s, down, ray_flag_none, 0xFF);
+    CHECK(r.committed.instance_index == 2);
+    CHECK(r.committed.instance_id == 12);
+    s.remove_instance(2);
+    CHECK(s.commit() == TlasUpdate::rebuild);
+    r = trace(s, down, ray_flag_none, 0xFF);
+    CHECK(r.committed.instance_index == 1);
+    CHECK(r.committed.instance_id == 11);
+    CHECK(r.committed.t == 16.0f);  // the sphere at z = 3, entered at z = 4
+    s.remove_instance(0);
+    s.commit();
+    r = trace(s, Ray{{0, 0, -20}, 0.0f, {0, 0, 1}, kInf}, ray_flag_none, 0xFF);
+    CHECK(r.committed.instance_index == 0);
+    CHECK(r.committed.instance_id == 11);
+    CHECK(r.committed.t == 22.0f);
+}
+
+TEST_CASE("scene: a scene with every instance removed traces as empty", "[scene]") {
+    Scene s;
+    const auto b = s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 1.0f}}, true));
+    s.add_instance(Instance{b, {}, 0xFF, 0, 0});
+    s.commit();
+    s.remove_instance(0);
+    CHECK(s.commit() == TlasUpdate::rebuild);
+    const TraceResult r = trace(s, Ray{{0, 0, 5}, 0.0f, {0, 0, -1}, kInf}, ray_flag_none, 0xFF);
+    CHECK_FALSE(r.hit);
+    CHECK(r.counters.instances_entered == 0);
+}
+
+TEST_CASE("scene: a singular instance transform is rejected", "[scene]") {
+    Scene s;
+    const auto b = s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 1.0f}}, true));
+    AffineTransform flat;
+    flat.linear[2][2] = 0.0;  // squashes z
+    CHECK_THROWS_AS(s.add_instance(Instance{b, flat, 0xFF, 0, 0}), std::domain_error);
+    CHECK_THROWS_AS(s.add_instance(Instance{5, {}, 0xFF, 0, 0}), std::out_of_range);
+}
+
+TEST_CASE("scene: node masks are the OR of the subtree after build, refit and mask changes", "[scene]") {
+    Pcg32 rng(3);
+    Scene s;
+    populate(s, rng, 500, 40.0f);
+    s.commit();
+    check_tlas_invariants(s);
+    for (int frame = 0; frame < 10; ++frame) {
+        for (int k = 0; k < 20; ++k) s.set_mask(rng.next_u32() % 500, std::uint8_t(rng.next_u32()));
+        jitter(s, rng, 0.2f);
+        s.commit();
+        check_tlas_invariants(s);
+    }
+    // A mask no instance has any more must prune the whole tree at the root.
+    for (std::uint32_t i = 0; i < s.instance_count(); ++i) s.set_mask(i, std::uint8_t(s.instance(i).mask & 0x7F));
+    REQUIRE(s.commit() == TlasUpdate::refit);
+    CHECK((s.tlas_node_masks()[0] & 0x80) == 0);
+    Pcg32 rays(4);
+    for (int k = 0; k < 50; ++k) {
+        const TraceResult r = trace(s, random_ray(rays, 40.0f), ray_flag_none, 0x80);
+        CHECK(r.counters.tlas_nodes == 0);
+        CHECK_FALSE(r.hit);
+    }
+}
+
+TEST_CASE("scene: the rebuild policy rebuilds exactly when the refit SAH passes the threshold", "[scene]") {
+    // Each frame predicts the decision independently: refit a copy of the current TLAS to the new boxes
+    // and compare its SAH cost with kTlasRebuildSahRatio × the cost at the last build. Jitter degrades
+    // the tree a few percent per frame, so the ratio creeps up to the threshold and the decision is
+    // tested right at it; occasional teleports of many instances degrade it at once.
+    Pcg32 rng(5);
+    Scene s;
+    populate(s, rng, 2000, 50.0f);
+    REQUIRE(s.commit() == TlasUpdate::rebuild);
+    int refits = 0, rebuilds = 0;
+    double highest_refit_ratio = 0.0, lowest_rebuild_ratio = 1e30;
+    for (int frame = 0; frame < 120; ++frame) {
+        jitter(s, rng, 1.0f);
+        if (frame % 15 == 14)  // teleport a tenth of the instances
+            for (int k = 0; k < 200; ++k) {
+                const std::uint32_t i = rng.next_u32() % 2000;
+                AffineTransform m = s.instance(i).object_to_world;
+                m.translation = {rng.uniform(0, 50), rng.uniform(0, 50), rng.uniform(0, 50)};
+                s.set_transform(i, m);
+            }
+        Bvh predicted = s.tlas();
+        std::vector<Aabb> boxes(s.instance_count());
+        for (std::uint32_t i = 0; i < s.instance_count(); ++i) boxes[i] = s.instance_bounds(i);
+        predicted.refit(boxes);
+        const double at_build = s.tlas_sah_cost_at_build();
+        const bool expect_rebuild = predicted.sah_cost() > kTlasRebuildSahRatio * at_build;
+
+        const TlasUpdate u = s.commit();
+        CAPTURE(frame, predicted.sah_cost(), at_build);
+        const double ratio = predicted.sah_cost() / at_build;
+        if (u == TlasUpdate::refit) highest_refit_ratio = std::max(highest_refit_ratio, ratio);
+        else lowest_rebuild_ratio = std::min(lowest_rebuild_ratio, ratio);
+        CHECK(u == (expect_rebuild ? TlasUpdate::rebuild : TlasUpdate::refit));
+        if (u == TlasUpdate::rebuild) {
+            ++rebuilds;
+            // A rebuild is a fresh SAH build of the current boxes, and becomes the new reference.
+            const Bvh fresh = build_bvh(boxes, BvhBuildSettings{.max_leaf_size = 1});
+            CHECK(s.tlas_sah_cost() == fresh.sah_cost());
+            CHECK(s.tlas_sah_cost_at_build() == s.tlas_sah_cost());
+            CHECK(s.tlas().prim_indices == fresh.prim_indices);
+        } else {
+            ++refits;
+            CHECK(s.tlas_sah_cost_at_build() == at_build);
+            CHECK(s.tlas_sah_cost() == predicted.sah_cost());
+            CHECK(s.tlas_sah_cost() <= kTlasRebuildSahRatio * at_build);
+        }
+        check_tlas_invariants(s);
+    }
+    // Both branches of the policy were exercised, close to the threshold on both sides (so a policy
+    // with a different ratio, e.g. 1.1 or 1.3, would have decided some frame differently).
+    CHECK(refits >= 20);
+    CHECK(rebuilds >= 5);
+    CHECK(highest_refit_ratio > kTlasRebuildSahRatio - 0.02);
+    CHECK(lowest_rebuild_ratio < kTlasRebuildSahRatio + 0.02);
+}
+
+TEST_CASE("scene: set_rebuild_ratio(infinity) refits however degraded the tree", "[scene]") {
+    Pcg32 rng(6);
+    Scene s;
+    populate(s, rng, 1000, 50.0f);
+    s.set_rebuild_ratio(std::numeric_limits<double>::infinity());
+    REQUIRE(s.commit() == TlasUpdate::rebuild);
+    const double at_build = s.tlas_sah_cost_at_build();
+    // Shuffle every instance to a random place: the refit tree degrades far past the default ratio.
+    for (std::uint32_t i = 0; i < s.instance_count(); ++i) {
+        AffineTransform m = s.instance(i).object_to_world;
+        m.translation = {rng.uniform(0, 50), rng.uniform(0, 50), rng.uniform(0, 50)};
+        s.set_transform(i, m);
+    }
+    CHECK(s.commit() == TlasUpdate::refit);
+    CHECK(s.tlas_sah_cost() > 2.0 * kTlasRebuildSahRatio * at_build);
+    // The default policy would have rebuilt the same change.
+    s.set_rebuild_ratio(kTlasRebuildSahRatio);
+    jitter(s, rng, 0.0f);  // marks the transforms dirty without moving anything
+    CHECK(s.commit() == TlasUpdate::rebuild);
+    CHECK(s.tlas_sah_cost() < s.tlas_sah_cost_at_build() * 1.0000001);
+}
+
+TEST_CASE("scene: after many random frames a refit TLAS returns exactly the hits of a fresh build", "[scene]") {
+    // Three scenes over the same instances: refit only, the default policy, and (at the end) a fresh
+    // build of the final state. Motion: jitter, rotations, mask changes, for 100 frames. Hits are
+    // compared bit for bit (t, instance, primitive, facing): the TLAS decides only which instances are
+    // visited, never how one is intersected, so any difference would be a lost or extra instance.
+    constexpr int kInstances = 600, kFrames = 100, kRays = 400;
+    constexpr float kExtent = 20.0f;
+    Pcg32 setup(7);
+    Scene refit_only, policy;
+    {
+        Pcg32 a = setup, b = setup;
+        populate(refit_only, a, kInstances, kExtent);
+        populate(policy, b, kInstances, kExtent);
+    }
+    refit_only.set_rebuild_ratio(std::numeric_limits<double>::infinity());
+    REQUIRE(refit_only.commit() == TlasUpdate::rebuild);
+    REQUIRE(policy.commit() == TlasUpdate::rebuild);
+    Pcg32 motion(8);
+    int policy_rebuilds = 0;
+    for (int frame = 0; frame < kFrames; ++frame) {
+        for (std::uint32_t i = 0; i < kInstances; ++i) {
+            AffineTransform m = refit_only.instance(i).object_to_world;
+            m.translation += glm::dvec3(motion.uniform(-0.4f, 0.4f), motion.uniform(-0.4f, 0.4f), motion.uniform(-0.4f, 0.4f));
+            if (i % 7 == 0) {  // some also turn
+                const double c = std::cos(0.1), sn = std::sin(0.1);
+                m.linear = glm::dmat3(glm::dvec3(c, sn, 0), glm::dvec3(-sn, c, 0), glm::dvec3(0, 0, 1)) * m.linear;
+            }
+            refit_only.set_transform(i, m);
+            policy.set_transform(i, m);
+        }
+        for (int k = 0; k < 5; ++k) {
+            const std::uint32_t i = motion.next_u32() % kInstances;
+            const std::uint8_t mask = random_mask(motion);
+            refit_only.set_mask(i, mask);
+            policy.set_mask(i, mask);
+        }
+        CHECK(refit_only.commit() == TlasUpdate::refit);
+        policy_rebuilds += policy.commit() == TlasUpdate::rebuild ? 1 : 0;
+    }
+    Scene fresh;
+    {
+        Pcg32 c = setup;
+        populate(fresh, c, kInstances, kExtent);
+        for (std::uint32_t i = 0; i < kInstances; ++i) {
+            fresh.set_transform(i, refit_only.instance(i).object_to_world);
+            fresh.set_mask(i, refit_only.instance(i).mask);
+        }
+        REQUIRE(fresh.commit() == TlasUpdate::rebuild);
+    }
+    // The refit tree really is degraded (else this test would compare two identical trees).
+    CHECK(refit_only.tlas_sah_cost() > 1.5 * fresh.tlas_sah_cost());
+    CHECK(policy_rebuilds > 0);
+
+    Pcg32 rays(9);
+    int total_hits = 0, compared_closest = 0;
+    for (int k = 0; k < kRays; ++k) {
+        const Ray ray = random_ray(rays, kExtent);
+        const std::uint8_t mask = k % 4 == 0 ? std::uint8_t(0xFF) : std::uint8_t(rays.next_u32());
+        CAPTURE(k, int(mask));
+        // Every surface as a non-opaque candidate: the complete set, order-independent.
+        const auto every = all_hits(fresh, ray, mask, ray_flag_force_non_opaque);
+        CHECK(all_hits(refit_only, ray, mask, ray_flag_force_non_opaque) == every);
+        CHECK(all_hits(policy, ray, mask, ray_flag_force_non_opaque) == every);
+        total_hits += int(every.size());
+        // With the scene's own opacity: the candidates before the first opaque surface.
+        const auto expected = all_hits(fresh, ray, mask);
+        CHECK(all_hits(refit_only, ray, mask) == expected);
+        CHECK(all_hits(policy, ray, mask) == expected);
+
+        const TraceResult f = trace(fresh, ray, ray_flag_none, mask);
+        const TraceResult r = trace(refit_only, ray, ray_flag_none, mask);
+        const TraceResult p = trace(policy, ray, ray_flag_none, mask);
+        REQUIRE(f.hit == r.hit);
+        REQUIRE(f.hit == p.hit);
+        if (!f.hit) continue;
+        CHECK(r.committed.t == f.committed.t);
+        CHECK(p.committed.t == f.committed.t);
+        // The same closest surface, unless another surface lies at exactly the same t: then either is
+        // right.
+        const bool tie = std::count_if(every.begin(), every.end(),
+                                       [&](const HitKey& h) { return std::get<0>(h) == f.committed.t; }) > 1;
+        if (tie) continue;
+        ++compared_closest;
+        CHECK(r.committed.instance_index == f.committed.instance_index);
+        CHECK(r.committed.primitive_index == f.committed.primitive_index);
+        CHECK(r.committed.kind == f.committed.kind);
+        CHECK(p.committed.instance_index == f.committed.instance_index);
+        CHECK(p.committed.primitive_index == f.committed.primitive_index);
+    }
+    CHECK(total_hits > 3 * kRays);  // the rays do cross the instances (about 4.5 surfaces per ray)
+    CHECK(compared_closest > kRays / 2);
+}
