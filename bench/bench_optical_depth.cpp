@@ -1,0 +1,581 @@
+// Bench section "optical_depth": the optical-depth pass (thesis 4.3.2) and resolve (4.3.3) for the particle
+// counts of table B.1 (250…1500) and for 10k and 100k particles, against Embree 3 doing the same all-hits
+// work in the same run.
+//
+// Scene: the thesis's two tubes (TubeSettings defaults, only the count changes: table B.1 varies nothing
+// else), the ground under them, light from above, the thesis's default cutoff of 60 hits (4.4.3). Ours runs
+// with sphere and with icosahedron stand-ins; Embree runs over icosahedra (it traces triangles only), in two
+// layouts, and the faster one is the reference of every ratio:
+//   * flattened: one mesh of every particle's world-space triangles (vertices translate(centre)·
+//     scale(radius) in double, rounded once), a one-level BVH;
+//   * instanced: one icosahedron, one RTC_GEOMETRY_TYPE_INSTANCE per particle, a two-level BVH like ours.
+// Embree's work per ray is what our pass does: every crossing goes through a filter that records (t, ±1)
+// and rejects it so the traversal goes on; Embree reports a ray through a shared edge or vertex on every
+// triangle there, so the filter drops a second same-facing crossing of one particle (a convex stand-in is
+// entered once and left once); at the (K+1)-th crossing it accepts, which ends an occlusion query; a cut-off
+// ray is followed by a ground-only query, as in ours; the hits land in one flat buffer of per-particle lists.
+// Default build quality (RTC_BUILD_QUALITY_MEDIUM), robust mode on: without it Embree misses some of the
+// exact edge crossings of this scene (measured and printed at 750 particles), so it would not be doing the
+// same job. Times are medians over interleaved rounds; builds are timed separately (table B.1's "build AS"
+// column) except in od_100k_ms.
+#include "bench_registry.hpp"
+#include "support/embree_reference.hpp"
+#include "timing.hpp"
+
+#include <smoketrace/optical_depths.hpp>
+#include <smoketrace/stand_in_shapes.hpp>
+#include <smoketrace/tube_generator.hpp>
+
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/info.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <limits>
+#include <memory>
+#include <numeric>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace smoketrace::bench {
+namespace {
+
+namespace er = embree_reference;
+
+constexpr std::uint32_t kCutoff = 60;  // the thesis's default optical depth cutoff point (4.4.3)
+constexpr std::uint32_t kReportCount = 750;
+constexpr std::uint32_t kLargeCount = 100'000;
+const glm::vec3 kToLight(0.0f, 1.0f, 0.0f);
+// Particles per parallel chunk of the Embree pass: the same as our pass (optical_depth_pass.cpp).
+constexpr std::size_t kParticlesPerChunk = 64;
+// Lengths of the two tracers are compared (a check that both did the same work, not a test) to this
+// relative difference; see tests/embree_optical_depth.cpp for why it holds.
+constexpr double kAgreementTolerance = 1e-4;
+
+// The ground under the smoke (lowest particle surface at y = −separation − tube_radius − radius = −2.7).
+GroundQuad ground_quad() {
+    return GroundQuad{{glm::vec3(-20.0f, -3.0f, 20.0f), glm::vec3(20.0f, -3.0f, 20.0f), glm::vec3(20.0f, -3.0f, -20.0f),
+                       glm::vec3(-20.0f, -3.0f, -20.0f)}};
+}
+
+TriangleMesh quad_mesh(const GroundQuad& g) {
+    TriangleMesh m;
+    m.vertices.assign(g.corners.begin(), g.corners.end());
+    m.triangles = {{0, 1, 2}, {0, 2, 3}};
+    return m;
+}
+
+enum class Layout { flattened, instanced };
+const char* name_of(Layout l) { return l == Layout::flattened ? "embree_flattened" : "embree_instanced"; }
+
+// The Embree side: the stand-ins and the ground in one scene, the ground alone in another (for the
+// cut-off rays' ground check), and the pass over all particles.
+class EmbreePass {
+public:
+    EmbreePass(const er::Device& device, const std::vector<Particle>& ps, Layout layout, bool robust)
+        : layout_(layout), scene_(device, er::SceneOptions{RTC_BUILD_QUALITY_MEDIUM, robust}),
+          ground_only_(device, er::SceneOptions{RTC_BUILD_QUALITY_MEDIUM, robust}), particle_count_(ps.size()) {
+        const TriangleMesh unit = make_icosahedron(1.0f);
+        triangles_per_particle_ = static_cast<std::uint32_t>(unit.triangles.size());
+        ground_geometry_ = scene_.attach_mesh(quad_mesh(ground_quad()));
+        if (layout == Layout::flattened) {
+            TriangleMesh world;
+            world.vertices.reserve(ps.size() * unit.vertices.size());
+            world.triangles.reserve(ps.size() * unit.triangles.size());
+            for (const Particle& p : ps) {
+                const auto base = static_cast<std::uint32_t>(world.vertices.size());
+                for (const glm::vec3& v : unit.vertices)
+                    world.vertices.push_back(glm::vec3(glm::dvec3(p.center) + double(p.radius) * glm::dvec3(v)));
+                for (const glm::uvec3& t : unit.triangles) world.triangles.push_back(t + base);
+            }
+            scene_.attach_mesh(world);
+        } else {
+            child_ = std::make_unique<er::Scene>(device, er::SceneOptions{RTC_BUILD_QUALITY_MEDIUM, robust});
+            child_->attach_mesh(unit);
+            child_->commit();
+            for (std::size_t i = 0; i < ps.size(); ++i) {
+                RTCGeometry g = rtcNewGeometry(device.handle(), RTC_GEOMETRY_TYPE_INSTANCE);
+                rtcSetGeometryInstancedScene(g, child_->handle());
+                const float r = ps[i].radius;
+                const float xfm[12] = {r, 0, 0, 0, r, 0, 0, 0, r, ps[i].center.x, ps[i].center.y, ps[i].center.z};
+                rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, xfm);
+                rtcCommitGeometry(g);
+                const std::uint32_t id = rtcAttachGeometry(scene_.handle(), g);
+                rtcReleaseGeometry(g);
+                if (i == 0) first_instance_ = id;
+            }
+            device.check("instances");
+        }
+        scene_.commit();
+        ground_only_.attach_mesh(quad_mesh(ground_quad()));
+        ground_only_.commit();
+    }
+
+    // Fills `out` (statuses, counts, per-particle hit lists) for every particle, like OpticalDepthPass::run.
+    void run(const std::vector<Particle>& ps, glm::vec3 dir, std::uint32_t cutoff, OpticalDepthHits& out) {
+        const std::size_t n = ps.size();
+        out.status.assign(n, DepthStatus::ok);
+        out.hit_counts.assign(n, 0);
+        const std::size_t chunk_count = (n + kParticlesPerChunk - 1) / kParticlesPerChunk;
+        if (chunks_.size() < chunk_count) chunks_.resize(chunk_count);
+        tbb::parallel_for(
+            tbb::blocked_range<std::size_t>(0, chunk_count, 1),
+            [&](const tbb::blocked_range<std::size_t>& r) {
+                Stamps& stamps = stamps_.local();
+                if (stamps.seen.size() != particle_count_) stamps.seen.assign(particle_count_, 0);
+                for (std::size_t c = r.begin(); c < r.end(); ++c) {
+                    std::vector<SurfaceHit>& hits = chunks_[c];
+                    hits.clear();
+                    const std::size_t end = std::min(n, (c + 1) * kParticlesPerChunk);
+                    for (std::size_t i = c * kParticlesPerChunk; i < end; ++i) {
+                        trace_particle(ps[i], dir, cutoff, stamps, hits, out.status[i], out.hit_counts[i]);
+                    }
+                }
+            },
+            tbb::simple_partitioner());
+        HitLists& lists = out.lists;
+        lists.offsets.resize(n + 1);
+        lists.offsets[0] = 0;
+        for (std::size_t i = 0; i < n; ++i)
+            lists.offsets[i + 1] = lists.offsets[i] + (out.status[i] == DepthStatus::ok ? out.hit_counts[i] : 0);
+        lists.hits.resize(lists.offsets[n]);
+        tbb::parallel_for(std::size_t(0), chunk_count, [&](std::size_t c) {
+            std::copy(chunks_[c].begin(), chunks_[c].end(), lists.hits.begin() + lists.offsets[c * kParticlesPerChunk]);
+        });
+    }
+
+private:
+    // Per-thread duplicate filter: seen[particle] = (ray stamp << 2) | 1 (entered) | 2 (left). A new ray
+    // takes a new stamp, so nothing is cleared per ray.
+    struct Stamps {
+        std::vector<std::uint32_t> seen;
+        std::uint32_t next = 0;
+        std::uint32_t take() {
+            if (++next == (1u << 30)) {  // stamps wrap: start over with a clean table
+                std::fill(seen.begin(), seen.end(), 0u);
+                next = 1;
+            }
+            return next << 2;
+        }
+    };
+
+    // The intersect context handed to Embree; Embree passes &base back to the filter.
+    struct RayContext {
+        RTCIntersectContext base;
+        const EmbreePass* pass;
+        glm::vec3 dir;
+        Stamps* stamps;
+        std::uint32_t stamp;
+        std::vector<SurfaceHit>* hits;  // nullptr: count only
+        std::uint32_t found;            // distinct crossings so far
+        std::uint32_t limit;            // accept (end an occlusion query) at this many; 0 = never
+        bool cut_off;
+        bool ground;
+        float ground_t;
+    };
+
+    template <Layout L>
+    static void filter(const RTCFilterFunctionNArguments* args) {
+        auto* ctx = reinterpret_cast<RayContext*>(args->context);
+        const EmbreePass& self = *ctx->pass;
+        for (unsigned i = 0; i < args->N; ++i) {
+            if (args->valid[i] != -1) continue;
+            const std::uint32_t geometry = RTCHitN_geomID(args->hit, args->N, i);
+            const std::uint32_t instance = RTCHitN_instID(args->hit, args->N, i, 0);
+            const float t = RTCRayN_tfar(args->ray, args->N, i);
+            if (instance == RTC_INVALID_GEOMETRY_ID && geometry == self.ground_geometry_) {
+                ctx->ground = true;  // opaque: accepted, ends an occlusion query, shrinks an intersection's tfar
+                ctx->ground_t = std::min(ctx->ground_t, t);
+                continue;
+            }
+            const std::uint32_t particle = L == Layout::flattened
+                                               ? RTCHitN_primID(args->hit, args->N, i) / self.triangles_per_particle_
+                                               : instance - self.first_instance_;
+            const float facing = RTCHitN_Ng_x(args->hit, args->N, i) * ctx->dir.x +
+                                 RTCHitN_Ng_y(args->hit, args->N, i) * ctx->dir.y +
+                                 RTCHitN_Ng_z(args->hit, args->N, i) * ctx->dir.z;
+            const bool front = facing < 0.0f;
+            const std::uint32_t bit = front ? 1u : 2u;
+            std::uint32_t& seen = ctx->stamps->seen[particle];
+            if ((seen & ~3u) != ctx->stamp) seen = ctx->stamp;
+            if (seen & bit) {  // the same crossing again, from the other triangle of an edge or vertex
+                args->valid[i] = 0;
+                continue;
+            }
+            seen |= bit;
+            if (ctx->hits) ctx->hits->push_back(SurfaceHit{t, front ? +1 : -1});
+            ++ctx->found;
+            if (ctx->limit != 0 && ctx->found >= ctx->limit) {
+                ctx->cut_off = true;  // accepted: the occlusion query ends
+                continue;
+            }
+            args->valid[i] = 0;  // IgnoreHit(): the traversal goes on
+        }
+    }
+
+    RayContext context(glm::vec3 dir, Stamps& stamps, std::vector<SurfaceHit>* hits, std::uint32_t limit) const {
+        RayContext ctx;
+        rtcInitIntersectContext(&ctx.base);
+        ctx.base.filter = layout_ == Layout::flattened ? &filter<Layout::flattened> : &filter<Layout::instanced>;
+        ctx.pass = this;
+        ctx.dir = dir;
+        ctx.stamps = &stamps;
+        ctx.stamp = stamps.take();
+        ctx.hits = hits;
+        ctx.found = 0;
+        ctx.limit = limit;
+        ctx.cut_off = false;
+        ctx.ground = false;
+        ctx.ground_t = std::numeric_limits<float>::infinity();
+        return ctx;
+    }
+
+    static RTCRay embree_ray(const Particle& p, glm::vec3 dir, float tmax) {
+        RTCRay r;
+        r.org_x = p.center.x;
+        r.org_y = p.center.y;
+        r.org_z = p.center.z;
+        r.tnear = kOpticalDepthTmin;
+        r.dir_x = dir.x;
+        r.dir_y = dir.y;
+        r.dir_z = dir.z;
+        r.time = 0.0f;
+        r.tfar = tmax;
+        r.mask = ~0u;
+        r.id = 0;
+        r.flags = 0;
+        return r;
+    }
+
+    // Crossings in front of the ground at ground_t, counted with no cutoff (an intersection query whose
+    // tfar the ground shrinks).
+    std::uint32_t count_in_front(const Particle& p, glm::vec3 dir, float ground_t, Stamps& stamps) const {
+        RayContext ctx = context(dir, stamps, nullptr, 0);
+        RTCRayHit rh;
+        rh.ray = embree_ray(p, dir, ground_t);
+        rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+        rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+        rtcIntersect1(scene_.handle(), &ctx.base, &rh);
+        return ctx.found;
+    }
+
+    void trace_particle(const Particle& p, glm::vec3 dir, std::uint32_t cutoff, Stamps& stamps,
+                        std::vector<SurfaceHit>& hits, DepthStatus& status, std::uint32_t& count) const {
+        const std::size_t start = hits.size();
+        RayContext ctx = context(dir, stamps, &hits, cutoff == 0 ? 0 : cutoff + 1);
+        RTCRay ray = embree_ray(p, dir, kOpticalDepthTmax);
+        rtcOccluded1(scene_.handle(), &ctx.base, &ray);
+        if (ctx.cut_off) {
+            hits.resize(start);
+            // Cut off before the whole ray was seen: does the ground lie on it?
+            RTCIntersectContext plain;
+            rtcInitIntersectContext(&plain);
+            RTCRayHit g;
+            g.ray = embree_ray(p, dir, kOpticalDepthTmax);
+            g.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+            g.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+            rtcIntersect1(ground_only_.handle(), &plain, &g);
+            if (g.hit.geomID == RTC_INVALID_GEOMETRY_ID) {
+                status = DepthStatus::cutoff;
+                count = cutoff + 1;
+            } else {
+                status = DepthStatus::occluded;
+                count = count_in_front(p, dir, g.ray.tfar, stamps);
+            }
+            return;
+        }
+        if (ctx.ground) {  // the occlusion query ended at the ground: count what lies in front of it
+            hits.resize(start);
+            status = DepthStatus::occluded;
+            count = count_in_front(p, dir, ctx.ground_t, stamps);
+            return;
+        }
+        status = DepthStatus::ok;
+        count = static_cast<std::uint32_t>(hits.size() - start);
+    }
+
+    Layout layout_;
+    er::Scene scene_;
+    er::Scene ground_only_;
+    std::unique_ptr<er::Scene> child_;
+    std::size_t particle_count_;
+    std::uint32_t triangles_per_particle_ = 0;
+    std::uint32_t ground_geometry_ = RTC_INVALID_GEOMETRY_ID;
+    std::uint32_t first_instance_ = 0;
+    std::vector<std::vector<SurfaceHit>> chunks_;
+    tbb::enumerable_thread_specific<Stamps> stamps_;
+};
+
+struct Times {
+    double build = 0, pass = 0, resolve = 0, total = 0;  // medians, ms
+};
+
+struct CsvRow {
+    std::uint32_t particles;
+    std::string tracer;
+    std::string stand_in;
+    int threads;
+    Times t;
+    double ratio_vs_embree;  // total / the faster Embree layout's pass, same count and threads
+};
+
+double fit_exponent(const std::vector<double>& counts, const std::vector<double>& ms) {
+    // Least squares of log(ms) = a + b·log(count): b is the exponent.
+    const std::size_t n = counts.size();
+    double mx = 0, my = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+        mx += std::log(counts[i]);
+        my += std::log(ms[i]);
+    }
+    mx /= double(n);
+    my /= double(n);
+    double sxy = 0, sxx = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+        const double dx = std::log(counts[i]) - mx;
+        sxy += dx * (std::log(ms[i]) - my);
+        sxx += dx * dx;
+    }
+    return sxx > 0 ? sxy / sxx : 0.0;
+}
+
+double elapsed_ms(std::chrono::steady_clock::time_point since) {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since).count();
+}
+
+// How many particles two answers disagree on: status, hit count, or length beyond kAgreementTolerance.
+std::size_t disagreements(const OpticalDepths& ours, OpticalDepthHits& embree) {
+    std::vector<float> lengths(embree.status.size());
+    resolve_optical_path_lengths(embree.lists, embree.status, lengths, HitSort::radix);
+    std::size_t bad = 0;
+    for (std::size_t i = 0; i < lengths.size(); ++i) {
+        const bool same = ours.status()[i] == embree.status[i] && ours.hit_counts()[i] == embree.hit_counts[i] &&
+                          (embree.status[i] != DepthStatus::ok ||
+                           std::abs(double(ours.lengths()[i]) - double(lengths[i])) <=
+                               kAgreementTolerance * double(lengths[i]));
+        bad += !same;
+    }
+    return bad;
+}
+
+// One tracer of the comparison: ours (pass + resolve through OpticalDepths) or an Embree layout (pass).
+struct Contender {
+    std::string tracer, stand_in;
+    std::optional<SmokeScene> ours;
+    std::unique_ptr<OpticalDepths> depths;
+    std::unique_ptr<EmbreePass> embree;
+    OpticalDepthHits embree_hits;
+    double build_ms = 0;
+    std::vector<double> pass, resolve, total;
+
+    void run_once(const std::vector<Particle>& ps, std::span<const std::uint32_t> all, glm::vec3 dir) {
+        const auto t0 = std::chrono::steady_clock::now();
+        if (ours) {
+            FrameTimings ft;
+            depths->update(*ours, ps, all, kToLight, OpticalDepthSettings{kCutoff}, HitSort::radix, ft);
+            total.push_back(elapsed_ms(t0));
+            pass.push_back(ft.od_pass);
+            resolve.push_back(ft.resolve);
+        } else {
+            embree->run(ps, dir, kCutoff, embree_hits);
+            total.push_back(elapsed_ms(t0));
+            pass.push_back(total.back());
+            resolve.push_back(0.0);
+        }
+    }
+    Times medians() {
+        Times t{build_ms, stats_of(pass).median, stats_of(resolve).median, stats_of(total).median};
+        pass.clear();
+        resolve.clear();
+        total.clear();
+        return t;
+    }
+};
+
+void run_optical_depth(const BenchOptions& options) {
+    const std::vector<std::uint32_t> counts =
+        options.quick ? std::vector<std::uint32_t>{250, 750, 1500, 10'000, kLargeCount}
+                      : std::vector<std::uint32_t>{250, 500, 750, 1000, 1250, 1500, 10'000, kLargeCount};
+    const int all_threads = tbb::info::default_concurrency();
+    tbb::task_arena one_thread(1);
+    tbb::task_arena every_thread(all_threads);
+    const er::Device device;
+    const glm::vec3 dir = glm::normalize(kToLight);
+    std::vector<CsvRow> csv;
+    const std::ios_base::fmtflags cout_flags = std::cout.flags();  // restored for report() and later sections
+    const std::streamsize cout_precision = std::cout.precision();
+
+    std::cout << "Two tubes (TubeSettings defaults), ground, light from above, cutoff " << kCutoff
+              << ". ms, medians of " << options.repeats << " interleaved rounds (quick: 1 at 10k, 100k);\n"
+              << "ratio = ours / the faster Embree layout (Embree: all-hits over icosahedra, robust mode)\n";
+    std::cout << std::setw(7) << "count" << std::setw(4) << "thr" << " |" << std::setw(27)
+              << "sphere: pass resolve total"
+              << " |" << std::setw(27) << "icosahedron: pass resolve total" << " |" << std::setw(10) << "emb flat"
+              << std::setw(10) << "emb inst" << " |" << std::setw(9) << "ico/emb" << std::setw(9) << "emb/sph"
+              << "\n";
+
+    std::vector<double> fit_counts, fit_sphere, fit_icosa, fit_embree;
+    double report_ratio = 0, report_speedup = 0, large_ms = 0;
+    std::size_t total_disagreements = 0;
+    for (const std::uint32_t n : counts) {
+        TubeSettings settings;
+        settings.particles = n;
+        const std::vector<Particle> ps = generate_tubes(settings);
+        std::vector<std::uint32_t> all(n);
+        std::iota(all.begin(), all.end(), 0u);
+        const bool large = n >= 10'000;
+        const int build_repeats = large ? 1 : options.repeats;
+
+        // Builds, all threads. Ours: stand-in BLAS + instances + TLAS build (SmokeScene + commit).
+        std::vector<Contender> c(4);
+        c[0].tracer = c[1].tracer = "smoketrace";
+        c[0].stand_in = "sphere";
+        c[1].stand_in = c[2].stand_in = c[3].stand_in = "icosahedron";
+        c[2].tracer = name_of(Layout::flattened);
+        c[3].tracer = name_of(Layout::instanced);
+        every_thread.execute([&] {
+            for (int k = 0; k < 2; ++k) {
+                const StandInShape shape{k == 0 ? StandInKind::sphere : StandInKind::icosahedron, 0};
+                c[k].build_ms = time_ms(build_repeats, [&] {
+                    c[k].ours.reset();
+                    c[k].ours.emplace(ps, shape, ground_quad(), false);
+                    c[k].ours->update(ps, glm::vec3(0.0f, 0.0f, 10.0f));
+                }).median;
+                c[k].depths = std::make_unique<OpticalDepths>(n);
+            }
+            for (int k = 2; k < 4; ++k) {
+                const Layout layout = k == 2 ? Layout::flattened : Layout::instanced;
+                c[k].build_ms = time_ms(build_repeats, [&] {
+                    c[k].embree.reset();
+                    c[k].embree = std::make_unique<EmbreePass>(device, ps, layout, true);
+                }).median;
+            }
+        });
+
+        for (const int threads : {1, all_threads}) {
+            tbb::task_arena& arena = threads == 1 ? one_thread : every_thread;
+            // Round-robin over the tracers, so that the shared machine's load hits them alike. Small counts
+            // get a warm-up round (first-frame allocations, cold caches, idle TBB workers would dominate);
+            // at 10k and 100k one pass takes long enough that these are noise, and quick mode runs one round.
+            const int rounds = options.quick && large ? 1 : options.repeats;
+            arena.execute([&] {
+                if (!large) {
+                    for (Contender& k : c) k.run_once(ps, all, dir);
+                    for (Contender& k : c) k.medians();
+                }
+                for (int r = 0; r < rounds; ++r)
+                    for (Contender& k : c) k.run_once(ps, all, dir);
+            });
+            Times t[4];
+            for (int k = 0; k < 4; ++k) t[k] = c[k].medians();
+            const double embree = std::min(t[2].total, t[3].total);
+            std::cout << std::setw(7) << n << std::setw(4) << threads << " |" << std::fixed << std::setprecision(3)
+                      << std::setw(9) << t[0].pass << std::setw(8) << t[0].resolve << std::setw(10) << t[0].total
+                      << " |" << std::setw(9) << t[1].pass << std::setw(8) << t[1].resolve << std::setw(10)
+                      << t[1].total << " |" << std::setw(10) << t[2].total << std::setw(10) << t[3].total << " |"
+                      << std::setprecision(2) << std::setw(9) << t[1].total / embree << std::setw(9)
+                      << embree / t[0].total << "\n"
+                      << std::defaultfloat;
+            for (int k = 0; k < 4; ++k)
+                csv.push_back({n, c[k].tracer, c[k].stand_in, threads, t[k], t[k].total / embree});
+            if (threads == all_threads) {
+                fit_counts.push_back(n);
+                fit_sphere.push_back(t[0].total);
+                fit_icosa.push_back(t[1].total);
+                fit_embree.push_back(embree);
+                if (n == kReportCount) {
+                    report_ratio = t[1].total / embree;
+                    report_speedup = embree / t[0].total;
+                }
+            }
+        }
+        // Both did the same work: our icosahedron answers against each Embree layout's (last runs).
+        const std::size_t differ = disagreements(*c[1].depths, c[2].embree_hits) +
+                                   disagreements(*c[1].depths, c[3].embree_hits);
+        total_disagreements += differ;
+        std::size_t resolved = 0;
+        for (DepthStatus st : c[0].depths->status()) resolved += st == DepthStatus::ok;
+        std::cout << std::fixed << std::setprecision(2) << "        builds (all threads, ms): sphere " << c[0].build_ms
+                  << ", icosahedron " << c[1].build_ms << ", embree flattened " << c[2].build_ms << ", instanced "
+                  << c[3].build_ms << "; " << resolved << " of " << n
+                  << " resolved, the rest cut off; Embree disagreements " << differ << "\n"
+                  << std::defaultfloat;
+
+        if (n == kReportCount) {
+            // Why Embree runs in robust mode here: without it, the flattened layout misses crossings of the
+            // shared edges every ray leaves its own particle through (light from above).
+            EmbreePass fast(device, ps, Layout::flattened, false);
+            OpticalDepthHits hits;
+            double ms = 0;
+            every_thread.execute([&] {
+                ms = time_ms(options.repeats, [&] { fast.run(ps, dir, kCutoff, hits); }).median;
+            });
+            std::cout << "        embree flattened without robust mode: " << std::fixed << std::setprecision(3) << ms
+                      << std::defaultfloat << " ms, wrong on "
+                      << disagreements(*c[1].depths, hits) << " of " << n << " particles (not used)\n";
+        }
+        if (n == kLargeCount) {
+            // Cold: scene (BLAS, instances, TLAS build) + pass + resolve, all threads, sphere stand-ins.
+            c.clear();  // free the Embree scenes first
+            every_thread.execute([&] {
+                large_ms = time_ms(options.quick ? 1 : options.repeats, [&] {
+                    SmokeScene scene(ps, StandInShape{StandInKind::sphere, 0}, ground_quad(), false);
+                    scene.update(ps, glm::vec3(0.0f, 0.0f, 10.0f));
+                    OpticalDepths od(n);
+                    FrameTimings ft;
+                    od.update(scene, ps, all, kToLight, OpticalDepthSettings{kCutoff}, HitSort::radix, ft);
+                }).median;
+            });
+            std::cout << "        " << n << " particles from scratch (scene, TLAS build, pass, resolve): " << std::fixed
+                      << std::setprecision(1) << large_ms << " ms\n" << std::defaultfloat;
+        }
+    }
+
+    std::cout << "Embree and ours disagree on " << total_disagreements << " particle answers (must be 0)\n";
+    std::cout << "Cost exponent (log-log least squares of ms vs count, all threads):\n" << std::fixed
+              << std::setprecision(2);
+    auto b1 = [](const std::vector<double>& v) { return std::vector<double>(v.begin(), v.end() - 2); };
+    std::cout << "  every count:        sphere " << fit_exponent(fit_counts, fit_sphere) << ", icosahedron "
+              << fit_exponent(fit_counts, fit_icosa) << ", embree " << fit_exponent(fit_counts, fit_embree) << "\n";
+    std::cout << "  table B.1 counts:   sphere " << fit_exponent(b1(fit_counts), b1(fit_sphere)) << ", icosahedron "
+              << fit_exponent(b1(fit_counts), b1(fit_icosa)) << ", embree "
+              << fit_exponent(b1(fit_counts), b1(fit_embree)) << "\n";
+    std::cout.flags(cout_flags);
+    std::cout.precision(cout_precision);
+
+    const std::string path = options.results_dir + "/optical_depth.csv";
+    {
+        std::ofstream out(path + ".tmp");
+        out << "particles,tracer,stand_in,threads,build_ms,pass_ms,resolve_ms,total_ms,ratio_vs_embree\n";
+        for (const CsvRow& r : csv) {
+            out << r.particles << ',' << r.tracer << ',' << r.stand_in << ',' << r.threads << ',' << r.t.build << ','
+                << r.t.pass << ',' << r.t.resolve << ',' << r.t.total << ',' << r.ratio_vs_embree << '\n';
+        }
+    }
+    std::filesystem::rename(path + ".tmp", path);
+
+    report("od_pass_ratio_vs_embree", report_ratio);
+    report("od_sphere_speedup_vs_embree_icosahedron", report_speedup);
+    report("od_100k_ms", large_ms);
+    report("od_embree_disagreements", double(total_disagreements));
+}
+
+const RegisterSection kOpticalDepthSection{{"optical_depth",
+                                            "optical-depth pass + resolve (thesis 4.3.2-4.3.3, table B.1 counts, "
+                                            "10k, 100k) vs Embree 3 all-hits over icosahedra",
+                                            &run_optical_depth}};
+
+}  // namespace
+}  // namespace smoketrace::bench
