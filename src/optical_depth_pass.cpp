@@ -6,6 +6,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <cmath>
 
 namespace smoketrace {
 namespace {
@@ -42,7 +43,8 @@ ParticleRayResult trace_particle(const SmokeScene& smoke, const Particle& p, con
                                     kGroundMask);
         if (!g.hit) return {DepthStatus::cutoff, cutoff + 1};
         // Occluded: count the surfaces in front of the opaque hit, with no cutoff.
-        const Ray front{p.center, kOpticalDepthTmin, dir, g.committed.t};
+        // tmax just below the ground: the same "t < t_ground" count as the uncut path below.
+        const Ray front{p.center, kOpticalDepthTmin, dir, std::nextafter(g.committed.t, 0.0f)};
         std::uint32_t n = 0;
         trace(scene, front, ray_flag_force_non_opaque, kStandInMask, [&](const TraceHit&) {
             ++n;

@@ -59,7 +59,8 @@ void Scene::remove_instance(std::uint32_t index) {
 }
 
 void Scene::set_transform(std::uint32_t index, const AffineTransform& m) {
-    instances_.at(index).object_to_world = m;
+    if (instances_.at(index).object_to_world == m) return;  // an unchanged frame does no TLAS work
+    instances_[index].object_to_world = m;
     update_instance(index);
     transforms_dirty_ = true;
 }

@@ -20,6 +20,10 @@ struct AffineTransform {
     [[nodiscard]] AffineTransform inverse() const;  // throws std::domain_error if singular
 
     static AffineTransform translate_scale(const glm::dvec3& t, double uniform_scale);
+
+    friend bool operator==(const AffineTransform& a, const AffineTransform& b) {
+        return a.linear == b.linear && a.translation == b.translation;
+    }
 };
 
 // Instance flags (DXR's D3D12_RAYTRACING_INSTANCE_FLAGS, bit for bit the same meaning except for the
