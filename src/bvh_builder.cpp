@@ -11,6 +11,7 @@
 #include <cassert>
 #include <limits>
 #include <stdexcept>
+#include <vector>
 
 namespace smoketrace {
 namespace {
@@ -240,6 +241,84 @@ Bvh build_bvh(std::span<const Aabb> prim_boxes, const BvhBuildSettings& settings
     b.build(0, 0, n, 2, 0);
     compact(b.scratch, bvh);
     return bvh;
+}
+
+namespace {
+
+// Copies the subtree of `src` rooted at src_node into the node slot dst_node of `dst`, appending its
+// child pairs after it (depth-first, so a pair still comes after its parent) and its leaves' primitives,
+// mapped through `to_global`.
+void append_subtree(const Bvh& src, std::uint32_t src_node, std::span<const std::uint32_t> to_global, Bvh& dst,
+                    std::uint32_t dst_node) {
+    const BvhNode n = src.nodes[src_node];
+    dst.nodes[dst_node].bounds = n.bounds;
+    if (n.is_leaf()) {
+        dst.nodes[dst_node].first = static_cast<std::uint32_t>(dst.prim_indices.size());
+        dst.nodes[dst_node].count = n.count;
+        for (std::uint32_t i = 0; i < n.count; ++i) dst.prim_indices.push_back(to_global[src.prim_indices[n.first + i]]);
+        return;
+    }
+    const auto pair = static_cast<std::uint32_t>(dst.nodes.size());
+    dst.nodes.resize(dst.nodes.size() + 2);
+    dst.nodes[dst_node].first = pair;
+    dst.nodes[dst_node].count = 0;
+    append_subtree(src, n.first, to_global, dst, pair);
+    append_subtree(src, n.first + 1, to_global, dst, pair + 1);
+}
+
+// Copies the top tree, replacing each of its leaves (one group each) by that group's tree.
+void append_joined(const Bvh& top, std::uint32_t top_node, std::span<const Bvh> groups,
+                   std::span<const std::vector<std::uint32_t>> members, Bvh& dst, std::uint32_t dst_node) {
+    const BvhNode n = top.nodes[top_node];
+    if (n.is_leaf()) {
+        const std::uint32_t g = top.prim_indices[n.first];
+        append_subtree(groups[g], 0, members[g], dst, dst_node);
+        return;
+    }
+    const auto pair = static_cast<std::uint32_t>(dst.nodes.size());
+    dst.nodes.resize(dst.nodes.size() + 2);
+    dst.nodes[dst_node].bounds = n.bounds;
+    dst.nodes[dst_node].first = pair;
+    dst.nodes[dst_node].count = 0;
+    append_joined(top, n.first, groups, members, dst, pair);
+    append_joined(top, n.first + 1, groups, members, dst, pair + 1);
+}
+
+}  // namespace
+
+Bvh build_grouped_bvh(std::span<const Aabb> prim_boxes, std::span<const std::uint32_t> group_of,
+                      const BvhBuildSettings& settings) {
+    if (group_of.size() != prim_boxes.size()) throw std::invalid_argument("build_grouped_bvh: one group per primitive");
+    std::vector<std::uint32_t> keys(group_of.begin(), group_of.end());
+    std::sort(keys.begin(), keys.end());
+    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+    if (keys.size() <= 1) return build_bvh(prim_boxes, settings);
+
+    // Members of each group in primitive order (deterministic), their trees and their boxes.
+    std::vector<std::vector<std::uint32_t>> members(keys.size());
+    for (std::uint32_t i = 0; i < group_of.size(); ++i) {
+        const auto g = std::lower_bound(keys.begin(), keys.end(), group_of[i]) - keys.begin();
+        members[std::size_t(g)].push_back(i);
+    }
+    std::vector<Bvh> groups(keys.size());
+    std::vector<Aabb> group_boxes(keys.size());
+    std::vector<Aabb> boxes;
+    for (std::size_t g = 0; g < keys.size(); ++g) {
+        boxes.clear();
+        for (std::uint32_t i : members[g]) boxes.push_back(prim_boxes[i]);
+        groups[g] = build_bvh(boxes, settings);
+        group_boxes[g] = groups[g].bounds();
+    }
+    const Bvh top = build_bvh(group_boxes, BvhBuildSettings{settings.costs, 1, settings.parallel_threshold});
+
+    Bvh joined;
+    joined.nodes.reserve(2 * prim_boxes.size());
+    joined.prim_indices.reserve(prim_boxes.size());
+    joined.nodes.resize(2);  // the root and the padding slot that puts pairs at even indices
+    joined.nodes[1] = BvhNode{Aabb{}, 0, 0};
+    append_joined(top, 0, groups, members, joined, 0);
+    if (joined.depth() > kMaxBvhDepth) return build_bvh(prim_boxes, settings);
+    return joined;
 }
 
 }  // namespace smoketrace

@@ -100,7 +100,12 @@ void Scene::update_instance(std::uint32_t i) {
 }
 
 void Scene::rebuild() {
-    tlas_ = build_bvh(world_boxes_, BvhBuildSettings{.max_leaf_size = 1});
+    // Grouped by mask (bvh_builder.hpp): in the smoke scene a particle's stand-in and its billboard have
+    // almost the same box, and one SAH tree over both would pair them in every leaf's parent, so a view
+    // ray (stand-ins masked out) or a light ray (billboards masked out) would still walk the other half.
+    std::vector<std::uint32_t> masks(instances_.size());
+    for (std::size_t i = 0; i < instances_.size(); ++i) masks[i] = instances_[i].mask;
+    tlas_ = build_grouped_bvh(world_boxes_, masks, BvhBuildSettings{.max_leaf_size = 1});
     node_masks_.assign(tlas_.nodes.size(), 0);
     refit();  // fills the node masks (boxes are already exact)
     sah_at_build_ = tlas_.sah_cost();

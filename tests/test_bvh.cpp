@@ -791,3 +791,56 @@ TEST_CASE("Icospheres: 20·4^L faces on the sphere, closed, outward, convex", "[
 }
 
 }  // namespace
+
+TEST_CASE("Grouped build: no node below the top mixes groups, every primitive once, boxes exact", "[bvh]") {
+    // Three interleaved groups of random boxes, as the TLAS's stand-ins, billboards and ground are.
+    Pcg32 rng(77);
+    std::vector<Aabb> boxes;
+    std::vector<std::uint32_t> group;
+    for (int i = 0; i < 3000; ++i) {
+        const glm::vec3 c(rng.uniform(-10, 10), rng.uniform(-10, 10), rng.uniform(-10, 10));
+        const float r = rng.uniform(0.1f, 1.0f);
+        Aabb b;
+        b.grow(c - r);
+        b.grow(c + r);
+        boxes.push_back(b);
+        group.push_back(i % 7 == 0 ? 4u : (i % 2 == 0 ? 1u : 2u));
+    }
+    const Bvh bvh = build_grouped_bvh(boxes, group, BvhBuildSettings{{}, 1});
+    REQUIRE(bvh.prim_indices.size() == boxes.size());
+    std::vector<int> seen(boxes.size(), 0);
+    for (std::uint32_t p : bvh.prim_indices) ++seen.at(p);
+    CHECK(std::all_of(seen.begin(), seen.end(), [](int s) { return s == 1; }));
+    // Per node: the set of groups below it, and the box must be exactly the union of its primitives'.
+    std::vector<std::set<std::uint32_t>> below(bvh.nodes.size());
+    std::vector<Aabb> exact(bvh.nodes.size());
+    for (std::size_t k = bvh.nodes.size(); k-- > 0;) {
+        if (k == 1) continue;
+        const BvhNode& n = bvh.nodes[k];
+        if (n.is_leaf()) {
+            for (std::uint32_t i = 0; i < n.count; ++i) {
+                below[k].insert(group[bvh.prim_indices[n.first + i]]);
+                exact[k].grow(boxes[bvh.prim_indices[n.first + i]]);
+            }
+        } else {
+            REQUIRE(n.first > k);  // depth-first: a pair comes after its parent
+            for (std::uint32_t c : {n.first, n.first + 1}) {
+                below[k].insert(below[c].begin(), below[c].end());
+                exact[k].grow(exact[c]);
+            }
+        }
+        CHECK(n.bounds.lo == exact[k].lo);
+        CHECK(n.bounds.hi == exact[k].hi);
+    }
+    // Nodes whose subtree holds one group: every primitive is under such a node whose parent mixes groups
+    // (the top tree) — i.e. exactly three maximal single-group subtrees.
+    int maximal_single = 0;
+    for (std::size_t k = 0; k < bvh.nodes.size(); ++k) {
+        if (k == 1 || bvh.nodes[k].is_leaf()) continue;
+        const BvhNode& n = bvh.nodes[k];
+        if (below[k].size() > 1)
+            for (std::uint32_t c : {n.first, n.first + 1}) maximal_single += below[c].size() == 1 ? 1 : 0;
+    }
+    CHECK(maximal_single == 3);
+    CHECK(below[0].size() == 3);
+}

@@ -31,4 +31,12 @@ struct BvhBuildSettings {
 // primitive count per level.
 [[nodiscard]] Bvh build_bvh(std::span<const Aabb> prim_boxes, const BvhBuildSettings& settings = {});
 
+// Builds one SAH tree per group of primitives (primitive i belongs to group_of[i]) and joins them under
+// an SAH tree over the groups' boxes, so that no node below that small top tree mixes two groups. The
+// TLAS groups instances by mask: a ray whose inclusion mask excludes a group then skips the group's whole
+// subtree with one box test. (Falls back to build_bvh when there is one group, or when the joined tree
+// would be deeper than kMaxBvhDepth.)
+[[nodiscard]] Bvh build_grouped_bvh(std::span<const Aabb> prim_boxes, std::span<const std::uint32_t> group_of,
+                                    const BvhBuildSettings& settings = {});
+
 }  // namespace smoketrace
