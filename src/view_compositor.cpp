@@ -23,11 +23,15 @@ constexpr float kShadowRayTmin = 0.0f;
 // σt = 0 means no extinction at all, also for the "fully dark" l = ∞ (where ∞·0 would be NaN).
 float beer_lambert(float l, float sigma_t) { return sigma_t == 0.0f ? 1.0f : std::exp(-l * sigma_t); }
 
+// One billboard layer of a pixel, already shaded.
 struct Layer {
     float t;
-    std::uint32_t particle;
-    glm::vec2 uv;
+    glm::vec3 color;
+    float alpha;
 };
+
+// View rays see stand-ins never and billboards only through the any-hit pass: the rest is opaque.
+constexpr std::uint8_t kOpaqueViewMask = kViewRayMask & static_cast<std::uint8_t>(~kBillboardMask);
 
 struct Scratch {
     std::vector<Layer> layers, sort_buffer;
@@ -64,20 +68,20 @@ public:
             transmittance_[i] = optical_depth_ ? beer_lambert(lengths[i], s.sigma_t) : 1.0f;
     }
 
-    // Colour and opacity of one billboard layer; t_opaque is the distance to the opaque surface behind.
-    void shade_layer(const Layer& layer, float t_opaque, glm::vec3& color, float& alpha) const {
-        const std::uint32_t p = layer.particle;
+    // Colour and opacity of the billboard of particle p, hit at distance t at texture coordinates uv;
+    // t_opaque is the distance to the opaque surface behind it.
+    void shade_layer(std::uint32_t p, float t, glm::vec2 uv, float t_opaque, glm::vec3& color, float& alpha) const {
         const int frame = (s_.flipbook_frame + int(p)) % texture_.frame_count();
-        const SixwaySample tex = texture_.sample(layer.uv, frame);
-        // Thesis 4.3.5: light map × light colour, attenuated by the particle's optical depth (eq. 4.2):
-        // c_new = c_p·exp(−l·σt) + c_amb. Basic mode has no optical depth: l = 0.
-        const glm::vec3 c_p = sixway_light_map(tex, light_tangent_[p]) * s_.light_color;
-        color = c_p * transmittance_[p] + s_.ambient;
+        const SixwaySample tex = texture_.sample(uv, frame);
         alpha = tex.alpha * s_.alpha;
         // Soft particles (Larsson 2010, 2.7): fade where the opaque surface behind is closer than
         // `softness`, so the quad does not cut a hard line into the ground.
         if (s_.softness > 0.0f && t_opaque < std::numeric_limits<float>::infinity())
-            alpha *= std::clamp((t_opaque - layer.t) / s_.softness, 0.0f, 1.0f);
+            alpha *= std::clamp((t_opaque - t) / s_.softness, 0.0f, 1.0f);
+        // Thesis 4.3.5: light map × light colour, attenuated by the particle's optical depth (eq. 4.2):
+        // c_new = c_p·exp(−l·σt) + c_amb. Basic mode has no optical depth: l = 0.
+        const glm::vec3 c_p = sixway_light_map(tex, light_tangent_[p]) * s_.light_color;
+        color = c_p * transmittance_[p] + s_.ambient;
     }
 
     // The ground at distance t along `ray` (thesis eq. 4.4 with the shadow of eq. 4.3):
@@ -145,32 +149,51 @@ private:
     float previous_alpha_ = 0.0f;
 };
 
-// One trace() collects every billboard in front of the first opaque hit; then sort and composite.
+// One pixel in two rays. First the opaque surface (the ground): a ray whose mask leaves out stand-ins and
+// billboards, so the mask-grouped TLAS prunes both groups at its top. Then one traversal over the
+// billboards in front of it, shading each layer as the any-hit callback meets it (thesis 4.3.5, in the
+// spirit of Multi-Layer Alpha Tracing, Brüll & Grosch 2020): fully transparent texels are dropped, the
+// rest are sorted by t with the resolver's radix sort and composited front to back.
+//
+// Early termination, exact: the product of (1 − a) over the layers collected so far is the transmittance
+// in front of the farthest of them. Once it is below the threshold, nothing behind that layer can reach
+// the pixel, so the callback accepts the hit, which (DXR rule 6) shrinks the ray's tmax to its t and
+// prunes every box behind it. The compositor would have stopped there anyway: the image is the same as
+// with every layer collected (up to the order of the rounded products, far below an 8-bit step). The
+// thesis's eq. 4.1 has no transmittance, so it collects every layer.
 glm::vec3 one_traversal_pixel(const PixelShader& shader, const Ray& ray, Scratch& scratch) {
-    const SmokeScene& smoke = shader.scene();
+    const Scene& scene = shader.scene().scene();
+    const ViewSettings& s = shader.settings();
+    const TraceResult opaque = trace(scene, ray, ray_flag_force_opaque, kOpaqueViewMask);
+    const float t_opaque = opaque.hit ? opaque.committed.t : std::numeric_limits<float>::infinity();
+
     std::vector<Layer>& layers = scratch.layers;
     layers.clear();
+    Ray billboard_ray = ray;
+    if (opaque.hit) billboard_ray.tmax = std::nextafter(t_opaque, 0.0f);  // layers strictly in front
+    const bool may_stop = s.compositing == Compositing::over;
+    float transmittance = 1.0f, t_farthest = 0.0f;
     auto collect = [&](const TraceHit& h) {
-        // Only billboards are non-opaque for view rays; the ground commits without calling any-hit.
-        layers.push_back(Layer{h.t, h.instance_id, billboard_uv(h.primitive_index, h.barycentrics)});
+        Layer l{h.t, glm::vec3(0.0f), 0.0f};
+        shader.shade_layer(h.instance_id, h.t, billboard_uv(h.primitive_index, h.barycentrics), t_opaque, l.color,
+                           l.alpha);
+        if (!(l.alpha > 0.0f)) return AnyHitDecision::ignore;
+        layers.push_back(l);
+        transmittance *= 1.0f - l.alpha;
+        t_farthest = std::max(t_farthest, h.t);
+        if (may_stop && transmittance < s.transmittance_threshold && h.t >= t_farthest)
+            return AnyHitDecision::accept;
         return AnyHitDecision::ignore;
     };
-    const TraceResult r = trace(smoke.scene(), ray, ray_flag_none, kViewRayMask, collect);
-    const float t_opaque = r.hit ? r.committed.t : std::numeric_limits<float>::infinity();
-    // Layers reported before the ground was found may lie behind it.
-    std::erase_if(layers, [&](const Layer& l) { return l.t >= t_opaque; });
+    trace(scene, billboard_ray, ray_flag_force_non_opaque, kBillboardMask, collect);
     scratch.sort_buffer.resize(layers.size());
     sort_by_float_key(std::span<Layer>(layers), std::span<Layer>(scratch.sort_buffer),
                       [](const Layer& l) { return l.t; });
 
-    PixelCompositor comp(shader.settings());
-    for (const Layer& l : layers) {
-        glm::vec3 c;
-        float a;
-        shader.shade_layer(l, t_opaque, c, a);
-        if (!comp.add(c, a)) return comp.finish(glm::vec3(0.0f));
-    }
-    return comp.finish(r.hit ? shader.shade_ground(ray, t_opaque) : shader.settings().background);
+    PixelCompositor comp(s);
+    for (const Layer& l : layers)
+        if (!comp.add(l.color, l.alpha)) return comp.finish(glm::vec3(0.0f));
+    return comp.finish(opaque.hit ? shader.shade_ground(ray, t_opaque) : s.background);
 }
 
 // The thesis's loop: closest billboard or ground, shade, and trace again from just behind the billboard.
@@ -185,11 +208,10 @@ glm::vec3 retrace_pixel(const PixelShader& shader, const Ray& ray) {
         const TraceResult h = trace(smoke.scene(), r, ray_flag_force_opaque, kViewRayMask);
         if (!h.hit || !smoke.is_billboard(h.committed.instance_index))
             return comp.finish(h.hit ? shader.shade_ground(ray, h.committed.t) : shader.settings().background);
-        const Layer l{h.committed.t, h.committed.instance_id,
-                      billboard_uv(h.committed.primitive_index, h.committed.barycentrics)};
         glm::vec3 c;
         float a;
-        shader.shade_layer(l, t_opaque, c, a);
+        shader.shade_layer(h.committed.instance_id, h.committed.t,
+                           billboard_uv(h.committed.primitive_index, h.committed.barycentrics), t_opaque, c, a);
         if (!comp.add(c, a)) return comp.finish(glm::vec3(0.0f));
         // Go on behind this quad: the next representable t (a quad at exactly the same depth is the one
         // place where the two compositors may differ).
@@ -203,7 +225,9 @@ void render_view(const SmokeScene& scene, std::span<const Particle> particles, s
                  const SixwayTexture& texture, const Camera& camera, const ViewSettings& settings, ImageRgba& image) {
     if (!scene.has_billboards() && !particles.empty())
         throw std::invalid_argument("render_view: the scene was built without billboards");
-    image = ImageRgba(camera.width(), camera.height());
+    // Every pixel is written below: a frame of the same size reuses the buffer (no page faults).
+    if (image.width != camera.width() || image.height != camera.height())
+        image = ImageRgba(camera.width(), camera.height());
     const PixelShader shader(scene, particles, lengths, texture, settings);
     tbb::enumerable_thread_specific<Scratch> scratch;
     const int tiles_x = (camera.width() + kTileSize - 1) / kTileSize;

@@ -4,10 +4,12 @@
 // (lit, with a shadow ray) or the sky.
 //
 // Two compositors give the same image (tests/test_view_compositor.cpp states the tolerance):
-//  * one_traversal (default): a single trace() per pixel whose any-hit callback collects every billboard
-//    layer in front of the first opaque surface (Multi-Layer Alpha Tracing, Brüll & Grosch 2020, with an
-//    unbounded layer list); the layers are sorted by t with the hit resolver's radix sort and
-//    composited until the remaining transmittance drops below a threshold;
+//  * one_traversal (default): one ray finds the opaque surface, then a single billboard traversal whose
+//    any-hit callback shades every layer in front of it (Multi-Layer Alpha Tracing, Brüll & Grosch
+//    2020, with an unbounded layer list); the layers are sorted by t with the hit resolver's radix sort
+//    and composited until the remaining transmittance drops below a threshold. Once the layers already
+//    met make the pixel opaque, the callback accepts a hit to cut the traversal short (exact: see
+//    view_compositor.cpp);
 //  * retrace (the thesis's loop, kept as the reference): trace the closest billboard, shade it,
 //    composite, and trace again from just behind it, until the ground, the sky or the threshold.
 #include <smoketrace/camera.hpp>
