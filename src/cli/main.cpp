@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <exception>
 #include <iostream>
+#include <string>
+#include <string_view>
 
 namespace smoketrace::cli {
 std::vector<Command>& command_registry() {
@@ -34,6 +36,11 @@ int main(int argc, char** argv) {
     }
     for (const auto& c : command_registry()) {
         if (c.name != name) continue;
+        for (int i = 2; i < argc; ++i)
+            if (std::string_view(argv[i]) == "--help" || std::string_view(argv[i]) == "-h") {
+                std::cout << "usage: smoketrace " << c.usage << "\n  " << c.summary << "\n";
+                return 0;
+            }
         try {
             return c.run(Args(argv + 2, argv + argc));
         } catch (const CliError& e) {
