@@ -25,14 +25,12 @@ double Bvh::sah_cost(const SahCosts& costs) const {
     if (nodes.empty()) return 0.0;
     const double root_area = nodes[0].bounds.area();
     if (!(root_area > 0.0)) return costs.intersection * double(nodes[0].count);
-    double cost = 0.0;
-    for (std::size_t i = 0; i < nodes.size(); ++i) {
-        if (i == 1) continue;
-        const BvhNode& n = nodes[i];
-        const double w = n.bounds.area() / root_area;
-        cost += n.is_leaf() ? w * costs.intersection * n.count : w * costs.traversal;
-    }
-    return cost;
+    // Backward, and divided by the root's area once at the end: the order and the terms of the fused
+    // refit sweep of the TLAS (Scene::refit), so that both give the same bits.
+    double weighted = 0.0;
+    for (std::size_t i = nodes.size(); i-- > 0;)
+        if (i != 1) weighted += sah_term(nodes[i], costs);
+    return weighted / root_area;
 }
 
 void Bvh::refit(std::span<const Aabb> prim_boxes) {

@@ -108,21 +108,36 @@ void Scene::rebuild() {
     tlas_ = build_grouped_bvh(world_boxes_, masks, BvhBuildSettings{.max_leaf_size = 1});
     node_masks_.assign(tlas_.nodes.size(), 0);
     refit();  // fills the node masks (boxes are already exact)
-    sah_at_build_ = tlas_.sah_cost();
+    sah_at_build_ = sah_current_;
 }
 
+// One backward sweep (children before parents) refits the boxes, ORs the instance masks and sums the
+// SAH cost, with the terms and order of Bvh::sah_cost, so the rebuild test costs no extra pass.
 void Scene::refit() {
-    tlas_.refit(world_boxes_);
-    for (std::size_t k = tlas_.nodes.size(); k-- > 0;) {
+    auto& nodes = tlas_.nodes;
+    const SahCosts costs{};
+    double weighted = 0.0;
+    for (std::size_t k = nodes.size(); k-- > 0;) {
         if (k == 1) continue;
-        const BvhNode& n = tlas_.nodes[k];
+        BvhNode& n = nodes[k];
+        Aabb b;
         std::uint8_t m = 0;
-        if (n.is_leaf())
-            for (std::uint32_t i = 0; i < n.count; ++i) m |= instances_[tlas_.prim_indices[n.first + i]].mask;
-        else
+        if (n.is_leaf()) {
+            for (std::uint32_t i = 0; i < n.count; ++i) {
+                const std::uint32_t p = tlas_.prim_indices[n.first + i];
+                b.grow(world_boxes_[p]);
+                m |= instances_[p].mask;
+            }
+        } else {
+            b = merge(nodes[n.first].bounds, nodes[n.first + 1].bounds);
             m = node_masks_[n.first] | node_masks_[n.first + 1];
+        }
+        n.bounds = b;
         node_masks_[k] = m;
+        weighted += sah_term(n, costs);
     }
+    const double root_area = nodes.empty() ? 0.0 : double(nodes[0].bounds.area());
+    sah_current_ = nodes.empty() ? 0.0 : root_area > 0.0 ? weighted / root_area : tlas_.sah_cost(costs);
 }
 
 TlasUpdate Scene::commit() {
@@ -134,7 +149,7 @@ TlasUpdate Scene::commit() {
     if (!transforms_dirty_) return TlasUpdate::none;
     transforms_dirty_ = false;
     refit();
-    if (tlas_.sah_cost() > rebuild_ratio_ * sah_at_build_) {
+    if (sah_current_ > rebuild_ratio_ * sah_at_build_) {
         rebuild();
         return TlasUpdate::rebuild;
     }

@@ -53,6 +53,13 @@ struct SahCosts {
     float intersection = 1.0f;
 };
 
+// One node's term of the SAH sum before the division by the root's area: its box area times the cost
+// of stepping through it (inner node) or of testing its primitives (leaf).
+inline double sah_term(const BvhNode& n, const SahCosts& costs) {
+    const double c = n.is_leaf() ? double(costs.intersection) * double(n.count) : double(costs.traversal);
+    return double(n.bounds.area()) * c;
+}
+
 struct Bvh {
     std::vector<BvhNode, AlignedAllocator<BvhNode, 64>> nodes;  // nodes[0] is the root
     std::vector<std::uint32_t> prim_indices;                    // leaf ranges index into the input

@@ -79,7 +79,7 @@ public:
     [[nodiscard]] const InstanceRecord& record(std::uint32_t i) const { return records_[i]; }
     [[nodiscard]] bool committed() const { return !structure_dirty_ && !transforms_dirty_; }
 
-    [[nodiscard]] double tlas_sah_cost() const { return tlas_.sah_cost(); }
+    [[nodiscard]] double tlas_sah_cost() const { return sah_current_; }
     [[nodiscard]] double tlas_sah_cost_at_build() const { return sah_at_build_; }
     void set_rebuild_ratio(double r) { rebuild_ratio_ = r; }
 
@@ -95,6 +95,7 @@ private:
     Bvh tlas_;
     std::vector<std::uint8_t> node_masks_;  // OR of the instance masks below each TLAS node
     double sah_at_build_ = 0.0;
+    double sah_current_ = 0.0;  // of the tree as last refit or built
     double rebuild_ratio_ = kTlasRebuildSahRatio;
     bool structure_dirty_ = true;
     bool transforms_dirty_ = false;
