@@ -1,9 +1,14 @@
 // smoketrace_bench: [--quick] [--section NAME]... [--repeats N] [--results DIR]
 #include "bench_registry.hpp"
 
+#include <smoketrace/atomic_file.hpp>
+
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
+#include <iomanip>
 #include <iostream>
+#include <sstream>
 #include <utility>
 
 namespace smoketrace::bench {
@@ -17,9 +22,17 @@ std::vector<std::pair<std::string, double>>& summary() {
     return lines;
 }
 }  // namespace
+// Formats through a local stream: a section that leaves std::cout in fixed notation must not change how
+// the summary looks.
+std::string summary_line(const std::string& name, double value) {
+    std::ostringstream line;
+    line.precision(6);
+    line << name << "=" << value;
+    return line.str();
+}
 void report(const std::string& name, double value) {
     summary().emplace_back(name, value);
-    std::cout << "  " << name << "=" << value << "\n";
+    std::cout << "  " << summary_line(name, value) << "\n";
 }
 }  // namespace smoketrace::bench
 
@@ -43,15 +56,40 @@ int main(int argc, char** argv) {
         }
     }
     if (options.quick && options.repeats > 3) options.repeats = 3;
+    for (const auto& o : only) {
+        bool known = false;
+        for (const auto& s : section_registry()) known = known || o == s.name;
+        if (!known) {
+            std::cerr << "smoketrace_bench: no section '" << o << "' (see --list)\n";
+            return 2;
+        }
+    }
     std::filesystem::create_directories(options.results_dir);
+    const auto start = std::chrono::steady_clock::now();
+    auto seconds_since = [](std::chrono::steady_clock::time_point t) {
+        return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+    };
+    std::ostringstream durations;
+    durations.precision(3);
     for (const auto& s : section_registry()) {
         bool wanted = only.empty();
         for (const auto& o : only) wanted = wanted || o == s.name;
         if (!wanted) continue;
         std::cout << "== " << s.name << ": " << s.summary << "\n" << std::flush;
+        const auto t0 = std::chrono::steady_clock::now();
         s.run(options);
+        const double sec = seconds_since(t0);
+        std::cout << "   (" << s.name << ": " << std::fixed << std::setprecision(1) << sec << " s)\n"
+                  << std::defaultfloat << std::setprecision(6) << std::flush;
+        durations << "section_seconds_" << s.name << "=" << sec << "\n";
     }
-    std::cout << "== summary\n";
-    for (const auto& [name, value] : summary()) std::cout << name << "=" << value << "\n";
+    // The summary, on stdout and as summary.txt in the results folder (with each section's wall time).
+    std::ostringstream text;
+    for (const auto& [name, value] : summary()) text << summary_line(name, value) << "\n";
+    std::cout << "== summary\n" << text.str() << std::flush;
+    smoketrace::write_file_atomically(std::filesystem::path(options.results_dir) / "summary.txt", [&](std::ostream& out) {
+        out << text.str() << durations.str() << "bench_seconds=" << seconds_since(start) << "\n"
+            << "quick=" << (options.quick ? 1 : 0) << "\n";
+    });
     return 0;
 }

@@ -1,0 +1,475 @@
+// Bench section "view_rays": the view pass's rays (thesis 4.3.5) on the smoke scene, smoketrace's trace()
+// against Embree 3 on the same triangles and the same camera rays, in one run:
+//   * build: our billboards-only scene (quad BLAS, n+1 instances, TLAS; everything timed) against Embree's
+//     commit of the same billboard quads and ground (its vertex and instance set-up untimed; also written
+//     with the set-up timed); our whole SmokeScene (stand-ins too, 2n+1 instances) printed beside;
+//   * closest hit: one ray per pixel, billboards taken as opaque (ours: ray_flag_force_opaque, mask ~1 in
+//     the SmokeScene, whose stand-ins the masks skip), the nearest billboard or the ground;
+//   * layers: what the one-traversal compositor really asks, every billboard in front of the ground
+//     (ours: any-hit that records and ignores, the ground opaque; Embree: a context filter that records and
+//     rejects billboard hits and accepts the ground's).
+// Embree runs with its default build quality (medium), in two layouts (flattened: one mesh of world-space
+// quads; instanced: one quad, an instance per particle, like ours), without and with RTC_SCENE_FLAG_ROBUST;
+// the fastest of these is the reference of each ratio ("Embree at its best for speed"). Closest-hit scenes
+// carry no filter flag (Embree's leanest). Ratios are time ours / time Embree: above 1 means we are slower.
+// Headline figures are single-threaded (the stable ones on a shared machine); all-thread rows are printed
+// and written too.
+#include "bench_registry.hpp"
+#include "bench_util.hpp"
+#include "support/embree_reference.hpp"
+#include "timing.hpp"
+
+#include <smoketrace/camera.hpp>
+#include <smoketrace/smoke_scene.hpp>
+#include <smoketrace/trace.hpp>
+#include <smoketrace/view_compositor.hpp>
+
+#include <tbb/blocked_range.h>
+#include <tbb/combinable.h>
+#include <tbb/info.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <functional>
+#include <iomanip>
+#include <iostream>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace smoketrace::bench {
+namespace {
+
+namespace er = embree_reference;
+
+// Layers per ray kept in the fixed per-ray buffer (beyond this they are only counted).
+constexpr std::uint32_t kLayerCapacity = 512;
+
+struct LayerRecord {
+    std::array<float, kLayerCapacity> t;
+    std::uint32_t count = 0;
+    void add(float x) {
+        if (count < kLayerCapacity) t[count] = x;
+        ++count;
+    }
+    // Layers in front of the opaque surface at t_opaque (those the compositor keeps).
+    [[nodiscard]] std::uint32_t in_front(float t_opaque) const {
+        std::uint32_t n = 0;
+        for (std::uint32_t i = 0; i < std::min(count, kLayerCapacity); ++i) n += t[i] < t_opaque;
+        return n;
+    }
+};
+
+// What one pass over the rays returns: its work, so the two tracers can be seen to do the same job.
+struct Work {
+    std::uint64_t hits = 0;    // closest: rays that hit something; layers: layers in front of the ground
+    double t_sum = 0;          // closest: summed t of the hits
+    Work& operator+=(const Work& o) {
+        hits += o.hits;
+        t_sum += o.t_sum;
+        return *this;
+    }
+};
+
+TriangleMesh unit_quad() {
+    TriangleMesh q;
+    q.vertices = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
+    q.triangles = {{0, 1, 2}, {0, 2, 3}};  // as smoke_scene.cpp's billboards
+    return q;
+}
+
+TriangleMesh ground_mesh(const GroundQuad& g) {
+    TriangleMesh m;
+    m.vertices.assign(g.corners.begin(), g.corners.end());
+    m.triangles = {{0, 1, 2}, {0, 2, 3}};
+    return m;
+}
+
+// Our billboards-only scene: exactly what Embree gets (quads and ground), as a two-level scene.
+struct OursBillboards {
+    Scene scene;
+    OursBillboards(const std::vector<Particle>& ps, const glm::vec3& eye, const GroundQuad& ground) {
+        const auto quad = scene.add_bottom_level(BottomLevel::from_mesh(unit_quad(), false));
+        for (std::size_t i = 0; i < ps.size(); ++i)
+            scene.add_instance(Instance{quad, SmokeScene::billboard_transform(ps[i], eye), kBillboardMask, std::uint32_t(i)});
+        const auto g = scene.add_bottom_level(BottomLevel::from_mesh(ground_mesh(ground), true));
+        scene.add_instance(Instance{g, AffineTransform{}, kGroundMask, SmokeScene::kGroundUserId});
+        scene.commit();
+    }
+};
+
+enum class Layout { flattened, instanced };
+
+// Embree's scene of the billboards and the ground.
+class EmbreeBillboards {
+public:
+    EmbreeBillboards(const er::Device& device, const std::vector<Particle>& ps, const glm::vec3& eye,
+                     const GroundQuad& ground, Layout layout, bool robust, bool filter)
+        : scene_(device, er::SceneOptions{RTC_BUILD_QUALITY_MEDIUM, robust, filter}) {
+        ground_geometry_ = scene_.attach_mesh(ground_mesh(ground));
+        const TriangleMesh quad = unit_quad();
+        if (layout == Layout::flattened) {
+            TriangleMesh world;
+            for (const Particle& p : ps) {
+                const AffineTransform m = SmokeScene::billboard_transform(p, eye);
+                const auto base = std::uint32_t(world.vertices.size());
+                for (const glm::vec3& v : quad.vertices) world.vertices.push_back(glm::vec3(m.point(glm::dvec3(v))));
+                for (const glm::uvec3& t : quad.triangles) world.triangles.push_back(t + base);
+            }
+            scene_.attach_mesh(world);
+        } else {
+            child_ = std::make_unique<er::Scene>(device, er::SceneOptions{RTC_BUILD_QUALITY_MEDIUM, robust, filter});
+            child_->attach_mesh(quad);
+            child_->commit();
+            for (const Particle& p : ps) {
+                const AffineTransform m = SmokeScene::billboard_transform(p, eye);
+                float xfm[12];
+                for (int c = 0; c < 3; ++c)
+                    for (int r = 0; r < 3; ++r) xfm[3 * c + r] = float(m.linear[c][r]);
+                for (int r = 0; r < 3; ++r) xfm[9 + r] = float(m.translation[r]);
+                RTCGeometry g = rtcNewGeometry(device.handle(), RTC_GEOMETRY_TYPE_INSTANCE);
+                rtcSetGeometryInstancedScene(g, child_->handle());
+                rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, xfm);
+                rtcCommitGeometry(g);
+                rtcAttachGeometry(scene_.handle(), g);
+                rtcReleaseGeometry(g);
+            }
+            device.check("instances");
+        }
+    }
+    void commit() { scene_.commit(); }
+
+    [[nodiscard]] bool closest(const Ray& r, float& t) const {
+        RTCIntersectContext context;
+        rtcInitIntersectContext(&context);
+        RTCRayHit rh = to_embree(r);
+        rtcIntersect1(scene_.handle(), &context, &rh);
+        t = rh.ray.tfar;
+        return rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
+    }
+
+    // Every billboard hit recorded and rejected; the ground accepted. Returns the ground's t (or +inf).
+    float layers(const Ray& r, LayerRecord& record) const {
+        LayerContext ctx;
+        rtcInitIntersectContext(&ctx.base);
+        ctx.base.filter = &LayerContext::filter;
+        ctx.ground = ground_geometry_;
+        ctx.record = &record;
+        RTCRayHit rh = to_embree(r);
+        rtcIntersect1(scene_.handle(), &ctx.base, &rh);
+        return rh.hit.geomID != RTC_INVALID_GEOMETRY_ID ? rh.ray.tfar : std::numeric_limits<float>::infinity();
+    }
+
+private:
+    struct LayerContext {
+        RTCIntersectContext base;
+        std::uint32_t ground;
+        LayerRecord* record;
+        static void filter(const RTCFilterFunctionNArguments* args) {
+            auto* self = reinterpret_cast<LayerContext*>(args->context);
+            for (unsigned i = 0; i < args->N; ++i) {
+                if (args->valid[i] != -1) continue;
+                const bool ground = RTCHitN_instID(args->hit, args->N, i, 0) == RTC_INVALID_GEOMETRY_ID &&
+                                    RTCHitN_geomID(args->hit, args->N, i) == self->ground;
+                if (ground) continue;  // opaque: accepted
+                self->record->add(RTCRayN_tfar(args->ray, args->N, i));
+                args->valid[i] = 0;
+            }
+        }
+    };
+
+    static RTCRayHit to_embree(const Ray& r) {
+        RTCRayHit rh;
+        rh.ray.org_x = r.origin.x;
+        rh.ray.org_y = r.origin.y;
+        rh.ray.org_z = r.origin.z;
+        rh.ray.tnear = r.tmin;
+        rh.ray.dir_x = r.direction.x;
+        rh.ray.dir_y = r.direction.y;
+        rh.ray.dir_z = r.direction.z;
+        rh.ray.time = 0.0f;
+        rh.ray.tfar = r.tmax;
+        rh.ray.mask = ~0u;
+        rh.ray.id = 0;
+        rh.ray.flags = 0;
+        rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+        rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
+        for (unsigned& id : rh.hit.instID) id = RTC_INVALID_GEOMETRY_ID;
+        return rh;
+    }
+
+    er::Scene scene_;
+    std::unique_ptr<er::Scene> child_;
+    std::uint32_t ground_geometry_ = RTC_INVALID_GEOMETRY_ID;
+};
+
+// --- the passes -------------------------------------------------------------------------------------------
+
+using RangePass = std::function<Work(std::size_t, std::size_t)>;
+
+Work run_pass(bool parallel, std::size_t n, const RangePass& pass) {
+    if (!parallel) return pass(0, n);
+    tbb::combinable<Work> partial;
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024),
+                      [&](const tbb::blocked_range<std::size_t>& r) { partial.local() += pass(r.begin(), r.end()); });
+    return partial.combine([](Work a, const Work& b) { return a += b; });
+}
+
+template <class Trace>
+RangePass closest_pass(const std::vector<Ray>& rays, Trace trace_one) {
+    return [&rays, trace_one](std::size_t b, std::size_t e) {
+        Work w;
+        for (std::size_t i = b; i < e; ++i) {
+            float t;
+            if (trace_one(rays[i], t)) {
+                ++w.hits;
+                w.t_sum += t;
+            }
+        }
+        return w;
+    };
+}
+
+template <class Trace>
+RangePass layers_pass(const std::vector<Ray>& rays, Trace trace_one) {
+    return [&rays, trace_one](std::size_t b, std::size_t e) {
+        Work w;
+        LayerRecord record;
+        for (std::size_t i = b; i < e; ++i) {
+            record.count = 0;
+            const float t_opaque = trace_one(rays[i], record);
+            w.hits += record.in_front(t_opaque);
+        }
+        return w;
+    };
+}
+
+struct Contender {
+    std::string name;
+    bool robust;  // Embree's robust mode (ours: always watertight)
+    bool ours;
+    RangePass pass;
+    std::vector<double> ms{};
+    Work work{};
+};
+
+// Round-robin: repeat r of every contender before repeat r + 1, then medians.
+void time_round_robin(std::vector<Contender>& cs, int repeats, bool parallel, std::size_t n) {
+    for (int r = 0; r < repeats; ++r)
+        for (Contender& c : cs) {
+            const auto t0 = std::chrono::steady_clock::now();
+            c.work = run_pass(parallel, n, c.pass);
+            c.ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+        }
+}
+
+std::string fmt(double v, int precision = 3) {
+    std::ostringstream s;
+    s << std::fixed << std::setprecision(precision) << v;
+    return s.str();
+}
+
+void run_view_rays(const BenchOptions& options) {
+    const int size = 512;
+    const std::vector<std::uint32_t> counts = options.quick ? std::vector<std::uint32_t>{750}
+                                                            : std::vector<std::uint32_t>{750, 1500, 10'000};
+    const int repeats = std::max(options.repeats, 3);
+    const int all_threads = tbb::info::default_concurrency();
+    const er::Device device;
+    CsvFile csv("particles,measure,implementation,robust,threads,rays,median_ms,min_ms,max_ms,ours_over_this,work");
+    double headline_closest = 0, headline_closest_robust = 0, headline_layers = 0, headline_build = 0;
+    std::size_t disagreements_total = 0;
+
+    for (const std::uint32_t n : counts) {
+        const SceneDescription desc = animated_scene(n, size);
+        const std::vector<Particle>& ps = desc.smoke.particles;
+        const GroundQuad ground{desc.ground->corners};
+        const Camera camera(desc.camera.position, desc.camera.look_at, desc.camera.up, desc.camera.fov_deg, size, size);
+        const glm::vec3 eye = camera.position();
+        std::vector<Ray> rays;
+        rays.reserve(std::size_t(size) * size);
+        for (int y = 0; y < size; ++y)
+            for (int x = 0; x < size; ++x) rays.push_back(camera.ray(x, y, kViewRayTmin));
+        std::cout << "  " << n << " particles, " << rays.size() << " camera rays (" << size << "x" << size
+                  << ", two_tubes_right.json's camera); ms, medians of " << repeats << " round-robin repeats\n";
+
+        // ---- builds (all threads) ----
+        std::optional<SmokeScene> smoke;
+        std::unique_ptr<OursBillboards> billboards;
+        struct EmbreeVariant {
+            std::string name;
+            Layout layout;
+            bool robust;
+            std::unique_ptr<EmbreeBillboards> closest, layers;  // without / with the context-filter flag
+        };
+        std::vector<EmbreeVariant> embree;
+        for (Layout layout : {Layout::flattened, Layout::instanced})
+            for (bool robust : {false, true})
+                embree.push_back({std::string(layout == Layout::flattened ? "embree_flattened" : "embree_instanced") +
+                                      (robust ? "_robust" : ""),
+                                  layout, robust, nullptr, nullptr});
+        // build_ms[0]: our SmokeScene, [1]: our billboards-only scene, [2 + k]: Embree variant k's commit,
+        // setup_ms[k]: the same with its set-up (world vertices or instance geometries, then the commit).
+        std::vector<std::vector<double>> build_ms(2 + embree.size()), setup_ms(embree.size());
+        for (int r = 0; r < repeats; ++r) {
+            build_ms[0].push_back(time_ms(1, [&] {
+                smoke.reset();
+                smoke.emplace(ps, StandInShape{StandInKind::sphere, 0}, ground, true);
+                smoke->update(ps, eye);
+            }).median);
+            build_ms[1].push_back(time_ms(1, [&] {
+                billboards.reset();
+                billboards = std::make_unique<OursBillboards>(ps, eye, ground);
+            }).median);
+            for (std::size_t k = 0; k < embree.size(); ++k) {
+                EmbreeVariant& v = embree[k];
+                const auto t0 = std::chrono::steady_clock::now();
+                v.closest.reset();
+                v.closest = std::make_unique<EmbreeBillboards>(device, ps, eye, ground, v.layout, v.robust, false);
+                const auto t1 = std::chrono::steady_clock::now();
+                v.closest->commit();
+                const auto t2 = std::chrono::steady_clock::now();
+                build_ms[2 + k].push_back(std::chrono::duration<double, std::milli>(t2 - t1).count());
+                setup_ms[k].push_back(std::chrono::duration<double, std::milli>(t2 - t0).count());
+            }
+        }
+        for (EmbreeVariant& v : embree) {
+            v.layers = std::make_unique<EmbreeBillboards>(device, ps, eye, ground, v.layout, v.robust, true);
+            v.layers->commit();
+        }
+        const double ours_build = stats_of(build_ms[0]).median, ours_bb_build = stats_of(build_ms[1]).median;
+        double best_embree_build = std::numeric_limits<double>::infinity();
+        std::cout << "    build, all threads (ms): smoketrace smoke scene (stand-ins, billboards, ground) " << fmt(ours_build)
+                  << ", billboards and ground only " << fmt(ours_bb_build) << "; Embree commit (with set-up):";
+        csv.row(n, "build", "smoketrace_smoke_scene", 0, all_threads, 0, ours_build, stats_of(build_ms[0]).min,
+                stats_of(build_ms[0]).max, 1.0, 0);
+        csv.row(n, "build", "smoketrace_billboards", 0, all_threads, 0, ours_bb_build, stats_of(build_ms[1]).min,
+                stats_of(build_ms[1]).max, 1.0, 0);
+        for (std::size_t k = 0; k < embree.size(); ++k) {
+            const Stats s = stats_of(build_ms[2 + k]), w = stats_of(setup_ms[k]);
+            std::cout << " " << embree[k].name << " " << fmt(s.median) << " (" << fmt(w.median) << ")";
+            csv.row(n, "build", embree[k].name, int(embree[k].robust), all_threads, 0, s.median, s.min, s.max,
+                    ours_bb_build / s.median, 0);
+            csv.row(n, "build_with_setup", embree[k].name, int(embree[k].robust), all_threads, 0, w.median, w.min,
+                    w.max, ours_bb_build / w.median, 0);
+            best_embree_build = std::min(best_embree_build, s.median);
+        }
+        std::cout << "\n    billboards-only build / fastest Embree commit: " << fmt(ours_bb_build / best_embree_build, 2)
+                  << "\n";
+
+        // ---- the same answers? closest hit per ray, one untimed pass each ----
+        std::vector<float> ours_t(rays.size()), other_t(rays.size());
+        for (std::size_t i = 0; i < rays.size(); ++i) {
+            const TraceResult r = trace(smoke->scene(), rays[i], ray_flag_force_opaque, kViewRayMask);
+            ours_t[i] = r.hit ? r.committed.t : std::numeric_limits<float>::infinity();
+        }
+        std::vector<std::size_t> differ(embree.size(), 0);
+        for (std::size_t k = 0; k < embree.size(); ++k) {
+            for (std::size_t i = 0; i < rays.size(); ++i) {
+                float t;
+                other_t[i] = embree[k].closest->closest(rays[i], t) ? t : std::numeric_limits<float>::infinity();
+                const bool same = (std::isinf(ours_t[i]) && std::isinf(other_t[i])) ||
+                                  std::abs(ours_t[i] - other_t[i]) <= 1e-4f * std::max(1.0f, std::abs(ours_t[i]));
+                differ[k] += !same;
+            }
+            disagreements_total += differ[k];
+        }
+
+        // ---- traversal: closest and layers, 1 thread and all threads ----
+        const Scene& smoke_scene = smoke->scene();
+        const Scene& bb_scene = billboards->scene;
+        auto ours_closest = [](const Scene& s, std::uint8_t mask) {
+            return [&s, mask](const Ray& r, float& t) {
+                const TraceResult res = trace(s, r, ray_flag_force_opaque, mask);
+                t = res.committed.t;
+                return res.hit;
+            };
+        };
+        auto ours_layers = [](const Scene& s, std::uint8_t mask) {
+            return [&s, mask](const Ray& r, LayerRecord& rec) {
+                const TraceResult res = trace(s, r, ray_flag_none, mask, [&rec](const TraceHit& h) {
+                    rec.add(h.t);
+                    return AnyHitDecision::ignore;
+                });
+                return res.hit ? res.committed.t : std::numeric_limits<float>::infinity();
+            };
+        };
+        for (const char* measure : {"closest", "layers"}) {
+            const bool closest = std::string(measure) == "closest";
+            for (int threads : {1, all_threads}) {
+                if (threads == all_threads && all_threads == 1) break;
+                std::vector<Contender> cs;
+                if (closest) {
+                    cs.push_back({"smoketrace_smoke_scene", true, true, closest_pass(rays, ours_closest(smoke_scene, kViewRayMask))});
+                    cs.push_back({"smoketrace_billboards", true, true, closest_pass(rays, ours_closest(bb_scene, 0xFF))});
+                    for (const EmbreeVariant& v : embree) {
+                        const EmbreeBillboards* e = v.closest.get();
+                        cs.push_back({v.name, v.robust, false, closest_pass(rays, [e](const Ray& r, float& t) { return e->closest(r, t); })});
+                    }
+                } else {
+                    cs.push_back({"smoketrace_smoke_scene", true, true, layers_pass(rays, ours_layers(smoke_scene, kViewRayMask))});
+                    cs.push_back({"smoketrace_billboards", true, true, layers_pass(rays, ours_layers(bb_scene, 0xFF))});
+                    for (const EmbreeVariant& v : embree) {
+                        const EmbreeBillboards* e = v.layers.get();
+                        cs.push_back({v.name, v.robust, false, layers_pass(rays, [e](const Ray& r, LayerRecord& rec) { return e->layers(r, rec); })});
+                    }
+                }
+                tbb::task_arena arena(threads);
+                arena.execute([&] { time_round_robin(cs, repeats, threads > 1, rays.size()); });
+                const double ours = stats_of(cs[0].ms).median;
+                double best = std::numeric_limits<double>::infinity(), best_robust = best;
+                std::ostringstream line;
+                line << "    " << std::left << std::setw(8) << measure << std::right << std::setw(2) << threads
+                     << " thr:";
+                for (std::size_t k = 0; k < cs.size(); ++k) {
+                    const Stats s = stats_of(cs[k].ms);
+                    line << "  " << cs[k].name << " " << fmt(s.median, 2);
+                    csv.row(n, measure, cs[k].name, int(cs[k].robust && !cs[k].ours), threads, rays.size(), s.median,
+                            s.min, s.max, ours / s.median, cs[k].work.hits);
+                    if (!cs[k].ours) {
+                        best = std::min(best, s.median);
+                        if (cs[k].robust) best_robust = std::min(best_robust, s.median);
+                    }
+                }
+                line << "\n      ours/best Embree " << fmt(ours / best, 2) << " (robust " << fmt(ours / best_robust, 2)
+                     << "), billboards-only ours/best " << fmt(stats_of(cs[1].ms).median / best, 2) << "; work:";
+                for (const Contender& c : cs) line << " " << c.work.hits;
+                std::cout << line.str() << "\n" << std::flush;
+                if (n == 750 && threads == 1) {
+                    if (closest) {
+                        headline_closest = ours / best;
+                        headline_closest_robust = ours / best_robust;
+                    } else {
+                        headline_layers = ours / best;
+                    }
+                }
+            }
+        }
+        std::cout << "    closest-hit answers differing from ours (|dt| > 1e-4 relative):";
+        for (std::size_t k = 0; k < embree.size(); ++k) std::cout << " " << embree[k].name << " " << differ[k];
+        std::cout << " of " << rays.size() << "\n";
+        if (n == 750) headline_build = ours_bb_build / best_embree_build;
+    }
+    csv.write(std::filesystem::path(options.results_dir) / "view_rays.csv");
+    report("view_rays_ratio_vs_embree", headline_closest);
+    report("view_rays_ratio_vs_embree_robust", headline_closest_robust);
+    report("view_layers_ratio_vs_embree", headline_layers);
+    report("smoke_build_ratio_vs_embree", headline_build);
+    report("view_rays_embree_disagreements", double(disagreements_total));
+}
+
+const RegisterSection kViewRaysSection{{"view_rays",
+                                        "view-pass rays on the smoke scene vs Embree 3 on the same quads: build, "
+                                        "closest hit, all layers in front of the ground",
+                                        &run_view_rays}};
+
+}  // namespace
+}  // namespace smoketrace::bench
