@@ -12,6 +12,7 @@
 #include <smoketrace/triangle_mesh.hpp>
 
 #include <cstdint>
+#include <type_traits>
 
 namespace smoketrace {
 
@@ -29,12 +30,22 @@ struct BlasCounters {
     std::uint32_t any_hit_invocations = 0;
 };
 
-// What the primitive kernels need of a ray, prepared once per ray (per instance in trace()). The box
+// What the triangle kernel needs of a ray, prepared once per ray (per instance in trace()). The box
 // set-up (BoxRay) is separate: a single-leaf BLAS is tested without it.
 struct BlasRay {
     Ray ray;
     TriangleRay tri;
     explicit BlasRay(const Ray& r) : ray(r), tri(r) {}
+};
+
+// What the sphere kernel needs: the ray in double. trace() transforms the world ray into object space
+// in double and hands it over unrounded, so an instanced sphere is as exact as a world-space one.
+struct SphereRay {
+    glm::dvec3 origin;
+    glm::dvec3 direction;
+    float tmin;
+    explicit SphereRay(const Ray& r) : origin(r.origin), direction(r.direction), tmin(r.tmin) {}
+    SphereRay(const glm::dvec3& o, const glm::dvec3& d, float t0) : origin(o), direction(d), tmin(t0) {}
 };
 
 // Runs `on_hit(const BlasHit&)` for every triangle of the leaf slots [first, first + count) that the ray
@@ -55,20 +66,20 @@ inline bool mesh_leaf_hits(const MeshBlas& blas, const BlasRay& r, const float& 
 // The same for spheres: each sphere reports its entry (front) and then its exit (back), each only if
 // it lies in [tmin, tmax] at the moment it is reported. A ray starting inside reports only the exit.
 template <class OnHit>
-inline bool sphere_leaf_hits(const SphereBlas& blas, const BlasRay& r, const float& tmax, std::uint32_t first,
+inline bool sphere_leaf_hits(const SphereBlas& blas, const SphereRay& r, const float& tmax, std::uint32_t first,
                              std::uint32_t count, TraversalStats& stats, OnHit&& on_hit) {
     const Sphere* spheres = blas.leaf_spheres().data();
-    const glm::dvec3 o(r.ray.origin), d(r.ray.direction);
     for (std::uint32_t k = first; k < first + count; ++k) {
         ++stats.primitives_tested;
         SphereRoots roots;
-        if (!sphere_roots(o, d, glm::dvec3(spheres[k].center), double(spheres[k].radius), roots)) continue;
+        if (!sphere_roots(r.origin, r.direction, glm::dvec3(spheres[k].center), double(spheres[k].radius), roots))
+            continue;
         const float t_enter = static_cast<float>(roots.t_enter);
-        if (t_enter >= r.ray.tmin && t_enter <= tmax) {
+        if (t_enter >= r.tmin && t_enter <= tmax) {
             if (on_hit(BlasHit{t_enter, glm::vec2(0.0f), blas.primitive_id(k), true})) return true;
         }
         const float t_exit = static_cast<float>(roots.t_exit);
-        if (t_exit >= r.ray.tmin && t_exit <= tmax) {
+        if (t_exit >= r.tmin && t_exit <= tmax) {
             if (on_hit(BlasHit{t_exit, glm::vec2(0.0f), blas.primitive_id(k), false})) return true;
         }
     }
@@ -80,7 +91,8 @@ namespace detail {
 template <class Blas, class AnyHit>
 inline bool blas_any_hit_search(const Blas& blas, const Ray& ray, AnyHit&& any_hit, BlasHit& committed,
                                 BlasCounters& counters) {
-    const BlasRay r(ray);
+    using KernelRay = std::conditional_t<std::is_same_v<Blas, MeshBlas>, BlasRay, SphereRay>;
+    const KernelRay r(ray);
     float tmax = ray.tmax;
     bool hit = false;
     auto on_hit = [&](const BlasHit& candidate) {

@@ -133,7 +133,9 @@ TraceResult trace(const Scene& scene, const Ray& ray, std::uint32_t flags, std::
             ++c.instances_entered;
             const glm::dvec3 o = inst.world_to_object_linear * (world_origin - inst.object_to_world_translation);
             const glm::dvec3 d = inst.world_to_object_linear * world_dir;
-            const BlasRay obj(Ray{glm::vec3(o), ray.tmin, glm::vec3(d), ray.tmax});  // see BlasRay
+            // Triangles are intersected in float (watertight for the rounded ray: every triangle of the
+            // instance sees the same one); spheres take the double ray as it is.
+            const Ray obj_ray{glm::vec3(o), ray.tmin, glm::vec3(d), ray.tmax};
 
             auto on_hit = [&](const BlasHit& h) {
                 const bool front = h.front_face != flip_facing;
@@ -141,7 +143,7 @@ TraceResult trace(const Scene& scene, const Ray& ray, std::uint32_t flags, std::
                 TraceHit cand;
                 cand.t = h.t;
                 cand.barycentrics = h.barycentrics;
-                if (!triangles) cand.object_point = obj.ray.origin + h.t * obj.ray.direction;
+                if (!triangles) cand.object_point = glm::vec3(o + double(h.t) * d);
                 cand.instance_index = index;
                 cand.instance_id = inst.user_id;
                 cand.primitive_index = h.primitive;
@@ -168,16 +170,24 @@ TraceResult trace(const Scene& scene, const Ray& ray, std::uint32_t flags, std::
             };
             // A BLAS that is a single leaf (a billboard quad, a particle's unit sphere) needs no
             // traversal: the TLAS has already tested a box around it.
-            const Bvh& bvh = triangles ? blas.mesh.bvh() : blas.spheres.bvh();
-            auto leaf = [&](std::uint32_t f, std::uint32_t n) {
-                return triangles ? mesh_leaf_hits(blas.mesh, obj, tmax, f, n, blas_stats, on_hit)
-                                 : sphere_leaf_hits(blas.spheres, obj, tmax, f, n, blas_stats, on_hit);
+            auto run = [&](const Bvh& bvh, auto&& leaf) {
+                if (bvh.nodes[0].is_leaf()) {
+                    ++blas_stats.nodes_visited;
+                    leaf(bvh.nodes[0].first, bvh.nodes[0].count);
+                } else {
+                    traverse_bvh(bvh, BoxRay(obj_ray), tmax, leaf, blas_stats);
+                }
             };
-            if (bvh.nodes[0].is_leaf()) {
-                ++blas_stats.nodes_visited;
-                leaf(bvh.nodes[0].first, bvh.nodes[0].count);
+            if (triangles) {
+                const BlasRay obj(obj_ray);
+                run(blas.mesh.bvh(), [&](std::uint32_t f, std::uint32_t n) {
+                    return mesh_leaf_hits(blas.mesh, obj, tmax, f, n, blas_stats, on_hit);
+                });
             } else {
-                traverse_bvh(bvh, BoxRay(obj.ray), tmax, leaf, blas_stats);
+                const SphereRay obj(o, d, ray.tmin);
+                run(blas.spheres.bvh(), [&](std::uint32_t f, std::uint32_t n) {
+                    return sphere_leaf_hits(blas.spheres, obj, tmax, f, n, blas_stats, on_hit);
+                });
             }
             if (ended) return true;
         }
