@@ -1,6 +1,10 @@
 // Image storage and the sRGB transfer function (see image.hpp).
 #include <smoketrace/image.hpp>
 
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -39,6 +43,18 @@ const std::array<double, 255>& srgb_thresholds() {
 ImageRgba::ImageRgba(int w, int h, glm::vec4 fill) : width(w), height(h) {
     check_size("ImageRgba", w, h);
     pixels.assign(std::size_t(w) * std::size_t(h), fill);
+}
+
+ImageRgba::ImageRgba(int w, int h, Uninitialized) : width(w), height(h) {
+    check_size("ImageRgba", w, h);
+    pixels.resize(std::size_t(w) * std::size_t(h));
+}
+
+void advise_huge_pages([[maybe_unused]] void* p, [[maybe_unused]] std::size_t bytes) {
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+    // Only whole 2 MB pages inside the buffer; advice is a hint, so a failure changes nothing.
+    if (bytes >= PixelAllocator<char>::kAlignment) (void)::madvise(p, bytes, MADV_HUGEPAGE);
+#endif
 }
 
 Rgba8Image::Rgba8Image(int w, int h) : width(w), height(h) {

@@ -227,7 +227,7 @@ void render_view(const SmokeScene& scene, std::span<const Particle> particles, s
         throw std::invalid_argument("render_view: the scene was built without billboards");
     // Every pixel is written below: a frame of the same size reuses the buffer (no page faults).
     if (image.width != camera.width() || image.height != camera.height())
-        image = ImageRgba(camera.width(), camera.height());
+        image = ImageRgba(camera.width(), camera.height(), ImageRgba::Uninitialized{});
     const PixelShader shader(scene, particles, lengths, texture, settings);
     tbb::enumerable_thread_specific<Scratch> scratch;
     const int tiles_x = (camera.width() + kTileSize - 1) / kTileSize;
