@@ -292,7 +292,7 @@ Bvh build_grouped_bvh(std::span<const Aabb> prim_boxes, std::span<const std::uin
     std::vector<std::uint32_t> keys(group_of.begin(), group_of.end());
     std::sort(keys.begin(), keys.end());
     keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
-    if (keys.size() <= 1) return build_bvh(prim_boxes, settings);
+    if (keys.size() <= 1 || keys.size() > kMaxBvhGroups) return build_bvh(prim_boxes, settings);
 
     // Members of each group in primitive order (deterministic), their trees and their boxes.
     std::vector<std::vector<std::uint32_t>> members(keys.size());

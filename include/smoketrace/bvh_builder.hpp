@@ -34,8 +34,11 @@ struct BvhBuildSettings {
 // Builds one SAH tree per group of primitives (primitive i belongs to group_of[i]) and joins them under
 // an SAH tree over the groups' boxes, so that no node below that small top tree mixes two groups. The
 // TLAS groups instances by mask: a ray whose inclusion mask excludes a group then skips the group's whole
-// subtree with one box test. (Falls back to build_bvh when there is one group, or when the joined tree
-// would be deeper than kMaxBvhDepth.)
+// subtree with one box test. Grouping pays for a few classes of primitives that rays exclude together
+// (the smoke scene has three); with many small groups (arbitrary 8-bit masks) it would only cost SAH
+// quality, so more than kMaxBvhGroups groups fall back to build_bvh, as do one group and a joined tree
+// deeper than kMaxBvhDepth.
+inline constexpr std::size_t kMaxBvhGroups = 4;
 [[nodiscard]] Bvh build_grouped_bvh(std::span<const Aabb> prim_boxes, std::span<const std::uint32_t> group_of,
                                     const BvhBuildSettings& settings = {});
 

@@ -27,8 +27,9 @@
 //     once per ray and any-hit is called at most once per reported hit — once per triangle, and for a
 //     sphere once for its entry and once for its exit (the two ReportHit()s of an intersection shader).
 //     At a shared edge or vertex of a mesh only one triangle reports the hit (ray_triangle.hpp).
-// Beyond DXR: per-call counters, and a cutoff (TraceLimits::max_any_hit_invocations) after which the
-// search ends and TraceResult::cut_off is set.
+// Beyond DXR: per-call counters, and a cutoff (TraceLimits::max_any_hit_invocations = K): any-hit is
+// called at most K times; a (K+1)-th non-opaque candidate ends the search, uncalled, and sets
+// TraceResult::cut_off. A ray with exactly K candidates is therefore never cut off.
 #include <smoketrace/any_hit.hpp>
 #include <smoketrace/blas_traversal.hpp>
 #include <smoketrace/scene.hpp>
@@ -151,6 +152,14 @@ TraceResult trace(const Scene& scene, const Ray& ray, std::uint32_t flags, std::
                 cand.geometry = blas.kind;
                 AnyHitDecision decision = AnyHitDecision::accept;  // rule 5
                 if (!opaque) {                                     // rule 6
+                    // The cutoff: a candidate beyond the K allowed any-hit calls ends the search
+                    // without a call, so exactly K candidates are never reported as cut off.
+                    if (limits.max_any_hit_invocations != 0 &&
+                        c.any_hit_invocations >= limits.max_any_hit_invocations) {
+                        result.cut_off = true;
+                        ended = true;
+                        return true;
+                    }
                     ++c.any_hit_invocations;
                     decision = any_hit(static_cast<const TraceHit&>(cand));
                 }
@@ -160,11 +169,6 @@ TraceResult trace(const Scene& scene, const Ray& ray, std::uint32_t flags, std::
                     if (!skip_closest) result.committed = cand;  // rule 8
                     tmax = cand.t;
                     if (decision == AnyHitDecision::accept_and_end || end_on_first) ended = true;  // rule 7
-                }
-                if (!opaque && limits.max_any_hit_invocations != 0 &&
-                    c.any_hit_invocations >= limits.max_any_hit_invocations) {
-                    result.cut_off = true;
-                    ended = true;
                 }
                 return ended;
             };
