@@ -1,4 +1,5 @@
 // The optical-depth pass (thesis 4.3.2), see optical_depth_pass.hpp.
+#include <smoketrace/memory_budget.hpp>
 #include <smoketrace/optical_depth_pass.hpp>
 #include <smoketrace/trace.hpp>
 
@@ -6,7 +7,10 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <limits>
+#include <string>
 
 namespace smoketrace {
 namespace {
@@ -31,7 +35,7 @@ ParticleRayResult trace_particle(const SmokeScene& smoke, const Particle& p, con
         return AnyHitDecision::ignore;
     };
     TraceLimits limits;
-    if (cutoff > 0) limits.max_any_hit_invocations = cutoff + 1;
+    if (cutoff > 0) limits.max_any_hit_invocations = cutoff;  // a (K+1)-th surface cuts the ray off
     const TraceResult r = trace(scene, ray, ray_flag_none, kLightRayMask, collect, limits);
 
     ParticleRayResult out;
@@ -64,7 +68,21 @@ ParticleRayResult trace_particle(const SmokeScene& smoke, const Particle& p, con
     return out;
 }
 
+[[noreturn]] void over_budget(std::uint64_t budget) {
+    throw OpticalDepthBudgetError(
+        "optical-depth pass: the particles' light rays cross more than " + std::to_string(budget) +
+        " particle surfaces in all, more than the hit lists may hold (" + std::to_string(budget) + " hits need " +
+        format_bytes(budget * kPeakBytesPerStoredHit) + "; by default they may use half of this machine's " +
+        format_bytes(machine_memory_bytes()) + "); set a cutoff (\"render\": {\"cutoff\": K} in the scene file, "
+        "--cutoff K on the command line), or use fewer or smaller particles");
+}
+
 }  // namespace
+
+std::uint64_t default_max_total_hits() {
+    return std::min<std::uint64_t>(std::numeric_limits<std::uint32_t>::max(),
+                                   machine_memory_bytes() / 2 / kPeakBytesPerStoredHit);
+}
 
 void OpticalDepthPass::run(const SmokeScene& smoke, std::span<const Particle> particles,
                            std::span<const std::uint32_t> which, const glm::vec3& to_light,
@@ -76,6 +94,11 @@ void OpticalDepthPass::run(const SmokeScene& smoke, std::span<const Particle> pa
     out.hit_counts.assign(n, 0);
     const std::size_t chunk_count = (n + kParticlesPerChunk - 1) / kParticlesPerChunk;
     if (chunks_.size() < chunk_count) chunks_.resize(chunk_count);
+    // Hits kept so far, over all chunks; the budget also keeps the 32-bit offsets below from wrapping.
+    const std::uint64_t budget = std::min<std::uint64_t>(
+        settings.max_total_hits > 0 ? settings.max_total_hits : default_max_total_hits(),
+        std::numeric_limits<std::uint32_t>::max());
+    std::atomic<std::uint64_t> kept{0};
 
     tbb::parallel_for(
         tbb::blocked_range<std::size_t>(0, chunk_count, 1),
@@ -88,6 +111,8 @@ void OpticalDepthPass::run(const SmokeScene& smoke, std::span<const Particle> pa
                     const ParticleRayResult res = trace_particle(smoke, particles[which[i]], dir, settings.cutoff, hits);
                     out.status[i] = res.status;
                     out.hit_counts[i] = res.hits;
+                    if (res.status == DepthStatus::ok && kept.fetch_add(res.hits, std::memory_order_relaxed) + res.hits > budget)
+                        over_budget(budget);  // TBB cancels the other chunks and rethrows in run()'s caller
                 }
             }
         },

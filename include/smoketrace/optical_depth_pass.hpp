@@ -21,6 +21,7 @@
 
 #include <cstdint>
 #include <span>
+#include <stdexcept>
 #include <vector>
 
 namespace smoketrace {
@@ -33,7 +34,22 @@ inline constexpr float kOpticalDepthTmax = 1e38f;
 
 struct OpticalDepthSettings {
     std::uint32_t cutoff = 0;  // K: more than K surfaces → cutoff (0 = no cutoff)
+    // Most hits one run() may keep, over all its particles; 0 = default_max_total_hits(). Without a cutoff
+    // the hits grow with the square of the particle density (n particles in a fixed volume: each ray
+    // crosses ~n of them), so a dense scene can ask for more memory than the machine has.
+    std::uint64_t max_total_hits = 0;
 };
+
+// Thrown by OpticalDepthPass::run when the hits would exceed the budget: the message says how many, how
+// much memory that is, and what to do (a cutoff, or fewer or smaller particles).
+class OpticalDepthBudgetError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+// Half of this machine's memory at kPeakBytesPerStoredHit per hit (memory_budget.hpp), and at most
+// 2^32 − 1 (HitLists offsets are 32-bit).
+[[nodiscard]] std::uint64_t default_max_total_hits();
 
 // The pass's output for the particles it traced (in the order given to run()).
 struct OpticalDepthHits {
@@ -46,7 +62,8 @@ struct OpticalDepthHits {
 class OpticalDepthPass {
 public:
     // Traces the rays of `which` (particle indices) toward `to_light` (need not be unit length) in
-    // parallel over particles (TBB). The result does not depend on the number of threads.
+    // parallel over particles (TBB). The result does not depend on the number of threads. Throws
+    // OpticalDepthBudgetError (leaving `out` unspecified) when the hits exceed settings.max_total_hits.
     void run(const SmokeScene& scene, std::span<const Particle> particles, std::span<const std::uint32_t> which,
              const glm::vec3& to_light, const OpticalDepthSettings& settings, OpticalDepthHits& out);
 
