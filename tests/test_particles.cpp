@@ -59,7 +59,7 @@ TEST_CASE("Pcg32 uniform01 takes the top 24 bits times 2^-24", "[particles][prng
     CHECK(rng.uniform(-1.0f, 1.0f) == static_cast<float>(-1.0 + 2.0 * (12197171.0 / 16777216.0)));
 }
 
-TEST_CASE("Pcg32 uniform01 stays in [0, 1) and is unbiased", "[particles][prng]") {
+TEST_CASE("Pcg32 uniform01 stays in 0 <= u < 1 and is unbiased", "[particles][prng]") {
     Pcg32 rng(7u);
     constexpr int n = 200000;
     double sum = 0.0;
@@ -120,7 +120,7 @@ TEST_CASE("advance never shrinks a radius to zero", "[particles]") {
     CHECK(system[0].radius > 0.0f);
 }
 
-TEST_CASE("advance spins billboards and keeps the angle in [0, 2pi)", "[particles]") {
+TEST_CASE("advance spins billboards and keeps the angle in 0 <= a < 2pi", "[particles]") {
     Particle forward;
     forward.spin = 1.0f;
     Particle backward;

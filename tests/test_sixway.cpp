@@ -588,7 +588,7 @@ TEST_CASE("sixway files: the committed assets are the baker's output for their r
 
 // ---- Command -------------------------------------------------------------------------------------
 
-TEST_CASE("sixway cli: bake-sixway writes loadable atlases; bad input exits 2 and writes nothing", "[sixway]") {
+TEST_CASE("sixway cli: bake-sixway writes loadable atlases, bad input exits 2 and writes nothing", "[sixway]") {
     TempDir dir;
     const Run ok = run_cli("bake-sixway -o " + dir.path.string() + " --frames 2 --tile 16 --seed 7");
     REQUIRE(ok.exit_code == 0);

@@ -129,7 +129,7 @@ TEST_CASE("view: the one-traversal compositor matches the thesis's re-trace loop
     }
 }
 
-TEST_CASE("view: basic mode runs no optical-depth pass; a still frame does no work", "[view]") {
+TEST_CASE("view: basic mode runs no optical-depth pass, a still frame does no work", "[view]") {
     SceneDescription scene = tubes_scene();
     RenderOptions o = RenderOptions::from_scene(scene);
     o.width = o.height = 32;
@@ -148,7 +148,7 @@ TEST_CASE("view: basic mode runs no optical-depth pass; a still frame does no wo
     REQUIRE(img.pixels == first.pixels);
 }
 
-TEST_CASE("view: moving particles refit the TLAS; groups update 1/G of the depths per frame", "[view]") {
+TEST_CASE("view: moving particles refit the TLAS, groups update 1/G of the depths per frame", "[view]") {
     SceneDescription scene = tubes_scene();
     for (auto& p : scene.smoke.particles) p.velocity = glm::vec3(0.001f, 0.0f, 0.0f);
     scene.light.rotation_per_frame_deg = 1.0f;
