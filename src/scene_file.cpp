@@ -4,6 +4,9 @@
 // reader checks type, range and single-precision representability and fails with the node's path.
 #include <smoketrace/scene_file.hpp>
 
+#include <smoketrace/camera.hpp>
+#include <smoketrace/memory_budget.hpp>
+
 #include <nlohmann/json.hpp>
 
 #include <glm/common.hpp>
@@ -43,6 +46,9 @@ constexpr double kMinUpViewSine = 1e-6;
 // Default camera: elevation of the view above the horizon and the margin around the framed sphere.
 constexpr double kDefaultCameraElevationDeg = 20.0;  // "from the front, a bit above"
 constexpr double kDefaultCameraMargin = 1.1;         // 10 % empty border around the smoke
+// Smallest framed radius, relative to the distance of the framed centre from the origin (and at least this
+// absolute): 1e-6 is ~10 float steps, enough for the camera position to differ from the point it looks at.
+constexpr double kMinDefaultFramingRadius = 1e-6;
 
 constexpr std::uint32_t kMaxGroups = 1u << 20;     // one update spread over 2^20 frames is ~5 h at 60 fps
 constexpr std::uint32_t kMaxFrames = 1'000'000;    // ~4.6 h at 60 fps: anything more is a typo
@@ -92,11 +98,18 @@ struct Bounds {
     bool lo_open = false;
     double hi = std::numeric_limits<double>::infinity();
     bool hi_open = false;
+    // Name only the side that was violated ("must be > 0", "must be <= 1e+15"): for a natural lower bound
+    // with a sanity limit on top, where the interval would read oddly.
+    bool sided = false;
 
     [[nodiscard]] bool contains(double v) const {
         return (lo_open ? v > lo : v >= lo) && (hi_open ? v < hi : v <= hi);
     }
-    [[nodiscard]] std::string describe() const {
+    [[nodiscard]] std::string describe(double v) const {
+        if (sided) {
+            if (!(lo_open ? v > lo : v >= lo)) return Bounds{lo, lo_open}.describe(v);
+            return Bounds{-std::numeric_limits<double>::infinity(), false, hi, hi_open}.describe(v);
+        }
         const bool has_lo = std::isfinite(lo), has_hi = std::isfinite(hi);
         if (has_lo && !has_hi) return std::string(lo_open ? "must be > " : "must be >= ") + shown_number(lo);
         if (!has_lo && has_hi) return std::string(hi_open ? "must be < " : "must be <= ") + shown_number(hi);
@@ -108,6 +121,9 @@ constexpr Bounds kAny{};
 constexpr Bounds kPositive{0.0, true};
 constexpr Bounds kNonNegative{0.0, false};
 constexpr Bounds kUnit{0.0, false, 1.0, false};
+constexpr Bounds kCoordinate{-kMaxSceneCoordinate, false, kMaxSceneCoordinate, false};
+constexpr Bounds kRadius{0.0, true, kMaxSceneCoordinate, false, true};
+constexpr Bounds kColor{0.0, false, kMaxSceneColor, false, true};
 
 class Reader {
 public:
@@ -156,7 +172,7 @@ public:
         if (magnitude != 0.0 && magnitude < static_cast<double>(std::numeric_limits<float>::min()))
             fail(n, "too close to 0 for single precision (got " + shown_value(*n.value) + ")");
         const auto f = static_cast<float>(v);
-        if (!bounds.contains(f)) fail(n, bounds.describe() + " (got " + shown_value(*n.value) + ")");
+        if (!bounds.contains(f)) fail(n, bounds.describe(f) + " (got " + shown_value(*n.value) + ")");
         return f;
     }
 
@@ -200,38 +216,61 @@ private:
 
 // ---- Paths during parsing ----------------------------------------------------------------------------
 
-// nlohmann keeps the last of two equal keys silently, and it reports a number that overflows a double
-// (1e999) without saying where. The parser callback sees keys and values but not paths, so this tracker
-// follows the path itself: duplicate keys fail on the spot, and an overflow is reported at the path of
-// the value being parsed when it happened.
-class ParsePathTracker {
-public:
-    explicit ParsePathTracker(const Reader& reader) : reader_(reader) {}
+// The deepest nesting a scene file needs is 3 levels (/ground/corners/0); a document nested deeper than
+// this is refused while it is scanned, before recursive code (nlohmann's dump() in messages) meets it.
+constexpr std::size_t kMaxNestingDepth = 64;
 
-    bool on_event(json::parse_event_t event, const json& parsed) {
-        switch (event) {
-            case json::parse_event_t::object_start:
-            case json::parse_event_t::array_start: {
-                std::string segment = next_segment();
-                if (!stack_.empty() && stack_.back().array) ++stack_.back().next_index;
-                stack_.push_back(Frame{event == json::parse_event_t::array_start, std::move(segment), {}, {}, 0});
-                break;
-            }
-            case json::parse_event_t::key: {
-                Frame& top = stack_.back();
-                top.key = parsed.get<std::string>();
-                if (!top.keys.insert(top.key).second) reader_.fail(path_of_next_value(), "duplicate key");
-                break;
-            }
-            case json::parse_event_t::value:
-                if (!stack_.empty() && stack_.back().array) ++stack_.back().next_index;
-                break;
-            case json::parse_event_t::object_end:
-            case json::parse_event_t::array_end:
-                stack_.pop_back();
-                break;
-        }
+// Why `count` particles are too many ("" when they are not). `at_least`: the file holds more than
+// `count` - 1 and the scan stopped counting there.
+std::string particle_count_problem(std::uint64_t count, bool at_least) {
+    const std::string shown = at_least ? "more than " + std::to_string(count - 1) : std::to_string(count);
+    if (count > kMaxSceneParticles)
+        return "too many particles (" + shown + (at_least ? ", " : " > " + std::to_string(kMaxSceneParticles) + ", ") +
+               "the most a scene may hold)";
+    const std::uint64_t limit = scene_particle_limit();
+    if (count > limit)
+        return "too many particles for this machine's memory (" + shown + "; at " + std::to_string(kPeakBytesPerParticle) +
+               " bytes each, its " + format_bytes(machine_memory_bytes()) + " hold at most " + std::to_string(limit) + ")";
+    return {};
+}
+
+// nlohmann keeps the last of two equal keys silently, it reports a number that overflows a double (1e999)
+// without saying where, and it reads a particle list of any length into memory before the reader could
+// count it. So the text is first scanned with this SAX handler, which builds nothing: it follows the JSON
+// path itself, fails on a duplicate key on the spot, reports an overflow at the path of the value being
+// read, stops counting particles at the limit, and refuses absurd nesting. Only a document that passes
+// is parsed into a tree. (The parser-callback interface would do the same in one pass, but nlohmann
+// 3.11's callback parser rescans the parent container after every object, which is quadratic: a 10^6-
+// particle list (52 MB) took 168 s to read; the two linear passes take 3.5 s.)
+class ScanHandler {
+public:
+    ScanHandler(const Reader& reader, std::uint64_t particle_limit) : reader_(reader), particle_limit_(particle_limit) {}
+
+    bool null() { return value(); }
+    bool boolean(bool) { return value(); }
+    bool number_integer(json::number_integer_t) { return value(); }
+    bool number_unsigned(json::number_unsigned_t) { return value(); }
+    bool number_float(json::number_float_t, const json::string_t&) { return value(); }
+    bool string(json::string_t&) { return value(); }
+    bool binary(json::binary_t&) { return value(); }
+
+    bool start_object(std::size_t) { return open(false); }
+    bool start_array(std::size_t) { return open(true); }
+    bool end_object() { return close(); }
+    bool end_array() { return close(); }
+
+    bool key(json::string_t& key) {
+        Frame& top = stack_.back();
+        top.key = key;
+        if (!top.keys.insert(key).second) reader_.fail(path_of_next_value(), "duplicate key");
         return true;
+    }
+
+    // The parser's own exception (json::parse_error, or json::out_of_range 406 for a number beyond the
+    // double range), thrown as json::parse would throw it; parse_json() turns it into a SceneFileError.
+    template <class Exception>
+    bool parse_error(std::size_t /*position*/, const std::string& /*last_token*/, const Exception& e) {
+        throw e;
     }
 
     // The JSON pointer of the value the parser is reading now (the member after the last key, or the
@@ -245,11 +284,42 @@ public:
 private:
     struct Frame {
         bool array;
+        bool particle_list;          // this is /smoke/particles
         std::string segment;         // how the parent addresses this container ("" for the root)
         std::string key;             // objects: the current key
         std::set<std::string> keys;  // objects: the keys seen so far
-        std::size_t next_index;      // arrays: index of the next element
+        std::uint64_t next_index;    // arrays: index of the next element
     };
+
+    // A value or container begins: one more element of the enclosing array.
+    void count_element() {
+        if (stack_.empty() || !stack_.back().array) return;
+        Frame& top = stack_.back();
+        if (top.particle_list && top.next_index >= particle_limit_)
+            reader_.fail("/smoke/particles", particle_count_problem(particle_limit_ + 1, true));
+        ++top.next_index;
+    }
+
+    bool value() {
+        count_element();
+        return true;
+    }
+
+    bool open(bool array) {
+        if (stack_.size() >= kMaxNestingDepth)
+            reader_.fail(path_of_next_value(), "nested deeper than " + std::to_string(kMaxNestingDepth) + " levels");
+        std::string segment = next_segment();
+        const bool particle_list = array && stack_.size() == 2 && !stack_[0].array && !stack_[1].array &&
+                                   stack_[1].segment == "/smoke" && stack_[1].key == "particles";
+        count_element();
+        stack_.push_back(Frame{array, particle_list, std::move(segment), {}, {}, 0});
+        return true;
+    }
+
+    bool close() {
+        stack_.pop_back();
+        return true;
+    }
 
     [[nodiscard]] std::string next_segment() const {
         if (stack_.empty()) return {};
@@ -260,15 +330,15 @@ private:
     }
 
     const Reader& reader_;
+    std::uint64_t particle_limit_;
     std::vector<Frame> stack_;
 };
 
 json parse_json(std::string_view text, const Reader& reader, const std::string& source) {
-    ParsePathTracker tracker(reader);
+    ScanHandler scan(reader, scene_particle_limit());
     try {
-        return json::parse(text.begin(), text.end(), [&tracker](int /*depth*/, json::parse_event_t event, json& parsed) {
-            return tracker.on_event(event, parsed);
-        });
+        json::sax_parse(text.begin(), text.end(), &scan);
+        return json::parse(text.begin(), text.end());  // cannot fail: the scan accepted the same text
     } catch (const json::parse_error& e) {
         // e.byte is 1-based; n+1 means "at the end of the input" (truncated file).
         const std::size_t offset = std::min<std::size_t>(e.byte == 0 ? 0 : e.byte - 1, text.size());
@@ -288,8 +358,34 @@ json parse_json(std::string_view text, const Reader& reader, const std::string& 
         std::string literal = e.what();
         const auto open = literal.find('\''), close = literal.rfind('\'');
         literal = open != std::string::npos && close > open ? literal.substr(open + 1, close - open - 1) : "?";
-        reader.fail(tracker.path_of_next_value(), "must be finite (got " + literal + ", beyond the double range)");
+        reader.fail(scan.path_of_next_value(), "must be finite (got " + literal + ", beyond the double range)");
     }
+}
+
+// ---- Extent and motion ---------------------------------------------------------------------------------
+
+// Empty when the particle stays within ±kMaxSceneCoordinate with a radius <= kMaxSceneCoordinate over
+// `steps` frame steps of ParticleSystem::advance(), else what goes wrong (bounds in double: the float
+// steps' rounding is relative 2^-24 per step, nowhere near the factor of 10^4 between the bound and the
+// first overflow).
+std::string particle_extent_problem(const Particle& p, std::uint64_t steps) {
+    const double n = double(steps);
+    for (int a = 0; a < 3; ++a) {
+        const double reach = std::abs(double(p.center[a])) + n * std::abs(double(p.velocity[a]));
+        if (!(reach <= kMaxSceneCoordinate)) {
+            const std::string where = steps == 0 ? "lies" : "moves";
+            return where + " beyond the coordinate range +-" + shown_number(kMaxSceneCoordinate) +
+                   (steps == 0 ? "" : " within " + std::to_string(steps + 1) + " frames") + " (" + "xyz"[a] +
+                   " reaches " + shown_number(reach) + ")";
+        }
+    }
+    if (p.growth > 0.0f && steps > 0 &&
+        !(std::log(double(p.radius)) + n * std::log1p(double(p.growth)) <= std::log(kMaxSceneCoordinate)))
+        return "grows beyond a radius of " + shown_number(kMaxSceneCoordinate) + " within " + std::to_string(steps + 1) +
+               " frames";
+    if (!(double(p.radius) <= kMaxSceneCoordinate))
+        return "has a radius beyond " + shown_number(kMaxSceneCoordinate);
+    return {};
 }
 
 // ---- Sections ----------------------------------------------------------------------------------------
@@ -302,7 +398,7 @@ LightDescription read_light(const Reader& r, const Node& n) {
     const double length = glm::length(d);
     if (length == 0.0) r.fail(dir, "must not be the zero vector");
     light.direction = glm::vec3(d / length);
-    if (auto c = Reader::optional(n, "color")) light.color = r.vec3(*c, kNonNegative);
+    if (auto c = Reader::optional(n, "color")) light.color = r.vec3(*c, kColor);
     if (auto a = Reader::optional(n, "rotation_per_frame_deg")) light.rotation_per_frame_deg = r.real(*a);
     return light;
 }
@@ -310,8 +406,8 @@ LightDescription read_light(const Reader& r, const Node& n) {
 Particle read_particle(const Reader& r, const Node& n) {
     r.require_object(n, {"center", "radius", "velocity", "spin", "growth", "rotation"});
     Particle p;
-    p.center = r.vec3(r.required(n, "center"));
-    p.radius = r.real(r.required(n, "radius"), kPositive);
+    p.center = r.vec3(r.required(n, "center"), kCoordinate);
+    p.radius = r.real(r.required(n, "radius"), kRadius);
     if (auto v = Reader::optional(n, "velocity")) p.velocity = r.vec3(*v);
     if (auto s = Reader::optional(n, "spin")) p.spin = r.real(*s);
     if (auto g = Reader::optional(n, "growth")) p.growth = r.real(*g, Bounds{-1.0, true});
@@ -325,9 +421,7 @@ TubeSettings read_tubes(const Reader& r, const Node& n) {
     TubeSettings t;
     if (auto v = Reader::optional(n, "count")) {
         const std::uint64_t count = r.integer(*v, 0, std::numeric_limits<std::uint64_t>::max());
-        if (count > kMaxSceneParticles)
-            r.fail(*v, "too many particles (" + std::to_string(count) + " > " + std::to_string(kMaxSceneParticles) +
-                           ", the most a scene may hold)");
+        if (const std::string problem = particle_count_problem(count, false); !problem.empty()) r.fail(*v, problem);
         t.particles = static_cast<std::uint32_t>(count);
     }
     if (auto v = Reader::optional(n, "seed")) t.seed = r.integer(*v, 0, std::numeric_limits<std::uint64_t>::max());
@@ -352,14 +446,16 @@ SmokeDescription read_smoke(const Reader& r, const Node& n) {
     if (!list && !tubes) r.fail(n, "needs \"particles\" (a list) or \"tubes\" (the generator)");
     if (list) {
         if (!list->value->is_array()) r.wrong_type(*list, "an array of particles");
-        if (list->value->size() > kMaxSceneParticles)
-            r.fail(*list, "too many particles (" + std::to_string(list->value->size()) + " > " +
-                              std::to_string(kMaxSceneParticles) + ", the most a scene may hold)");
+        if (const std::string problem = particle_count_problem(list->value->size(), false); !problem.empty())
+            r.fail(*list, problem);  // (the scan already stopped longer lists)
         smoke.particles.reserve(list->value->size());
         for (std::size_t i = 0; i < list->value->size(); ++i) smoke.particles.push_back(read_particle(r, list->element(i)));
     } else {
         smoke.tubes = read_tubes(r, *tubes);
         smoke.particles = generate_tubes(*smoke.tubes);
+        for (std::size_t i = 0; i < smoke.particles.size(); ++i)
+            if (const std::string problem = particle_extent_problem(smoke.particles[i], 0); !problem.empty())
+                r.fail(*tubes, "generated particle " + std::to_string(i) + " " + problem);
     }
     if (auto v = Reader::optional(n, "sigma_t")) smoke.sigma_t = r.real(*v, kNonNegative);
     if (auto v = Reader::optional(n, "alpha")) smoke.alpha = r.real(*v, kUnit);
@@ -379,7 +475,7 @@ GroundDescription read_ground(const Reader& r, const Node& n) {
     if (!corners.value->is_array() || corners.value->size() != 4) r.wrong_type(corners, "an array of 4 points");
     std::array<glm::dvec3, 4> v;
     for (std::size_t i = 0; i < 4; ++i) {
-        ground.corners[i] = r.vec3(corners.element(i));
+        ground.corners[i] = r.vec3(corners.element(i), kCoordinate);
         v[i] = glm::dvec3(ground.corners[i]);
     }
 
@@ -412,8 +508,18 @@ GroundDescription read_ground(const Reader& r, const Node& n) {
                                        "order, and no three may be collinear)");
     }
     ground.normal = glm::vec3(normal);
-    if (auto c = Reader::optional(n, "color")) ground.color = r.vec3(*c, kNonNegative);
+    if (auto c = Reader::optional(n, "color")) ground.color = r.vec3(*c, kColor);
     return ground;
+}
+
+// The renderer's camera (camera.hpp) redoes these checks in float: it must agree, or a scene that reads
+// fine would fail at render time with a message that names no file.
+void check_renderer_accepts(const Reader& r, const CameraDescription& c, const std::string& path) {
+    try {
+        (void)Camera(c.position, c.look_at, c.up, c.fov_deg, int(c.width), int(c.height));
+    } catch (const std::invalid_argument& e) {
+        r.fail(path, std::string("the camera is unusable: ") + e.what());
+    }
 }
 
 CameraDescription read_camera(const Reader& r, const Node& n, const SceneDescription& scene) {
@@ -428,8 +534,8 @@ CameraDescription read_camera(const Reader& r, const Node& n, const SceneDescrip
                       std::to_string(kMaxImagePixels) + " pixels)");
 
     CameraDescription camera = default_camera(scene.smoke.particles, scene.ground, fov, width, height);
-    if (auto v = Reader::optional(n, "position")) camera.position = r.vec3(*v);
-    if (auto v = Reader::optional(n, "look_at")) camera.look_at = r.vec3(*v);
+    if (auto v = Reader::optional(n, "position")) camera.position = r.vec3(*v, kCoordinate);
+    if (auto v = Reader::optional(n, "look_at")) camera.look_at = r.vec3(*v, kCoordinate);
     const auto up = Reader::optional(n, "up");
     if (up) camera.up = r.vec3(*up);
 
@@ -440,6 +546,11 @@ CameraDescription read_camera(const Reader& r, const Node& n, const SceneDescrip
     if (glm::length(up_d) == 0.0) r.fail(up_path, "must not be the zero vector");
     const double sine = glm::length(glm::cross(glm::normalize(view), glm::normalize(up_d)));
     if (!(sine >= kMinUpViewSine)) r.fail(up_path, "is parallel to the view direction (look_at - position)");
+    // Stored unit length (normalised in double): the renderer's float camera then sees |forward × up| = the
+    // sine checked above, whatever length the file gave (up = [0, 1e-30, 0] underflowed there; up =
+    // [3e38, 3e38, 0] overflowed to a zero right vector).
+    camera.up = glm::vec3(glm::normalize(up_d));
+    check_renderer_accepts(r, camera, up_path);
     return camera;
 }
 
@@ -480,6 +591,21 @@ glm::vec3 LightDescription::direction_at_frame(std::int64_t frame) const {
     const double c = std::cos(radians), s = std::sin(radians);
     const glm::dvec3 d(direction);
     return glm::vec3(glm::dvec3(c * d.x - s * d.y, s * d.x + c * d.y, d.z));
+}
+
+void check_scene_motion(const SceneDescription& scene, std::uint32_t frames) {
+    if (frames <= 1) return;
+    const Reader r(scene.source);
+    for (std::size_t i = 0; i < scene.smoke.particles.size(); ++i) {
+        const std::string problem = particle_extent_problem(scene.smoke.particles[i], frames - 1);
+        if (problem.empty()) continue;
+        if (scene.smoke.tubes) r.fail("/smoke/tubes", "generated particle " + std::to_string(i) + " " + problem);
+        r.fail("/smoke/particles/" + std::to_string(i), problem);
+    }
+}
+
+std::uint64_t scene_particle_limit() {
+    return std::min(kMaxSceneParticles, machine_memory_bytes() / kPeakBytesPerParticle);
 }
 
 const char* to_string(RenderMode m) {
@@ -523,6 +649,9 @@ CameraDescription default_camera(const std::vector<Particle>& particles, const s
     const double half_vertical = 0.5 * fov_deg * to_radians;
     const double half_horizontal = std::atan(std::tan(half_vertical) * double(width) / double(height));
     const double half = std::min(half_vertical, half_horizontal);
+    // Never closer than float resolution at the centre allows: a lone particle of radius 1e-38 at (1, 1, 1)
+    // would otherwise put the camera on the point it looks at.
+    radius = std::max(radius, kMinDefaultFramingRadius * std::max(1.0, glm::length(center)));
     const double distance = kDefaultCameraMargin * radius / std::sin(half);
     const double elevation = kDefaultCameraElevationDeg * to_radians;
     const glm::dvec3 toward_camera(0.0, std::sin(elevation), std::cos(elevation));
@@ -547,16 +676,18 @@ SceneDescription parse_scene(std::string_view json_text, std::string_view source
     SceneDescription scene;
     scene.source = source;
     scene.light = read_light(r, r.required(root, "light"));
-    if (auto v = Reader::optional(root, "ambient")) scene.ambient = r.vec3(*v, kNonNegative);
-    if (auto v = Reader::optional(root, "background")) scene.background = r.vec3(*v, kNonNegative);
+    if (auto v = Reader::optional(root, "ambient")) scene.ambient = r.vec3(*v, kColor);
+    if (auto v = Reader::optional(root, "background")) scene.background = r.vec3(*v, kColor);
     scene.smoke = read_smoke(r, r.required(root, "smoke"));
     if (auto v = Reader::optional(root, "ground")) scene.ground = read_ground(r, *v);
     if (auto v = Reader::optional(root, "render")) scene.render = read_render(r, *v);
+    check_scene_motion(scene, scene.render.frames);
     if (auto v = Reader::optional(root, "camera")) {
         scene.camera = read_camera(r, *v, scene);
     } else {
         const CameraDescription d;
         scene.camera = default_camera(scene.smoke.particles, scene.ground, d.fov_deg, d.width, d.height);
+        check_renderer_accepts(r, scene.camera, "/camera");
     }
     return scene;
 }

@@ -43,7 +43,7 @@
 //   camera       optional object
 //     position     [see below]      default: in front (+z) of the smoke and a little above, far enough
 //     look_at      [see below]        that the smoke's bounding sphere fits the view; looks at its centre
-//     up           [0,1,0]          must not be parallel to look_at − position
+//     up           [0,1,0]          must not be parallel to look_at − position; stored normalised
 //     fov_deg      [45]             vertical field of view, degrees, in (0, 180)
 //     width, height [512, 512]      pixels, each 1…16384, width·height <= 2^26
 //   render       optional object
@@ -56,9 +56,14 @@
 //     transmittance_threshold [1/255]  the compositor stops once transmittance falls below this; [0, 1)
 //     compositing  ["over"]         "over" (front-to-back over operator) | "thesis" (eq. 4.1 as published)
 //
+// Coordinates (particle centres, ground corners, camera position and look_at) lie within
+// ±kMaxSceneCoordinate and radii are at most that, also after `frames` frames of motion (velocity, growth);
+// colours (light, ambient, background, ground) are at most kMaxSceneColor.
 // Every number must be finite and fit a float (1e999 and 1e39 are errors); integers must be written as
-// integers (750, not 750.0); duplicate keys are errors. Particle counts above kMaxSceneParticles are
-// refused. Errors are SceneFileError, "FILE: /json/path: problem", e.g.
+// integers (750, not 750.0); duplicate keys are errors; nesting deeper than 64 levels is an error.
+// Particle counts above scene_particle_limit() are refused (kMaxSceneParticles, or fewer when this
+// machine's memory cannot hold that many at kPeakBytesPerParticle each), a particle list as soon as the
+// reader has counted past it. Errors are SceneFileError, "FILE: /json/path: problem", e.g.
 //   scene.json: /smoke/particles/3/radius: must be > 0 (got -1)
 // ------------------------------------------------------------------------------------------------------
 //
@@ -105,6 +110,19 @@ public:
 // 50 million particles already need ~2.4 GB as Particle structs alone, before stand-ins, billboards, the
 // BVHs and the hit lists (several times more); a larger count is almost surely a typo.
 inline constexpr std::uint64_t kMaxSceneParticles = 50'000'000;
+// Scene coordinates and radii: far beyond any sensible scene, yet small enough that nothing the pipeline
+// derives in float overflows: squared distances between scene points (camera normalisation, box areas)
+// stay below ~10^32, against FLT_MAX ≈ 3.4·10^38. A particle at 10^38 used to end in "Scene: instance 0 has
+// a non-finite or empty world box", with no file or JSON path.
+inline constexpr double kMaxSceneCoordinate = 1e15;
+// Colour components: the image clamps at 1, so 10^6 is far beyond any meaningful intensity, and products
+// of three colours summed over layers (c_base·(c_light + c_amb), front-to-back sums) stay finite; light and
+// ambient of 3·10^38 used to render infinite pixels, which the PNG writer then refused.
+inline constexpr double kMaxSceneColor = 1e6;
+
+// The most particles a scene may hold on this machine: kMaxSceneParticles, or machine_memory_bytes() /
+// kPeakBytesPerParticle (memory_budget.hpp) when that is fewer.
+[[nodiscard]] std::uint64_t scene_particle_limit();
 // Largest image side: kMaxImageSide (image.hpp). Largest pixel count: 2^26 pixels of RGBA float are 1 GiB, the most a render may take.
 inline constexpr std::uint64_t kMaxImagePixels = std::uint64_t{1} << 26;
 
@@ -174,6 +192,11 @@ struct SceneDescription {
 [[nodiscard]] CameraDescription default_camera(const std::vector<Particle>& particles,
                                                const std::optional<GroundDescription>& ground,
                                                float fov_deg, std::uint32_t width, std::uint32_t height);
+
+// Throws SceneFileError, naming the particle's JSON path (/smoke/particles/i, or /smoke/tubes), when a
+// particle of `scene` would leave ±kMaxSceneCoordinate or grow beyond it within `frames` frames. parse_scene()
+// checks the file's render.frames; a caller that renders more frames (--frames) checks again.
+void check_scene_motion(const SceneDescription& scene, std::uint32_t frames);
 
 // Parses and validates; throws SceneFileError. `source_name` is used in messages only.
 [[nodiscard]] SceneDescription parse_scene(std::string_view json_text, std::string_view source_name);

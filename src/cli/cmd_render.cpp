@@ -64,7 +64,10 @@ int run_render(const Args& args) {
             throw CliError("--size: " + std::to_string(options.width) + "x" + std::to_string(options.height) +
                            " has more than " + std::to_string(kMaxImagePixels) + " pixels");
     }
-    if (frames) options.render.frames = std::uint32_t(*frames);
+    if (frames) {
+        options.render.frames = std::uint32_t(*frames);
+        check_scene_motion(scene, options.render.frames);  // more frames than the file's: motion re-checked
+    }
     if (groups) options.render.groups = std::uint32_t(*groups);
     if (cutoff) options.render.cutoff = std::uint32_t(*cutoff);
     if (shape_arg) {

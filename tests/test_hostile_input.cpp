@@ -1,0 +1,493 @@
+// Hostile input (issue 7): what tests/test_scene_file.cpp, test_cli.cpp, test_png_io.cpp and test_sixway.cpp
+// did not already cover. Every case: a message naming the file, the flag or the JSON path and the problem, a
+// non-zero exit code, no output file left behind (no temporary file either), no crash.
+//  * scene files: absurd nesting, particle counts beyond what this machine's memory holds (generator
+//    counts and long particle lists, refused before anything that large is built), coordinates and
+//    colours whose derived values would overflow float, motion that leaves the coordinate range, files
+//    that are empty, binary or a folder, and the valid extreme: no particles at all;
+//  * the optical-depth pass's hit budget (dense scenes without a cutoff need memory quadratic in density);
+//  * six-way textures given with --textures: missing, truncated, wrong-size and corrupt files;
+//  * the command line: bad numbers for every numeric flag, --threads 0 and --size 0x0 for each command that
+//    takes them, output paths in read-only or unwritable folders and onto an existing folder.
+#include <smoketrace/camera.hpp>
+#include <smoketrace/memory_budget.hpp>
+#include <smoketrace/optical_depth_pass.hpp>
+#include <smoketrace/png_io.hpp>
+#include <smoketrace/scene_file.hpp>
+#include <smoketrace/sixway_texture.hpp>
+#include <smoketrace/tube_generator.hpp>
+
+#include <catch2/catch.hpp>
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <iterator>
+#include <limits>
+#include <numeric>
+#include <sstream>
+#include <string>
+#include <sys/wait.h>
+#include <unistd.h>
+#include <vector>
+
+namespace fs = std::filesystem;
+using namespace smoketrace;
+
+namespace {
+
+struct Run {
+    int exit_code;  // -1: killed by a signal (a crash)
+    std::string err;
+};
+
+// Runs the smoketrace binary with `args` (shell words), capturing stderr.
+Run run_cli(const std::string& args) {
+    static std::atomic<unsigned> serial{0};
+    const fs::path err_file = fs::temp_directory_path() / ("smoketrace_hostile_err_" + std::to_string(::getpid()) + "_" +
+                                                           std::to_string(serial++));
+    const std::string cmd = std::string(SMOKETRACE_CLI) + " " + args + " >/dev/null 2>" + err_file.string();
+    const int status = std::system(cmd.c_str());
+    std::ifstream in(err_file);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    fs::remove(err_file);
+    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, ss.str()};
+}
+
+struct TempDir {
+    fs::path path;
+    TempDir() {
+        static std::atomic<unsigned> serial{0};
+        path = fs::temp_directory_path() / ("smoketrace_hostile_" + std::to_string(::getpid()) + "_" + std::to_string(serial++));
+        fs::remove_all(path);
+        fs::create_directories(path);
+    }
+    ~TempDir() {
+        std::error_code ec;
+        fs::permissions(path, fs::perms::owner_all, fs::perm_options::add, ec);
+        fs::remove_all(path, ec);
+    }
+    fs::path write(const std::string& name, const std::string& text) const {
+        std::ofstream(path / name, std::ios::binary) << text;
+        return path / name;
+    }
+};
+
+const std::string kScene = std::string(SMOKETRACE_ASSET_DIR) + "/scenes/minimal.json";
+
+// The files in `dir` whose names are not in `inputs`: outputs or temporary files left behind.
+std::vector<std::string> leftovers(const fs::path& dir, const std::vector<std::string>& inputs) {
+    std::vector<std::string> extra;
+    for (const auto& e : fs::directory_iterator(dir)) {
+        const std::string name = e.path().filename().string();
+        if (std::find(inputs.begin(), inputs.end(), name) == inputs.end()) extra.push_back(name);
+    }
+    return extra;
+}
+
+struct Case {
+    std::string args;    // shell words after "smoketrace"
+    std::string expect;  // must appear in the message
+};
+
+// Each case fails cleanly: exit code > 0 (not a signal), message containing `expect`, nothing new in `dir`.
+void require_clean_failures(const std::vector<Case>& cases, const TempDir& dir, const std::vector<std::string>& inputs) {
+    for (const Case& c : cases) {
+        INFO("smoketrace " << c.args);
+        const Run r = run_cli(c.args);
+        INFO("stderr: " << r.err);
+        CHECK(r.exit_code > 0);
+        CHECK(r.err.find(c.expect) != std::string::npos);
+        CHECK(r.err.find("terminate called") == std::string::npos);  // no uncaught exception
+        CHECK(leftovers(dir.path, inputs).empty());
+    }
+}
+
+std::string error_of(const std::string& text, const std::string& source = "bad.json") {
+    try {
+        (void)parse_scene(text, source);
+    } catch (const SceneFileError& e) {
+        return e.what();
+    }
+    return "(no error)";
+}
+
+const char* const kLight = R"("light": { "direction": [0, 1, 0] })";
+
+}  // namespace
+
+// ---- Scene files -----------------------------------------------------------------------------------------
+
+TEST_CASE("hostile scene: nesting deeper than 64 levels is refused before anything recursive meets it", "[hostile]") {
+    // 10^6 nested arrays: nlohmann parses them iteratively, but dumping one for a message recursed and
+    // overflowed the stack (a segfault, before the scan).
+    const std::string deep = std::string(R"({"light": )") + std::string(1'000'000, '[') + std::string(1'000'000, ']') + "}";
+    const std::string message = error_of(deep);
+    INFO(message.substr(0, 200));
+    CHECK(message.rfind("bad.json: /light/0/0/0/", 0) == 0);
+    CHECK(message.find("nested deeper than 64 levels") != std::string::npos);
+    // 64 levels are fine for the scanner; the reader then says what is wrong with the value.
+    const std::string ok_depth = std::string(R"({"light": )") + std::string(63, '[') + std::string(63, ']') + "}";
+    CHECK(error_of(ok_depth).find("/light: must be an object") != std::string::npos);
+}
+
+TEST_CASE("hostile scene: particle counts beyond this machine's memory are refused before being built", "[hostile]") {
+    const std::uint64_t limit = scene_particle_limit();
+    INFO("limit " << limit << " particles (" << format_bytes(machine_memory_bytes()) << " of memory)");
+    REQUIRE(limit >= 1);
+    REQUIRE(limit <= kMaxSceneParticles);
+
+    // The generator: the count is checked before generate_tubes() allocates anything.
+    const std::string tubes =
+        std::string("{") + kLight + R"(, "smoke": { "tubes": { "count": )" + std::to_string(limit + 1) + " } } }";
+    const std::string m = error_of(tubes);
+    INFO(m);
+    CHECK(m.rfind("bad.json: /smoke/tubes/count: too many particles", 0) == 0);
+    if (limit < kMaxSceneParticles) CHECK(m.find("this machine's memory") != std::string::npos);
+
+    // A list: the scan stops counting at the limit, before nlohmann builds a document of that size (about
+    // 400 bytes per particle object); each element here is a 2-byte "0," so the text stays small.
+    std::string list = std::string("{") + kLight + R"(, "smoke": { "particles": [)";
+    list.reserve(list.size() + 2 * (limit + 1) + 8);
+    for (std::uint64_t i = 0; i <= limit; ++i) list += "0,";
+    list.back() = ']';
+    list += "} }";
+    const std::string l = error_of(list);
+    INFO(l);
+    CHECK(l.rfind("bad.json: /smoke/particles: too many particles", 0) == 0);
+    CHECK(l.find("more than " + std::to_string(limit)) != std::string::npos);
+}
+
+TEST_CASE("hostile scene: coordinates, radii and colours whose float arithmetic would overflow", "[hostile]") {
+    // Each value fits a float; before the bounds the first ended in "Scene: instance 0 has a non-finite or empty
+    // world box", the colours in infinite pixels that the PNG writer refused, with no file or JSON path.
+    const std::string p = R"("smoke": { "particles": [ { "center": [0, 0, 0], "radius": 1 } ] })";
+    const struct {
+        std::string text, path, problem;
+    } cases[] = {
+        {std::string("{") + kLight + R"(, "smoke": { "particles": [ { "center": [1e38, 0, 0], "radius": 1 } ] } })",
+         "/smoke/particles/0/center/0", "must be in [-1e+15, 1e+15] (got 1e+38)"},
+        {std::string("{") + kLight + R"(, "smoke": { "particles": [ { "center": [0, 0, 0], "radius": 3e38 } ] } })",
+         "/smoke/particles/0/radius", "must be <= 1e+15 (got 3e+38)"},
+        {std::string("{") + kLight + ", " + p + R"(, "ground": { "corners": [[-3e38, 0, 3e38], [3e38, 0, 3e38], [3e38, 0, -3e38], [-3e38, 0, -3e38]] } })",
+         "/ground/corners/0/0", "must be in [-1e+15, 1e+15]"},
+        {std::string("{") + kLight + ", " + p + R"(, "camera": { "position": [0, 0, 2e16] } })", "/camera/position/2",
+         "must be in [-1e+15, 1e+15]"},
+        {std::string(R"({ "light": { "direction": [0, 1, 0], "color": [3e38, 1, 1] }, )") + p + " }", "/light/color/0",
+         "must be <= 1e+06 (got 3e+38)"},
+        {std::string("{") + kLight + ", " + p + R"(, "ambient": [1, 1e7, 1] })", "/ambient/1", "must be <= 1e+06"},
+        {std::string("{") + kLight + ", " + p + R"(, "background": [0, 0, 2e6] })", "/background/2", "must be <= 1e+06"},
+        {std::string("{") + kLight + ", " + p + R"(, "ground": { "corners": [[-4, -1, 4], [4, -1, 4], [4, -1, -4], [-4, -1, -4]], "color": [1e30, 0, 0] } })",
+         "/ground/color/0", "must be <= 1e+06"},
+        // Generated particles beyond the range.
+        {std::string("{") + kLight + R"(, "smoke": { "tubes": { "count": 10, "separation": 3e38 } } })", "/smoke/tubes",
+         "generated particle 0 lies beyond the coordinate range"},
+        // Motion: the file's frames carry a particle out of range, or grow it beyond it.
+        {std::string("{") + kLight + R"(, "smoke": { "particles": [ { "center": [0, 0, 0], "radius": 1, "velocity": [0, 3e38, 0] } ] }, "render": { "frames": 3 } })",
+         "/smoke/particles/0", "moves beyond the coordinate range +-1e+15 within 3 frames (y reaches"},
+        {std::string("{") + kLight + R"(, "smoke": { "particles": [ { "center": [0, 0, 0], "radius": 1, "growth": 1e30 } ] }, "render": { "frames": 2 } })",
+         "/smoke/particles/0", "grows beyond a radius of 1e+15 within 2 frames"},
+        {std::string("{") + kLight + R"(, "smoke": { "tubes": { "count": 4, "drift": [1e12, 0, 0] } }, "render": { "frames": 5000 } })",
+         "/smoke/tubes", "generated particle 0 moves beyond the coordinate range"},
+    };
+    for (const auto& c : cases) {
+        const std::string message = error_of(c.text);
+        INFO(message);
+        CHECK(message.rfind("bad.json: " + c.path + ": ", 0) == 0);
+        CHECK(message.find(c.problem) != std::string::npos);
+    }
+    // At the bounds: accepted, and a single frame of a fast particle is fine (it never moves).
+    CHECK(error_of(std::string("{") + kLight + R"(, "smoke": { "particles": [ { "center": [1e15, -1e15, 1e15], "radius": 1e15 } ] },
+        "ambient": [1e6, 1e6, 1e6] })") == "(no error)");
+    CHECK(error_of(std::string("{") + kLight + R"(, "smoke": { "particles": [ { "center": [0, 0, 0], "radius": 1, "velocity": [3e38, 0, 0] } ] } })") ==
+          "(no error)");
+}
+
+TEST_CASE("hostile scene: camera up vectors of any length and a scene too small to frame", "[hostile]") {
+    // Each used to read fine and then fail (or render one flat colour) in the renderer's float camera: up =
+    // [0, 1e-30, 0] underflowed |forward x up| to 0 ("camera: up is parallel to the view direction", no file
+    // named), up = [3e38, 3e38, 0] overflowed it to a zero right vector, and a lone particle of radius 1e-38
+    // at (1, 1, 1) put the default camera on the point it looks at (radius 2e-38 here: 1e-38 is not a normal float).
+    const std::string p = R"("smoke": { "particles": [ { "center": [0, 0, 0], "radius": 1 } ] })";
+    for (const std::string up : {"[0, 1e-30, 0]", "[3e38, 3e38, 0]", "[0, 1e-7, 1e-12]"}) {
+        INFO("up " << up);
+        const SceneDescription s =
+            parse_scene(std::string("{") + kLight + ", " + p + R"(, "camera": { "position": [0, 0, 5], "up": )" + up + " } }", "up.json");
+        CHECK(std::abs(glm::length(glm::dvec3(s.camera.up)) - 1.0) < 1e-6);
+        CHECK_NOTHROW(Camera(s.camera.position, s.camera.look_at, s.camera.up, s.camera.fov_deg, 8, 8));
+    }
+    const SceneDescription tiny = parse_scene(std::string("{") + kLight +
+                                                  R"(, "smoke": { "particles": [ { "center": [1, 1, 1], "radius": 2e-38 } ] } })",
+                                              "tiny.json");
+    CHECK(tiny.camera.position != tiny.camera.look_at);
+    CHECK_NOTHROW(Camera(tiny.camera.position, tiny.camera.look_at, tiny.camera.up, tiny.camera.fov_deg, 8, 8));
+    // Parallel after all: still the reader's error, with the path.
+    const std::string parallel = error_of(std::string("{") + kLight + ", " + p +
+                                          R"(, "camera": { "position": [0, 0, 5], "up": [0, 0, 1e-30] } })");
+    CHECK(parallel.rfind("bad.json: /camera/up: is parallel to the view direction", 0) == 0);
+}
+
+// ---- The optical-depth pass's hit budget -----------------------------------------------------------------
+
+TEST_CASE("hostile scene: a dense scene without a cutoff is refused by the hit budget, not the OOM killer", "[hostile]") {
+    // The two tubes with 750 particles meet ~1e5 surfaces in all. A tubes scene of 10^6 particles (a valid file)
+    // would meet ~4·10^10 (each ray crosses ~4·10^4 of the denser particles): before the budget `smoketrace
+    // depths` on it grew past 14 GiB and kept going. A budget below the scene's need stands in for that here.
+    TubeSettings t;
+    const std::vector<Particle> ps = generate_tubes(t);
+    SmokeScene scene(ps, StandInShape{}, std::nullopt, false);
+    scene.update(ps, glm::vec3(0.0f, 0.0f, 10.0f));
+    std::vector<std::uint32_t> all(ps.size());
+    std::iota(all.begin(), all.end(), 0u);
+    OpticalDepthPass pass;
+    OpticalDepthHits hits;
+    pass.run(scene, ps, all, {0.0f, 1.0f, 0.0f}, OpticalDepthSettings{}, hits);
+    const std::uint64_t need = hits.lists.hit_count();
+    REQUIRE(need > 1000);
+
+    OpticalDepthSettings tight;
+    tight.max_total_hits = need / 2;
+    try {
+        pass.run(scene, ps, all, {0.0f, 1.0f, 0.0f}, tight, hits);
+        FAIL("no error");
+    } catch (const OpticalDepthBudgetError& e) {
+        const std::string m = e.what();
+        INFO(m);
+        CHECK(m.find("more than " + std::to_string(need / 2) + " particle surfaces") != std::string::npos);
+        CHECK(m.find("cutoff") != std::string::npos);
+    }
+    // Exactly enough: the same result as without a budget; a cutoff keeps any density within budget.
+    OpticalDepthSettings exact;
+    exact.max_total_hits = need;
+    OpticalDepthHits again;
+    pass.run(scene, ps, all, {0.0f, 1.0f, 0.0f}, exact, again);
+    CHECK(again.lists.hits.size() == need);
+    OpticalDepthSettings cut = tight;
+    cut.cutoff = 8;
+    CHECK_NOTHROW(pass.run(scene, ps, all, {0.0f, 1.0f, 0.0f}, cut, again));
+    CHECK(default_max_total_hits() <= std::numeric_limits<std::uint32_t>::max());
+    CHECK(default_max_total_hits() * kPeakBytesPerStoredHit <= machine_memory_bytes() / 2);
+}
+
+// ---- Scene files through the command line ----------------------------------------------------------------
+
+TEST_CASE("hostile cli: bad scene files of every kind, through depths and render", "[hostile][cli]") {
+    TempDir dir;
+    std::vector<std::string> inputs;
+    auto input = [&](const std::string& name, const std::string& text) {
+        inputs.push_back(name);
+        return dir.write(name, text).string();
+    };
+    const std::string empty = input("empty.json", "");
+    const std::string binary = input("binary.json", std::string("\x89PNG\r\n\x1a\n\0\0\0\rIHDR\xff\xfe", 18));
+    const std::string nan = input("nan.json", std::string("{") + kLight + R"(, "smoke": { "particles": [ { "center": [NaN, 0, 0], "radius": 1 } ] } })");
+    const std::string deep = input("deep.json", std::string(R"({"light": )") + std::string(100000, '[') + std::string(100000, ']') + "}");
+    const std::string count = input("count.json", std::string("{") + kLight + R"(, "smoke": { "tubes": { "count": )" +
+                                                      std::to_string(scene_particle_limit() + 1) + " } } }");
+    const std::string far = input("far.json", std::string("{") + kLight + R"(, "smoke": { "particles": [ { "center": [0, 3e38, 0], "radius": 1 } ] } })");
+    const std::string bright = input("bright.json", std::string(R"({ "light": { "direction": [0, 1, 0] }, "ambient": [3e38, 0, 0],
+        "smoke": { "particles": [] } })"));
+    const std::string fast = input("fast.json", std::string("{") + kLight + R"(, "smoke": { "particles": [ { "center": [0, 0, 0], "radius": 1, "velocity": [1e14, 0, 0] } ] } })");
+    inputs.push_back("folder.json");
+    fs::create_directories(dir.path / "folder.json");
+    const fs::path csv = dir.path / "out.csv", png = dir.path / "out.png";
+    std::vector<Case> cases;
+    for (const std::string command : {"depths", "render"}) {
+        const std::string out = " -o " + (command == std::string("depths") ? csv : png).string();
+        cases.push_back({command + " " + empty + out, "empty.json: malformed JSON at the end of the input (byte 1)"});
+        cases.push_back({command + " " + binary + out, "binary.json: malformed JSON at byte 1"});
+        cases.push_back({command + " " + nan + out, "nan.json: malformed JSON"});
+        cases.push_back({command + " " + deep + out, "deep.json: /light/0/0"});
+        cases.push_back({command + " " + count + out, "count.json: /smoke/tubes/count: too many particles"});
+        cases.push_back({command + " " + far + out, "far.json: /smoke/particles/0/center/1"});
+        cases.push_back({command + " " + bright + out, "bright.json: /ambient/0"});
+        cases.push_back({command + " " + (dir.path / "folder.json").string() + out, "folder.json: is a directory"});
+    }
+    // --frames beyond the file's: the motion is checked again for the frames asked for.
+    cases.push_back({"render " + fast + " -o " + png.string() + " --size 8x8 --frames 20", "fast.json: /smoke/particles/0: moves beyond"});
+    require_clean_failures(cases, dir, inputs);
+    // The same file is fine for as many frames as keep it in range.
+    const Run ok = run_cli("render " + fast + " -o " + png.string() + " --size 8x8 --frames 3");
+    CHECK(ok.exit_code == 0);
+    for (int f = 0; f < 3; ++f) CHECK(fs::exists(dir.path / ("out_000" + std::to_string(f) + ".png")));
+}
+
+TEST_CASE("hostile cli: an empty particle list is valid: render draws the ground and sky, depths writes a header", "[hostile][cli]") {
+    TempDir dir;
+    const fs::path scene = dir.write("empty.json", std::string("{") + kLight + R"(, "smoke": { "particles": [] },
+        "ground": { "corners": [[-2, -1, 2], [2, -1, 2], [2, -1, -2], [-2, -1, -2]] } })");
+    const fs::path sky_only = dir.write("sky.json", std::string("{") + kLight + R"(, "smoke": { "particles": [] } })");
+    for (const fs::path& s : {scene, sky_only}) {
+        INFO(s);
+        for (const char* mode : {"basic", "simple-shadow", "full"}) {
+            const fs::path png = dir.path / (s.stem().string() + "_" + mode + ".png");
+            const Run r = run_cli("render " + s.string() + " -o " + png.string() + " --size 16x16 --mode " + mode);
+            INFO(r.err);
+            REQUIRE(r.exit_code == 0);
+            CHECK(read_png_rgba8(png, 16, 16).width == 16);
+        }
+        const fs::path csv = dir.path / (s.stem().string() + ".csv");
+        REQUIRE(run_cli("depths " + s.string() + " -o " + csv.string()).exit_code == 0);
+        std::ifstream in(csv);
+        std::stringstream text;
+        text << in.rdbuf();
+        CHECK(text.str() == "particle,optical_path_length,hits,status\n");
+    }
+}
+
+// ---- Textures ----------------------------------------------------------------------------------------------
+
+TEST_CASE("hostile cli: missing, truncated, wrong-size and corrupt six-way textures", "[hostile][cli]") {
+    TempDir out;
+    const fs::path png = out.path / "out.png";
+    const fs::path assets(SMOKETRACE_ASSET_DIR);
+    // A fresh copy of the committed textures per case, then one thing broken.
+    struct Broken {
+        std::string name, expect;
+        std::function<void(const fs::path&)> breakit;
+    };
+    auto bytes_of = [](const fs::path& p) {
+        std::ifstream in(p, std::ios::binary);
+        return std::string(std::istreambuf_iterator<char>(in), {});
+    };
+    auto put = [](const fs::path& p, const std::string& bytes) { std::ofstream(p, std::ios::binary | std::ios::trunc) << bytes; };
+    const std::string pos = std::string(kSixwayPositiveFile), neg = std::string(kSixwayNegativeFile), layout = std::string(kSixwayLayoutFile);
+    const std::vector<Broken> broken{
+        {"missing positive atlas", pos, [&](const fs::path& d) { fs::remove(d / pos); }},
+        {"missing sidecar", layout, [&](const fs::path& d) { fs::remove(d / layout); }},
+        {"truncated positive atlas", pos, [&](const fs::path& d) { put(d / pos, bytes_of(d / pos).substr(0, 1000)); }},
+        {"truncated negative atlas (last byte)", neg, [&](const fs::path& d) {
+             const std::string b = bytes_of(d / neg);
+             put(d / neg, b.substr(0, b.size() - 1));
+         }},
+        {"negative atlas of another size", "expected", [&](const fs::path& d) { write_png_rgba8(d / neg, Rgba8Image(64, 64)); }},
+        {"atlas not divisible by the grid", "does not divide", [&](const fs::path& d) {
+             write_png_rgba8(d / pos, Rgba8Image(30, 30));
+             write_png_rgba8(d / neg, Rgba8Image(30, 30));
+         }},
+        {"an empty file as the atlas", pos, [&](const fs::path& d) { put(d / pos, ""); }},
+        {"a JPEG-ish file as the atlas", pos, [&](const fs::path& d) { put(d / pos, std::string("\xff\xd8\xff\xe0garbage", 11)); }},
+        {"truncated sidecar", layout, [&](const fs::path& d) { put(d / layout, bytes_of(d / layout).substr(0, 40)); }},
+        {"sidecar frames beyond the limit", "/frames", [&](const fs::path& d) {
+             std::string j = bytes_of(d / layout);
+             j.replace(j.find("\"frames\": 16"), 12, "\"frames\": 99999");
+             put(d / layout, j);
+         }},
+        {"sidecar pointing outside with a missing file", "nowhere.png", [&](const fs::path& d) {
+             std::string j = bytes_of(d / layout);
+             j.replace(j.find("\"sixway_pos.png\""), 16, "\"../nowhere.png\"");
+             put(d / layout, j);
+         }},
+    };
+    for (const Broken& b : broken) {
+        TempDir textures;
+        for (const std::string& f : {pos, neg, layout}) fs::copy_file(assets / f, textures.path / f);
+        b.breakit(textures.path);
+        INFO(b.name);
+        const Run r = run_cli("render " + kScene + " -o " + png.string() + " --size 8x8 --textures " + textures.path.string());
+        INFO("stderr: " << r.err);
+        CHECK(r.exit_code > 0);
+        CHECK(r.err.find(b.expect) != std::string::npos);
+        CHECK(fs::is_empty(out.path));
+    }
+}
+
+// ---- The command line --------------------------------------------------------------------------------------
+
+TEST_CASE("hostile cli: bad numbers and sizes for every numeric flag", "[hostile][cli]") {
+    TempDir dir;
+    const std::string csv = " -o " + (dir.path / "out.csv").string();
+    const std::string png = " -o " + (dir.path / "out.png").string();
+    const std::string depths = "depths " + kScene + csv, render = "render " + kScene + png;
+    const std::vector<Case> cases{
+        {render + " --threads 0", "--threads: 0 is out of range [1, 4096]"},
+        {depths + " --threads 0", "--threads: 0 is out of range [1, 4096]"},
+        {render + " --threads -2", "--threads"},
+        {depths + " --threads 99999999999999999999", "--threads: '99999999999999999999' is not a whole number"},
+        {depths + " --threads 2.5", "--threads: '2.5' is not a whole number"},
+        {depths + " --threads ''", "--threads: '' is not a whole number"},
+        {depths + " --threads", "--threads: missing value"},
+        {depths + " --threads 1 --threads 2", "--threads: given more than once"},
+        {depths + " --cutoff 1e3", "--cutoff: '1e3' is not a whole number"},
+        {depths + " --cutoff -1", "--cutoff"},
+        {depths + " --repeat 0", "--repeat"},
+        {depths + " --sort quick", "--sort"},
+        {depths + " --size 8x8", "unknown option '--size'"},
+        {render + " --size 0x0", "--size width: 0 is out of range"},
+        {render + " --size 16x0", "--size height: 0 is out of range"},
+        {render + " --size 0x16", "--size width"},
+        {render + " --size -4x4", "--size width"},
+        {render + " --size 16x", "--size height: '' is not a whole number"},
+        {render + " --size x16", "--size width"},
+        {render + " --size 16X16", "not of the form WxH"},
+        {render + " --size 16384x16384", "has more than 67108864 pixels"},
+        {render + " --size 16385x1", "--size width: 16385 is out of range"},
+        {render + " --frames 0", "--frames"},
+        {render + " --frames 1.5", "--frames"},
+        {render + " --groups 0", "--groups"},
+        {render + " --groups 99999999", "--groups"},
+        {render + " --cutoff nan", "--cutoff"},
+        {render + " --compositing under", "--compositing"},
+        {render + " --compositor fast", "--compositor"},
+        {"render " + kScene + " -o " + (dir.path / "out.jpg").string(), "must end in .png"},
+        {"render " + kScene, "missing -o"},
+        {"render", "missing scene file"},
+        {"depths " + kScene + " " + kScene + csv, "unexpected argument"},
+        {"bake-sixway -o " + dir.path.string() + " --tile 0", "--tile"},
+        {"bake-sixway -o " + dir.path.string() + " --frames 99999", "--frames"},
+    };
+    require_clean_failures(cases, dir, {});
+}
+
+TEST_CASE("hostile cli: output paths that cannot be written", "[hostile][cli]") {
+    TempDir dir;
+    const std::vector<std::string> inputs{"ro", "taken.png", "taken.csv"};
+    // A target that is an existing folder: the rename onto it fails for every user, root included.
+    fs::create_directories(dir.path / "taken.png");
+    fs::create_directories(dir.path / "taken.csv");
+    std::vector<Case> cases{
+        {"render " + kScene + " -o " + (dir.path / "taken.png").string() + " --size 8x8", "taken.png"},
+        {"depths " + kScene + " -o " + (dir.path / "taken.csv").string(), "taken.csv"},
+        {"render " + kScene + " -o " + (dir.path / "no" / "such" / "x.png").string(), "does not exist"},
+        {"bake-sixway -o " + (dir.path / "no" / "such").string(), "is not an existing folder"},
+    };
+    // A folder nobody can create files in, root included: /proc (a kernel file system).
+    if (fs::is_directory("/proc")) {
+        cases.push_back({"render " + kScene + " -o /proc/smoketrace_out.png --size 8x8", "/proc/smoketrace_out.png"});
+        cases.push_back({"depths " + kScene + " -o /proc/smoketrace_out.csv", "/proc/smoketrace_out.csv"});
+        cases.push_back({"bake-sixway -o /proc --frames 1 --tile 4", "/proc"});
+    }
+    fs::create_directories(dir.path / "ro");
+    require_clean_failures(cases, dir, inputs);
+    CHECK_FALSE(fs::exists("/proc/smoketrace_out.png"));
+
+    // A read-only folder: meaningful only where permissions apply, i.e. not for root, which CI may run as.
+    const fs::path ro = dir.path / "ro";
+    fs::permissions(ro, fs::perms::owner_read | fs::perms::owner_exec, fs::perm_options::replace);
+    const bool writable_anyway = ::access(ro.c_str(), W_OK) == 0;  // root (or CAP_DAC_OVERRIDE)
+    if (writable_anyway) {
+        WARN("running with permission to write into read-only folders (root?): the read-only-folder checks "
+             "are skipped; the /proc and existing-folder checks above fail for root too");
+    } else {
+        for (const Case& c : std::vector<Case>{
+                 {"render " + kScene + " -o " + (ro / "x.png").string() + " --size 8x8", (ro / "x.png").string()},
+                 {"depths " + kScene + " -o " + (ro / "x.csv").string(), (ro / "x.csv").string()},
+                 {"bake-sixway -o " + ro.string() + " --frames 1 --tile 4", ro.string()},
+             }) {
+            INFO("smoketrace " << c.args);
+            const Run r = run_cli(c.args);
+            INFO("stderr: " << r.err);
+            CHECK(r.exit_code > 0);
+            CHECK(r.err.find(c.expect) != std::string::npos);
+            CHECK(fs::is_empty(ro));
+        }
+    }
+    fs::permissions(ro, fs::perms::owner_all, fs::perm_options::replace);
+}
