@@ -11,6 +11,8 @@ packages=(
   libembree-dev       # Embree 3: reference for tests and benchmarks only
   nlohmann-json3-dev  # scene files
   gnuplot-nox         # benchmark plots (scripts/plot.sh)
+  clang               # scripts/fuzz.sh: libFuzzer needs clang
+  libclang-rt-dev     # libFuzzer and the sanitizer runtimes for clang
 )
 
 missing=()

@@ -1,0 +1,131 @@
+// libFuzzer target for the scene-file reader (parse_scene, scene_file.hpp).
+//
+// Contract checked on every input:
+//  * parse_scene either returns or throws SceneFileError whose message starts with the source name
+//    ("fuzz.json: ..."); any other exception escapes and libFuzzer reports it as a crash (uncaught
+//    exception → abort), as are sanitizer findings (the build makes every ASan/UBSan report fatal);
+//  * a scene it accepts honours the documented format: every number finite and within its documented
+//    range, a unit light direction, a camera the renderer accepts, a particle count within the limit;
+//  * a small accepted scene (<= kMaxPipelineParticles) also goes through the pipeline: the optical-depth
+//    pass, and one 4x4 frame in basic and full mode; its lengths are finite or the documented +inf and its
+//    pixels finite. Any exception there is a crash too: the reader accepted something the renderer cannot use.
+//
+// Build and run: scripts/fuzz.sh (clang, -DSMOKETRACE_FUZZ=ON, build-fuzz/); seed corpus: tests/fuzz/corpus/.
+#include <smoketrace/frame_renderer.hpp>
+#include <smoketrace/scene_file.hpp>
+
+#include <glm/geometric.hpp>
+
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <string_view>
+
+using namespace smoketrace;
+
+namespace {
+
+constexpr std::size_t kMaxPipelineParticles = 32;
+constexpr std::string_view kSource = "fuzz.json";
+
+[[noreturn]] void violated(const char* what) {
+    std::fprintf(stderr, "fuzz_scene_file: accepted scene violates the format: %s\n", what);
+    std::abort();
+}
+
+void require(bool ok, const char* what) {
+    if (!ok) violated(what);
+}
+
+bool finite(float v) { return std::isfinite(v); }
+bool finite(const glm::vec3& v) { return finite(v.x) && finite(v.y) && finite(v.z); }
+bool within(const glm::vec3& v, double lo, double hi) {
+    for (int a = 0; a < 3; ++a)
+        if (!(double(v[a]) >= lo && double(v[a]) <= hi)) return false;
+    return true;
+}
+
+void check_format(const SceneDescription& s) {
+    require(s.source == kSource, "source name");
+    require(finite(s.light.direction) && std::abs(glm::length(glm::dvec3(s.light.direction)) - 1.0) < 1e-6,
+            "light direction not unit");
+    require(within(s.light.color, 0.0, kMaxSceneColor), "light colour");
+    require(finite(s.light.rotation_per_frame_deg), "light rotation");
+    require(within(s.ambient, 0.0, kMaxSceneColor) && within(s.background, 0.0, kMaxSceneColor), "ambient/background");
+    require(s.smoke.particles.size() <= scene_particle_limit(), "particle count");
+    for (const Particle& p : s.smoke.particles) {
+        require(within(p.center, -kMaxSceneCoordinate, kMaxSceneCoordinate), "particle centre");
+        require(p.radius > 0.0f && double(p.radius) <= kMaxSceneCoordinate, "particle radius");
+        require(finite(p.velocity) && finite(p.spin) && finite(p.rotation), "particle motion");
+        require(finite(p.growth) && p.growth > -1.0f, "particle growth");
+    }
+    require(finite(s.smoke.sigma_t) && s.smoke.sigma_t >= 0.0f, "sigma_t");
+    require(s.smoke.alpha >= 0.0f && s.smoke.alpha <= 1.0f, "alpha");
+    if (s.ground) {
+        for (const glm::vec3& c : s.ground->corners)
+            require(within(c, -kMaxSceneCoordinate, kMaxSceneCoordinate), "ground corner");
+        require(finite(s.ground->normal) && std::abs(glm::length(glm::dvec3(s.ground->normal)) - 1.0) < 1e-6, "ground normal");
+        require(within(s.ground->color, 0.0, kMaxSceneColor), "ground colour");
+    }
+    const CameraDescription& c = s.camera;
+    require(finite(c.position) && finite(c.look_at) && finite(c.up), "camera vectors");
+    require(c.fov_deg > 0.0f && c.fov_deg < 180.0f, "fov");
+    require(c.width >= 1 && c.height >= 1 && c.width <= std::uint32_t(kMaxImageSide) && c.height <= std::uint32_t(kMaxImageSide) &&
+                std::uint64_t(c.width) * c.height <= kMaxImagePixels,
+            "image size");
+    const RenderSettings& r = s.render;
+    require(r.groups >= 1 && r.frames >= 1, "groups/frames");
+    require(finite(r.softness) && r.softness >= 0.0f, "softness");
+    require(r.transmittance_threshold >= 0.0f && r.transmittance_threshold < 1.0f, "threshold");
+    check_scene_motion(s, r.frames);  // the reader checked it: must not throw
+    // The renderer's camera must accept it (Camera throws std::invalid_argument otherwise).
+    (void)Camera(c.position, c.look_at, c.up, c.fov_deg, int(c.width), int(c.height));
+}
+
+const SixwayTexture& texture() {
+    static const SixwayTexture t =
+        SixwayTexture::load(std::filesystem::path(SMOKETRACE_ASSET_DIR) / std::string(kSixwayLayoutFile));
+    return t;
+}
+
+void check_pipeline(const SceneDescription& s) {
+    for (const RenderMode mode : {RenderMode::basic, RenderMode::full}) {
+        RenderOptions o = RenderOptions::from_scene(s);
+        o.width = o.height = 4;
+        o.render.mode = mode;
+        FrameRenderer renderer(s, o, texture());
+        ImageRgba image;
+        renderer.render(0, image);
+        for (const glm::vec4& px : image.pixels)
+            require(std::isfinite(px.x) && std::isfinite(px.y) && std::isfinite(px.z) && std::isfinite(px.w), "pixel not finite");
+        const OpticalDepths& d = renderer.depths();
+        for (std::size_t i = 0; i < d.lengths().size(); ++i) {
+            const float l = d.lengths()[i];
+            if (d.status()[i] == DepthStatus::ok) require(std::isfinite(l) && l >= 0.0f, "optical path length");
+            else require(l == kFullyDarkPathLength, "dark path length");
+        }
+    }
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+    const std::string_view text(reinterpret_cast<const char*>(data), size);
+    SceneDescription scene;
+    try {
+        scene = parse_scene(text, kSource);
+    } catch (const SceneFileError& e) {
+        const std::string_view message = e.what();
+        if (message.rfind(std::string(kSource) + ": ", 0) != 0 || message.size() <= kSource.size() + 2) {
+            std::fprintf(stderr, "fuzz_scene_file: error message without the file name: %s\n", e.what());
+            std::abort();
+        }
+        return 0;
+    }
+    check_format(scene);
+    if (scene.smoke.particles.size() <= kMaxPipelineParticles) check_pipeline(scene);
+    return 0;
+}
