@@ -343,7 +343,7 @@ TEST_CASE("Watertight triangle: random triangles against the double-precision an
         r.origin = target - rng.uniform(0.5f, 4.0f) * r.direction;
 
         const ExactTriangle ex = exact_triangle(r, v[0], v[1], v[2]);
-        TriangleHit h;
+        TriangleHit h{};
         INFO("ray " << i);
         REQUIRE(intersect_triangle(TriangleRay(r), v[0], v[1], v[2], kInf, h));  // interior point: must hit
         ++hits;

@@ -40,18 +40,26 @@ constexpr float rounding_gamma(int n) {
 static_assert(sizeof(Aabb) == 6 * sizeof(float) && offsetof(Aabb, hi) == 3 * sizeof(float));
 inline const float* planes(const Aabb& b) { return &b.lo.x; }
 
+// Far distances are widened by 1 + 2·gamma(3) (pbrt-v4 6.1.2): the three rounded operations of a slab
+// distance can then never make a box reject a ray that hits a primitive inside it. The factor is folded
+// into the far planes' reciprocal (inv_far = inv_dir·scale, rounded once), which is the same number of
+// roundings as scaling each far distance afterwards, so the same bound holds.
+inline constexpr float kSlabFarScale = 1.0f + 2.0f * rounding_gamma(3);
+
 // A ray prepared for many box tests: reciprocal direction and, per axis, the index (into planes()) of
 // the slab plane met first. Choosing the near plane by the sign bit of the reciprocal (not by comparing
 // the two distances) is what makes −0 and +0 directions correct: 1/−0 = −∞ picks hi as the near plane.
 struct BoxRay {
     glm::vec3 origin;
     glm::vec3 inv_dir;
-    int near[3];  // a or a + 3: the plane entered first on axis a
+    glm::vec3 inv_far;  // inv_dir · kSlabFarScale
+    int near[3];        // a or a + 3: the plane entered first on axis a
     int far[3];
     float tmin;
 
     explicit BoxRay(const Ray& r)
-        : origin(r.origin), inv_dir(1.0f / r.direction.x, 1.0f / r.direction.y, 1.0f / r.direction.z), tmin(r.tmin) {
+        : origin(r.origin), inv_dir(1.0f / r.direction.x, 1.0f / r.direction.y, 1.0f / r.direction.z),
+          inv_far(inv_dir * kSlabFarScale), tmin(r.tmin) {
         for (int a = 0; a < 3; ++a) {
             const bool negative = std::signbit(inv_dir[a]);
             near[a] = negative ? a + 3 : a;
@@ -59,10 +67,6 @@ struct BoxRay {
         }
     }
 };
-
-// Far distances are widened by 1 + 2·gamma(3) (pbrt-v4 6.1.2): the three rounded operations of a slab
-// distance can then never make a box reject a ray that hits a primitive inside it.
-inline constexpr float kSlabFarScale = 1.0f + 2.0f * rounding_gamma(3);
 
 // Slab test: true if the ray meets the closed box for some t in [tmin, tmax]; t_enter receives the
 // entry distance (clamped to tmin). tmax is widened by the same factor as the far distances, so a
@@ -79,9 +83,9 @@ inline constexpr float kSlabFarScale = 1.0f + 2.0f * rounding_gamma(3);
     const float nx = (p[r.near[0]] - r.origin.x) * r.inv_dir.x;
     const float ny = (p[r.near[1]] - r.origin.y) * r.inv_dir.y;
     const float nz = (p[r.near[2]] - r.origin.z) * r.inv_dir.z;
-    const float fx = (p[r.far[0]] - r.origin.x) * r.inv_dir.x * kSlabFarScale;
-    const float fy = (p[r.far[1]] - r.origin.y) * r.inv_dir.y * kSlabFarScale;
-    const float fz = (p[r.far[2]] - r.origin.z) * r.inv_dir.z * kSlabFarScale;
+    const float fx = (p[r.far[0]] - r.origin.x) * r.inv_far.x;
+    const float fy = (p[r.far[1]] - r.origin.y) * r.inv_far.y;
+    const float fz = (p[r.far[2]] - r.origin.z) * r.inv_far.z;
     float t0 = r.tmin, t1 = tmax * kSlabFarScale;
     t0 = nx > t0 ? nx : t0;
     t0 = ny > t0 ? ny : t0;

@@ -79,19 +79,25 @@ inline bool owns_edge(float px, float py, float qx, float qy, bool ccw) {
 // the exact sign for the sheared vertex positions and no FMA contraction can break the symmetry.
 inline bool intersect_triangle(const TriangleRay& r, const glm::vec3& v0, const glm::vec3& v1,
                                const glm::vec3& v2, float tmax, TriangleHit& hit) {
+    // Components picked by a runtime index through a pointer: glm's operator[] is a switch per access.
     const glm::vec3 a = v0 - r.origin;
     const glm::vec3 b = v1 - r.origin;
     const glm::vec3 c = v2 - r.origin;
-    const float ax = a[r.kx] - r.sx * a[r.kz], ay = a[r.ky] - r.sy * a[r.kz];
-    const float bx = b[r.kx] - r.sx * b[r.kz], by = b[r.ky] - r.sy * b[r.kz];
-    const float cx = c[r.kx] - r.sx * c[r.kz], cy = c[r.ky] - r.sy * c[r.kz];
+    static_assert(sizeof(glm::vec3) == 3 * sizeof(float));
+    const float *pa = &a.x, *pb = &b.x, *pc = &c.x;
+    const float ax = pa[r.kx] - r.sx * pa[r.kz], ay = pa[r.ky] - r.sy * pa[r.kz];
+    const float bx = pb[r.kx] - r.sx * pb[r.kz], by = pb[r.ky] - r.sy * pb[r.kz];
+    const float cx = pc[r.kx] - r.sx * pc[r.kz], cy = pc[r.ky] - r.sy * pc[r.kz];
 
     const double u = double(cx) * double(by) - double(cy) * double(bx);  // edge v1 → v2, weight of v0
     const double v = double(ax) * double(cy) - double(ay) * double(cx);  // edge v2 → v0, weight of v1
     const double w = double(bx) * double(ay) - double(by) * double(ax);  // edge v0 → v1, weight of v2
 
-    // Quick rejection: mixed strict signs mean the ray passes outside.
-    if ((u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0)) return false;
+    // Quick rejection: mixed strict signs mean the ray passes outside. Bitwise, not short-circuit: one
+    // branch instead of up to six poorly predicted ones.
+    const bool any_negative = (u < 0.0) | (v < 0.0) | (w < 0.0);
+    const bool any_positive = (u > 0.0) | (v > 0.0) | (w > 0.0);
+    if (any_negative & any_positive) return false;
     const double det = u + v + w;
     if (det == 0.0) return false;
     const bool ccw = det > 0.0;
