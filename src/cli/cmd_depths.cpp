@@ -34,7 +34,6 @@ HitSort parse_sort(const std::string& s) {
 
 int run_depths(const Args& args) {
     ArgReader in(args);
-    const std::string scene_path = in.positional("scene file (smoketrace depths SCENE.json -o OUT.csv)");
     const auto out_path = in.string("-o");
     const auto shape_arg = in.string("--shape");
     const auto cutoff = in.integer("--cutoff", 0, 1'000'000'000);
@@ -42,6 +41,8 @@ int run_depths(const Args& args) {
     const auto repeat = in.integer("--repeat", 1, 1'000'000);
     const auto sort_arg = in.string("--sort");
     const bool timings = in.flag("--timings");
+    // After every flag has taken its value, so that "-o OUT" is never mistaken for the scene file.
+    const std::string scene_path = in.positional("scene file (smoketrace depths SCENE.json -o OUT.csv)");
     in.finish();
     if (!out_path) throw CliError("missing -o OUT.csv");
 

@@ -33,7 +33,6 @@ std::filesystem::path frame_path(const std::filesystem::path& out, std::uint32_t
 
 int run_render(const Args& args) {
     ArgReader in(args);
-    const std::string scene_path = in.positional("scene file (smoketrace render SCENE.json -o OUT.png)");
     const auto out_arg = in.string("-o");
     const auto mode = in.string("--mode");
     const auto size = in.size("--size", int(kMaxImageSide));
@@ -46,6 +45,8 @@ int run_render(const Args& args) {
     const auto compositor = in.string("--compositor");
     const auto textures = in.string("--textures");
     const bool timings = in.flag("--timings");
+    // After every flag has taken its value, so that "-o OUT" is never mistaken for the scene file.
+    const std::string scene_path = in.positional("scene file (smoketrace render SCENE.json -o OUT.png)");
     in.finish();
     if (!out_arg) throw CliError("missing -o OUT.png");
     const std::filesystem::path out(*out_arg);
