@@ -1,4 +1,6 @@
 // The command line as a user meets it: bad input gets a clear message, a non-zero exit, and no output.
+#include "support/cli_runner.hpp"
+
 #include <catch2/catch.hpp>
 
 #include <cstdio>
@@ -11,38 +13,11 @@
 #include <unistd.h>
 
 namespace fs = std::filesystem;
+using smoketrace::test::CliRun;
+using smoketrace::test::run_cli;
+using smoketrace::test::TempDir;
 
 namespace {
-
-struct Run {
-    int exit_code;
-    std::string err;
-};
-
-// Runs the smoketrace binary with `args` (shell words), capturing stderr.
-Run run_cli(const std::string& args) {
-    const fs::path err_file = fs::temp_directory_path() / ("smoketrace_cli_err_" + std::to_string(::getpid()));
-    const std::string cmd = std::string(SMOKETRACE_CLI) + " " + args + " >/dev/null 2>" + err_file.string();
-    const int status = std::system(cmd.c_str());
-    std::ifstream in(err_file);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    fs::remove(err_file);
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, ss.str()};
-}
-
-struct TempDir {
-    fs::path path;
-    TempDir() : path(fs::temp_directory_path() / ("smoketrace_cli_" + std::to_string(::getpid()))) {
-        fs::remove_all(path);
-        fs::create_directories(path);
-    }
-    ~TempDir() { fs::remove_all(path); }
-    fs::path write(const std::string& name, const std::string& text) const {
-        std::ofstream(path / name) << text;
-        return path / name;
-    }
-};
 
 const std::string kScene = std::string(SMOKETRACE_ASSET_DIR) + "/scenes/minimal.json";
 
@@ -51,7 +26,7 @@ const std::string kScene = std::string(SMOKETRACE_ASSET_DIR) + "/scenes/minimal.
 TEST_CASE("cli: depths writes one CSV row per particle", "[cli]") {
     TempDir dir;
     const fs::path out = dir.path / "d.csv";
-    const Run r = run_cli("depths " + kScene + " -o " + out.string());
+    const CliRun r = run_cli("depths " + kScene + " -o " + out.string());
     REQUIRE(r.exit_code == 0);
     std::ifstream in(out);
     std::string header;
@@ -95,7 +70,7 @@ TEST_CASE("cli: bad arguments and files name the problem and leave no output", "
     };
     for (const Case& c : cases) {
         INFO(c.args);
-        const Run r = run_cli(c.args);
+        const CliRun r = run_cli(c.args);
         CHECK(r.exit_code != 0);
         CHECK(r.err.find(c.expect) != std::string::npos);
         CHECK_FALSE(fs::exists(csv));
@@ -109,7 +84,7 @@ TEST_CASE("cli: an output folder that cannot be written is an error, not a crash
     TempDir dir;
     // A "folder" that is a regular file fails for every user, root included.
     const fs::path file = dir.write("plain.txt", "x");
-    Run r = run_cli("depths " + kScene + " -o " + (file / "d.csv").string());
+    CliRun r = run_cli("depths " + kScene + " -o " + (file / "d.csv").string());
     CHECK(r.exit_code != 0);
     CHECK(r.err.find("d.csv") != std::string::npos);
     // A read-only folder: only meaningful for a user that permissions apply to (CI runs as root).

@@ -9,6 +9,8 @@
 //  * six-way textures given with --textures: missing, truncated, wrong-size and corrupt files;
 //  * the command line: bad numbers for every numeric flag, --threads 0 and --size 0x0 for each command that
 //    takes them, output paths in read-only or unwritable folders and onto an existing folder.
+#include "support/cli_runner.hpp"
+
 #include <smoketrace/camera.hpp>
 #include <smoketrace/memory_budget.hpp>
 #include <smoketrace/optical_depth_pass.hpp>
@@ -39,46 +41,11 @@
 
 namespace fs = std::filesystem;
 using namespace smoketrace;
+using smoketrace::test::CliRun;
+using smoketrace::test::run_cli;
+using smoketrace::test::TempDir;
 
 namespace {
-
-struct Run {
-    int exit_code;  // -1: killed by a signal (a crash)
-    std::string err;
-};
-
-// Runs the smoketrace binary with `args` (shell words), capturing stderr.
-Run run_cli(const std::string& args) {
-    static std::atomic<unsigned> serial{0};
-    const fs::path err_file = fs::temp_directory_path() / ("smoketrace_hostile_err_" + std::to_string(::getpid()) + "_" +
-                                                           std::to_string(serial++));
-    const std::string cmd = std::string(SMOKETRACE_CLI) + " " + args + " >/dev/null 2>" + err_file.string();
-    const int status = std::system(cmd.c_str());
-    std::ifstream in(err_file);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    fs::remove(err_file);
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, ss.str()};
-}
-
-struct TempDir {
-    fs::path path;
-    TempDir() {
-        static std::atomic<unsigned> serial{0};
-        path = fs::temp_directory_path() / ("smoketrace_hostile_" + std::to_string(::getpid()) + "_" + std::to_string(serial++));
-        fs::remove_all(path);
-        fs::create_directories(path);
-    }
-    ~TempDir() {
-        std::error_code ec;
-        fs::permissions(path, fs::perms::owner_all, fs::perm_options::add, ec);
-        fs::remove_all(path, ec);
-    }
-    fs::path write(const std::string& name, const std::string& text) const {
-        std::ofstream(path / name, std::ios::binary) << text;
-        return path / name;
-    }
-};
 
 const std::string kScene = std::string(SMOKETRACE_ASSET_DIR) + "/scenes/minimal.json";
 
@@ -101,7 +68,7 @@ struct Case {
 void require_clean_failures(const std::vector<Case>& cases, const TempDir& dir, const std::vector<std::string>& inputs) {
     for (const Case& c : cases) {
         INFO("smoketrace " << c.args);
-        const Run r = run_cli(c.args);
+        const CliRun r = run_cli(c.args);
         INFO("stderr: " << r.err);
         CHECK(r.exit_code > 0);
         CHECK(r.err.find(c.expect) != std::string::npos);
@@ -314,7 +281,7 @@ TEST_CASE("hostile cli: bad scene files of every kind, through depths and render
     cases.push_back({"render " + fast + " -o " + png.string() + " --size 8x8 --frames 20", "fast.json: /smoke/particles/0: moves beyond"});
     require_clean_failures(cases, dir, inputs);
     // The same file is fine for as many frames as keep it in range.
-    const Run ok = run_cli("render " + fast + " -o " + png.string() + " --size 8x8 --frames 3");
+    const CliRun ok = run_cli("render " + fast + " -o " + png.string() + " --size 8x8 --frames 3");
     CHECK(ok.exit_code == 0);
     for (int f = 0; f < 3; ++f) CHECK(fs::exists(dir.path / ("out_000" + std::to_string(f) + ".png")));
 }
@@ -328,7 +295,7 @@ TEST_CASE("hostile cli: an empty particle list is valid: render draws the ground
         INFO(s);
         for (const char* mode : {"basic", "simple-shadow", "full"}) {
             const fs::path png = dir.path / (s.stem().string() + "_" + mode + ".png");
-            const Run r = run_cli("render " + s.string() + " -o " + png.string() + " --size 16x16 --mode " + mode);
+            const CliRun r = run_cli("render " + s.string() + " -o " + png.string() + " --size 16x16 --mode " + mode);
             INFO(r.err);
             REQUIRE(r.exit_code == 0);
             CHECK(read_png_rgba8(png, 16, 16).width == 16);
@@ -391,7 +358,7 @@ TEST_CASE("hostile cli: missing, truncated, wrong-size and corrupt six-way textu
         for (const std::string& f : {pos, neg, layout}) fs::copy_file(assets / f, textures.path / f);
         b.breakit(textures.path);
         INFO(b.name);
-        const Run r = run_cli("render " + kScene + " -o " + png.string() + " --size 8x8 --textures " + textures.path.string());
+        const CliRun r = run_cli("render " + kScene + " -o " + png.string() + " --size 8x8 --textures " + textures.path.string());
         INFO("stderr: " << r.err);
         CHECK(r.exit_code > 0);
         CHECK(r.err.find(b.expect) != std::string::npos);
@@ -482,7 +449,7 @@ TEST_CASE("hostile cli: output paths that cannot be written", "[hostile][cli]") 
                  {"bake-sixway -o " + ro.string() + " --frames 1 --tile 4", ro.string()},
              }) {
             INFO("smoketrace " << c.args);
-            const Run r = run_cli(c.args);
+            const CliRun r = run_cli(c.args);
             INFO("stderr: " << r.err);
             CHECK(r.exit_code > 0);
             CHECK(r.err.find(c.expect) != std::string::npos);

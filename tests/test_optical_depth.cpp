@@ -5,6 +5,8 @@
 //  * the status rules of optical_depth_pass.hpp (ok / occluded / cutoff) on scenes built so that the number
 //    of surfaces each ray meets is known exactly, for the cutoff at K − 1, K and K + 1;
 //  * particle groups, the three hit sorts, thread-count determinism, the ground, empty inputs.
+#include "support/sphere_reference.hpp"
+
 #include <smoketrace/optical_depth_pass.hpp>
 #include <smoketrace/optical_depths.hpp>
 #include <smoketrace/particle_groups.hpp>
@@ -29,16 +31,11 @@
 #include <vector>
 
 using namespace smoketrace;
+using namespace smoketrace::test;
 
 namespace {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
-// Unit roundoff of float: every rounding of a float operation is within this relative error.
-constexpr double kFloatUnit = 0x1.0p-24;
-// The pass rounds to float before its (double) sphere test: the light direction when normalising it (glm's
-// v·inversesqrt(v·v): at most 4 roundings on its length), the object-space origin and direction (1 each) and
-// the hit t (1). Each moves a hit by at most kFloatUnit times its scale: 6 in all, 8 with margin.
-constexpr double kRoundingsPerRay = 8.0;
 
 const StandInShape kSphere{StandInKind::sphere, 0};
 const StandInShape kIcosahedron{StandInKind::icosahedron, 0};
@@ -92,65 +89,6 @@ bool same_bits(const std::vector<float>& a, const std::vector<float>& b) {
 }
 
 // ---------------------------------------------------------------------------------------------------------
-// The exact answer for sphere stand-ins, in double.
-
-struct SphereAnswer {
-    double length = 0.0;          // length of the union of [max(t0, 0), t1] over the spheres met
-    std::uint32_t surfaces = 0;   // surfaces met at 0 < t < t_cut (entries t0, exits t1)
-    std::uint32_t ambiguous = 0;  // surfaces a float tracer may legitimately count or miss (see below)
-    double tolerance = 0.0;       // bound on |float pass − exact length| (see below)
-};
-
-// The ray o + t·d, 0 < t < t_cut, against every sphere. Tolerance: the pass traces, in each sphere's object
-// space, a ray whose origin and direction were rounded to float; in world units that ray stays within
-// eta = kRoundingsPerRay·u·(2|o − c| + r) of the exact one over the sphere (t ≤ |o − c| + r). Moving the
-// line by eta changes the squared half chord s² = r² − p² by at most delta = 2·r·eta + eta², so the half
-// chord by at most s − √(s² − delta) (or √(s² + delta) near tangency), and the chord's foot by eta: each
-// endpoint moves by at most that plus eta, and the union length by at most the sum over endpoints (it is
-// 1-Lipschitz in each). A sphere with |s²| < delta may be met or missed (its 2 surfaces are ambiguous), and
-// a surface within that distance of the origin (tmin) or of t_cut may fall either side (1 ambiguous).
-SphereAnswer exact_spheres(const std::vector<Particle>& ps, glm::dvec3 o, glm::dvec3 d,
-                           double t_cut = std::numeric_limits<double>::infinity(), double cut_margin = 0.0) {
-    d = glm::normalize(d);
-    SphereAnswer a;
-    std::vector<std::pair<double, double>> intervals;
-    for (const Particle& p : ps) {
-        const glm::dvec3 c(p.center);
-        const double r = p.radius;
-        const glm::dvec3 f = o - c;
-        const double b = -glm::dot(f, d);  // t of the chord's midpoint
-        const glm::dvec3 perp = f + b * d;
-        const double s2 = r * r - glm::dot(perp, perp);
-        const double eta = kRoundingsPerRay * kFloatUnit * (2.0 * glm::length(f) + r);
-        const double delta = 2.0 * r * eta + eta * eta;
-        if (s2 <= -delta) continue;  // a certain miss
-        const double s = std::sqrt(std::max(s2, 0.0));
-        const double ds = s2 > delta ? s - std::sqrt(s2 - delta) : std::sqrt(std::max(s2, 0.0) + delta);
-        const double endpoint_error = ds + eta;
-        const bool tangent = std::abs(s2) < delta;
-        for (const double t : {b - s, b + s}) {
-            if (t + endpoint_error <= 0.0) continue;  // certainly behind the origin
-            a.tolerance += endpoint_error + kRoundingsPerRay * kFloatUnit * std::abs(t);
-            const bool near_origin = std::abs(t) <= endpoint_error + double(kOpticalDepthTmin);
-            const bool near_cut = std::abs(t - t_cut) <= endpoint_error + cut_margin;
-            if (tangent || near_origin || near_cut) {
-                ++a.ambiguous;
-            } else if (t > 0.0 && t < t_cut) {
-                ++a.surfaces;
-            }
-        }
-        if (s2 > 0.0 && b + s > 0.0) intervals.emplace_back(std::max(b - s, 0.0), b + s);
-    }
-    std::sort(intervals.begin(), intervals.end());
-    double covered_to = 0.0;
-    for (const auto& [lo, hi] : intervals) {
-        const double from = std::max(lo, covered_to);
-        if (hi > from) a.length += hi - from;
-        covered_to = std::max(covered_to, hi);
-    }
-    return a;
-}
-
 // Checks every particle of `ps` (sphere stand-ins, no ground, no cutoff) against exact_spheres().
 void check_against_exact_spheres(const std::vector<Particle>& ps, glm::vec3 to_light) {
     const SmokeScene scene = make_scene(ps, kSphere);
@@ -404,7 +342,7 @@ TEST_CASE("optical depth: ground under the two tubes with oblique light occludes
             CHECK(got.status[i] == DepthStatus::occluded);
             CHECK(got.lengths[i] == kInf);
             // Surfaces in front of the quad: the spheres' surfaces on the ray cut at the quad.
-            const SphereAnswer front = exact_spheres(ps, o, d, t, kBorderMargin);
+            const SphereAnswer front = exact_spheres(ps, o, d, {.t_cut = t, .cut_margin = kBorderMargin});
             CHECK(got.hit_counts[i] >= front.surfaces);
             CHECK(got.hit_counts[i] <= front.surfaces + front.ambiguous);
         } else {

@@ -3,6 +3,8 @@
 // and the bake-sixway command.
 #include <catch2/catch.hpp>
 
+#include "support/cli_runner.hpp"
+
 #include <smoketrace/png_io.hpp>
 #include <smoketrace/sixway_baker.hpp>
 #include <smoketrace/sixway_texture.hpp>
@@ -25,6 +27,9 @@
 #include <unistd.h>
 
 using namespace smoketrace;
+using smoketrace::test::CliRun;
+using smoketrace::test::run_cli;
+using smoketrace::test::TempDir;
 namespace fs = std::filesystem;
 
 namespace {
@@ -34,18 +39,6 @@ namespace {
 constexpr double kSampleTolerance = 1e-6;
 // The light map sums three products of floats <= 1: a few ulps.
 constexpr double kLightMapTolerance = 1e-6;
-
-struct TempDir {
-    fs::path path;
-    TempDir() {
-        static std::atomic<int> counter{0};
-        path = fs::temp_directory_path() /
-               ("smoketrace_sixway_" + std::to_string(::getpid()) + "_" + std::to_string(counter.fetch_add(1)));
-        fs::remove_all(path);
-        fs::create_directories(path);
-    }
-    ~TempDir() { fs::remove_all(path); }
-};
 
 std::string message_of(const std::function<void()>& f) {
     try {
@@ -80,21 +73,6 @@ double visible_light(const Rgba8Image& atlas, SixwayAtlasGrid grid, int tile, in
     return sum;
 }
 
-struct Run {
-    int exit_code;
-    std::string err;
-};
-
-Run run_cli(const std::string& args) {
-    const fs::path err_file = fs::temp_directory_path() / ("smoketrace_sixway_err_" + std::to_string(::getpid()));
-    const std::string cmd = std::string(SMOKETRACE_CLI) + " " + args + " >/dev/null 2>" + err_file.string();
-    const int status = std::system(cmd.c_str());
-    std::ifstream in(err_file);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    fs::remove(err_file);
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, ss.str()};
-}
 
 }  // namespace
 
@@ -590,7 +568,7 @@ TEST_CASE("sixway files: the committed assets are the baker's output for their r
 
 TEST_CASE("sixway cli: bake-sixway writes loadable atlases, bad input exits 2 and writes nothing", "[sixway]") {
     TempDir dir;
-    const Run ok = run_cli("bake-sixway -o " + dir.path.string() + " --frames 2 --tile 16 --seed 7");
+    const CliRun ok = run_cli("bake-sixway -o " + dir.path.string() + " --frames 2 --tile 16 --seed 7");
     REQUIRE(ok.exit_code == 0);
     const SixwayTexture t = SixwayTexture::load(dir.path / std::string(kSixwayLayoutFile));
     CHECK(t.frame_count() == 2);
@@ -609,7 +587,7 @@ TEST_CASE("sixway cli: bake-sixway writes loadable atlases, bad input exits 2 an
     };
     for (const auto& b : bad) {
         INFO(b.args);
-        const Run r = run_cli(b.args);
+        const CliRun r = run_cli(b.args);
         CHECK(r.exit_code == 2);
         CHECK_THAT(r.err, Catch::Contains(b.mentions));
     }

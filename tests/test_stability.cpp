@@ -11,6 +11,8 @@
 // the README's "Numerical stability" section.
 #include <smoketrace/frame_renderer.hpp>
 #include <smoketrace/hit_resolver.hpp>
+#include "support/sphere_reference.hpp"
+
 #include <smoketrace/optical_depth_pass.hpp>
 #include <smoketrace/prng.hpp>
 #include <smoketrace/scene_file.hpp>
@@ -37,16 +39,11 @@
 #include <vector>
 
 using namespace smoketrace;
+using namespace smoketrace::test;
 
 namespace {
 
 constexpr double kInfD = std::numeric_limits<double>::infinity();
-// Unit roundoff of float: one rounding moves a value by at most this fraction of it.
-constexpr double kU = 0x1.0p-24;
-// Roundings between the exact ray and the object-space ray the pass traces (test_optical_depth.cpp derives
-// the same count): the light direction normalised in float (<= 4), object-space origin and direction (1
-// each), the hit t (1); 8 with margin.
-constexpr double kRoundingsPerRay = 8.0;
 
 const StandInShape kSphere{StandInKind::sphere, 0};
 const StandInShape kIcosahedron{StandInKind::icosahedron, 0};
@@ -116,75 +113,7 @@ Walk walk(std::span<const SurfaceHit> hits) {
     return w;
 }
 
-// Length of the union of intervals, each clipped to t >= 0.
-double union_length(std::vector<std::pair<double, double>> intervals) {
-    std::sort(intervals.begin(), intervals.end());
-    double length = 0.0, covered_to = 0.0;
-    for (auto [lo, hi] : intervals) {
-        lo = std::max(lo, 0.0);
-        const double from = std::max(lo, covered_to);
-        if (hi > from) length += hi - from;
-        covered_to = std::max(covered_to, hi);
-    }
-    return length;
-}
-
-// ---- Spheres: exact answer and its tolerance --------------------------------------------------------------
-
-struct SphereRef {
-    double length = 0.0;
-    double tolerance = 0.0;        // bound on |pass − exact|
-    std::uint32_t surfaces = 0;    // surfaces certainly met at t > 0
-    std::uint32_t ambiguous = 0;   // surfaces a float tracer may count or miss
-    int covering = 0;              // spheres certainly containing the origin
-    int covering_ambiguous = 0;
-};
-
-// The ray o + t·d (d normalised here) against every sphere. Tolerance model (the one of
-// test_optical_depth.cpp, restated): the pass traces, in each sphere's object space, a ray whose direction
-// was normalised in float and whose origin and direction were at most rounded to float once more (trace()
-// now keeps a sphere's object-space ray in double, which only makes this bound looser); in world units that
-// ray stays within eta = 8u·(2|o − c| + r) of the exact one near the sphere, plus `displacement` when the
-// scene itself was moved (translation test). Moving the
-// line by eta changes the squared half chord s² = r² − p² by at most delta = 2r·eta + eta², hence the half
-// chord by s − √(s² − delta) (√(s² + delta) near tangency), and the chord's foot by eta; each endpoint
-// moves by at most that plus eta, plus the float rounding of t (8u·t). The union length is 1-Lipschitz in
-// each endpoint, so the tolerance is the sum over endpoints; an endpoint within tmin of the origin may be
-// dropped (the tracer's TMin), which moves the length by at most tmin.
-SphereRef exact_spheres(const std::vector<Particle>& ps, glm::dvec3 o, glm::dvec3 d, double displacement = 0.0) {
-    d = glm::normalize(d);
-    SphereRef a;
-    std::vector<std::pair<double, double>> intervals;
-    for (const Particle& p : ps) {
-        const glm::dvec3 c(p.center);
-        const double r = p.radius;
-        const glm::dvec3 f = o - c;
-        const double mid = -glm::dot(f, d);  // t of the chord's midpoint
-        const glm::dvec3 perp = f + mid * d;
-        const double s2 = r * r - glm::dot(perp, perp);
-        const double eta = kRoundingsPerRay * kU * (2.0 * glm::length(f) + r) + displacement;
-        const double delta = 2.0 * r * eta + eta * eta;
-        const double dist = glm::length(f);
-        if (std::abs(dist - r) <= eta + double(kOpticalDepthTmin)) ++a.covering_ambiguous;
-        else if (dist < r) ++a.covering;
-        if (s2 <= -delta) continue;  // certainly missed
-        const double s = std::sqrt(std::max(s2, 0.0));
-        const double ds = s2 > delta ? s - std::sqrt(s2 - delta) : std::sqrt(std::max(s2, 0.0) + delta);
-        const double endpoint_error = ds + eta;
-        const bool tangent = std::abs(s2) < delta;
-        for (const double t : {mid - s, mid + s}) {
-            if (t + endpoint_error <= 0.0) continue;  // certainly behind the origin
-            a.tolerance += endpoint_error + kRoundingsPerRay * kU * std::abs(t);
-            const bool near_origin = std::abs(t) <= endpoint_error + double(kOpticalDepthTmin);
-            if (near_origin) a.tolerance += double(kOpticalDepthTmin);
-            if (tangent || near_origin) ++a.ambiguous;
-            else if (t > 0.0) ++a.surfaces;
-        }
-        if (s2 > 0.0 && mid + s > 0.0) intervals.emplace_back(mid - s, mid + s);
-    }
-    a.length = union_length(intervals);
-    return a;
-}
+// ---- Spheres: the exact answer and its tolerance are support/sphere_reference.hpp --------------------------
 
 // Checks every particle's length against exact_spheres and its counter; returns the largest error seen.
 struct Errors {
@@ -197,7 +126,7 @@ Errors check_spheres(const std::vector<Particle>& ps, const Traced& got, glm::ve
     const std::vector<Particle>& ref_ps = reference ? *reference : ps;
     Errors e;
     for (std::size_t i = 0; i < ps.size(); ++i) {
-        const SphereRef want = exact_spheres(ref_ps, glm::dvec3(ref_ps[i].center), glm::dvec3(to_light), displacement);
+        const SphereAnswer want = exact_spheres(ref_ps, glm::dvec3(ref_ps[i].center), glm::dvec3(to_light), {.displacement = displacement});
         const double err = std::abs(double(got.lengths[i]) - want.length);
         INFO("particle " << i << ": exact " << want.length << ", got " << got.lengths[i] << ", tolerance "
                          << want.tolerance << "; surfaces " << want.surfaces << " (+" << want.ambiguous
@@ -456,7 +385,7 @@ TEST_CASE("stability: radii from 1e-4 to 1e4 and mixed scales", "[stability]") {
     check_spheres(mixed, got, to_light);
     // The lone tiny particle: its own exit only, l = r within the pass's roundings relative to r.
     CHECK(got.hit_counts[lone] == 1);
-    CHECK(std::abs(double(got.lengths[lone]) - double(mixed[lone].radius)) <= kRoundingsPerRay * kU * mixed[lone].radius);
+    CHECK(std::abs(double(got.lengths[lone]) - double(mixed[lone].radius)) <= kRoundingsPerRay * kFloatUnit * mixed[lone].radius);
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -516,7 +445,7 @@ TEST_CASE("stability: rays through shared edges and vertices of icosahedra and i
             REQUIRE(w.start == covering);
             REQUIRE(w.lowest >= 0);
             REQUIRE(w.end == 0);
-            REQUIRE(std::abs(double(got.lengths[k]) - want) <= length_tolerance_units * kU * t_max);
+            REQUIRE(std::abs(double(got.lengths[k]) - want) <= length_tolerance_units * kFloatUnit * t_max);
         }
     };
 
@@ -577,7 +506,7 @@ TEST_CASE("stability: grazing rays (tangent spheres, parallel to triangles, in t
             const double t_far = 2.5;
             INFO("offset " << std::setprecision(9) << p << ": exact chord " << chord << ", l = " << got.lengths[0]);
             REQUIRE(got.status[0] == DepthStatus::ok);
-            CHECK(std::abs(double(got.lengths[0]) - (0.5 + chord)) <= 4.0 * kU * t_far);
+            CHECK(std::abs(double(got.lengths[0]) - (0.5 + chord)) <= 4.0 * kFloatUnit * t_far);
             CHECK(got.hit_counts[0] == (s2 > 0.0 ? 3u : 1u));
             const Walk w = walk(got.lists.of(0));
             CHECK(w.start == 1);
@@ -633,9 +562,9 @@ TEST_CASE("stability: grazing rays (tangent spheres, parallel to triangles, in t
                 // Exactly along the edge: either one-sided limit.
                 const double none = own_out, whole = own_out + 2.0 * double(a) * double(r);
                 const double l = got.lengths[0];
-                CHECK((std::abs(l - none) <= 16.0 * kU * t_far || std::abs(l - whole) <= 16.0 * kU * t_far));
+                CHECK((std::abs(l - none) <= 16.0 * kFloatUnit * t_far || std::abs(l - whole) <= 16.0 * kFloatUnit * t_far));
             } else {
-                CHECK(std::abs(double(got.lengths[0]) - (own_out + chord)) <= 16.0 * kU * t_far);
+                CHECK(std::abs(double(got.lengths[0]) - (own_out + chord)) <= 16.0 * kFloatUnit * t_far);
             }
         }
     }
@@ -732,7 +661,7 @@ TEST_CASE("stability: hundreds of particles covering one ray origin", "[stabilit
                 if (denom > 0.0 && std::abs((f.d - glm::dot(f.n, glm::dvec3(0.0))) / denom - t_out) < 1e-12)
                     cosine = std::min(cosine, denom / glm::length(f.n));
             }
-            tolerance = 16.0 * kU * (t_out + glm::length(glm::dvec3(ps[j].center)) + ps[j].radius) / cosine;
+            tolerance = 16.0 * kFloatUnit * (t_out + glm::length(glm::dvec3(ps[j].center)) + ps[j].radius) / cosine;
         }
         INFO("shape " << shape.name() << ": exact farthest exit " << farthest << ", l = " << got.lengths[0]);
         CHECK(got.hit_counts[0] == n);
@@ -797,7 +726,7 @@ TEST_CASE("stability: coincident particles and coplanar billboards at equal dept
                 }
                 want = union_length(chords);
             }
-            CHECK(std::abs(double(got.lengths[0]) - want) <= 8.0 * kU * 6.0);  // t <= 6: 8 roundings of it
+            CHECK(std::abs(double(got.lengths[0]) - want) <= 8.0 * kFloatUnit * 6.0);  // t <= 6: 8 roundings of it
         }
     }
 
