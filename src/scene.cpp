@@ -45,6 +45,7 @@ std::uint32_t Scene::add_instance(const Instance& instance) {
     instances_.push_back(instance);
     records_.emplace_back();
     world_boxes_.emplace_back();
+    instance_masks_.push_back(instance.mask);
     update_instance(static_cast<std::uint32_t>(instances_.size() - 1));
     structure_dirty_ = true;
     return static_cast<std::uint32_t>(instances_.size() - 1);
@@ -55,6 +56,7 @@ void Scene::remove_instance(std::uint32_t index) {
     instances_.erase(instances_.begin() + index);
     records_.erase(records_.begin() + index);
     world_boxes_.erase(world_boxes_.begin() + index);
+    instance_masks_.erase(instance_masks_.begin() + index);
     structure_dirty_ = true;
 }
 
@@ -69,6 +71,7 @@ void Scene::set_mask(std::uint32_t index, std::uint8_t mask) {
     if (instances_.at(index).mask == mask) return;
     instances_[index].mask = mask;
     records_[index].mask = mask;
+    instance_masks_[index] = mask;
     transforms_dirty_ = true;  // node masks are refreshed by the refit sweep
 }
 
@@ -103,8 +106,7 @@ void Scene::rebuild() {
     // Grouped by mask (bvh_builder.hpp): in the smoke scene a particle's stand-in and its billboard have
     // almost the same box, and one SAH tree over both would pair them in every leaf's parent, so a view
     // ray (stand-ins masked out) or a light ray (billboards masked out) would still walk the other half.
-    std::vector<std::uint32_t> masks(instances_.size());
-    for (std::size_t i = 0; i < instances_.size(); ++i) masks[i] = instances_[i].mask;
+    const std::vector<std::uint32_t> masks(instance_masks_.begin(), instance_masks_.end());
     tlas_ = build_grouped_bvh(world_boxes_, masks, BvhBuildSettings{.max_leaf_size = 1});
     node_masks_.assign(tlas_.nodes.size(), 0);
     refit();  // fills the node masks (boxes are already exact)
@@ -126,7 +128,7 @@ void Scene::refit() {
             for (std::uint32_t i = 0; i < n.count; ++i) {
                 const std::uint32_t p = tlas_.prim_indices[n.first + i];
                 b.grow(world_boxes_[p]);
-                m |= instances_[p].mask;
+                m |= instance_masks_[p];
             }
         } else {
             b = merge(nodes[n.first].bounds, nodes[n.first + 1].bounds);

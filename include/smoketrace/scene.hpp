@@ -92,6 +92,9 @@ private:
     std::vector<Instance> instances_;
     std::vector<InstanceRecord> records_;
     std::vector<Aabb> world_boxes_;
+    // Each instance's mask again, one byte apiece: the refit sweep reads it at random (TLAS leaf order),
+    // and from the 100-byte Instance records that was a cache miss per leaf.
+    std::vector<std::uint8_t> instance_masks_;
     Bvh tlas_;
     std::vector<std::uint8_t> node_masks_;  // OR of the instance masks below each TLAS node
     double sah_at_build_ = 0.0;
