@@ -146,21 +146,7 @@ PassResult embree_closest(const er::Scene& scene, const std::vector<Ray>& rays, 
     rtcInitIntersectContext(&context);
     for (std::size_t i = begin; i < end; ++i) {
         const Ray& r = rays[i];
-        RTCRayHit rh;
-        rh.ray.org_x = r.origin.x;
-        rh.ray.org_y = r.origin.y;
-        rh.ray.org_z = r.origin.z;
-        rh.ray.tnear = r.tmin;
-        rh.ray.dir_x = r.direction.x;
-        rh.ray.dir_y = r.direction.y;
-        rh.ray.dir_z = r.direction.z;
-        rh.ray.time = 0.0f;
-        rh.ray.tfar = r.tmax;
-        rh.ray.mask = ~0u;
-        rh.ray.id = 0;
-        rh.ray.flags = 0;
-        rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-        rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+        RTCRayHit rh = er::to_rtc_ray_hit(r);
         rtcIntersect1(scene.handle(), &context, &rh);
         if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
             ++res.hits;

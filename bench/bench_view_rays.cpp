@@ -150,7 +150,7 @@ public:
     [[nodiscard]] bool closest(const Ray& r, float& t) const {
         RTCIntersectContext context;
         rtcInitIntersectContext(&context);
-        RTCRayHit rh = to_embree(r);
+        RTCRayHit rh = er::to_rtc_ray_hit(r);
         rtcIntersect1(scene_.handle(), &context, &rh);
         t = rh.ray.tfar;
         return rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
@@ -163,7 +163,7 @@ public:
         ctx.base.filter = &LayerContext::filter;
         ctx.ground = ground_geometry_;
         ctx.record = &record;
-        RTCRayHit rh = to_embree(r);
+        RTCRayHit rh = er::to_rtc_ray_hit(r);
         rtcIntersect1(scene_.handle(), &ctx.base, &rh);
         return rh.hit.geomID != RTC_INVALID_GEOMETRY_ID ? rh.ray.tfar : std::numeric_limits<float>::infinity();
     }
@@ -185,26 +185,6 @@ private:
             }
         }
     };
-
-    static RTCRayHit to_embree(const Ray& r) {
-        RTCRayHit rh;
-        rh.ray.org_x = r.origin.x;
-        rh.ray.org_y = r.origin.y;
-        rh.ray.org_z = r.origin.z;
-        rh.ray.tnear = r.tmin;
-        rh.ray.dir_x = r.direction.x;
-        rh.ray.dir_y = r.direction.y;
-        rh.ray.dir_z = r.direction.z;
-        rh.ray.time = 0.0f;
-        rh.ray.tfar = r.tmax;
-        rh.ray.mask = ~0u;
-        rh.ray.id = 0;
-        rh.ray.flags = 0;
-        rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-        rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
-        for (unsigned& id : rh.hit.instID) id = RTC_INVALID_GEOMETRY_ID;
-        return rh;
-    }
 
     er::Scene scene_;
     std::unique_ptr<er::Scene> child_;

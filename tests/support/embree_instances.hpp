@@ -89,7 +89,7 @@ public:
     bool closest_hit(const Ray& ray, std::uint32_t ray_mask, InstancedHit& hit) const {
         RTCIntersectContext context;
         rtcInitIntersectContext(&context);
-        RTCRayHit rh = to_embree(ray, ray_mask);
+        RTCRayHit rh = to_rtc_ray_hit(ray, ray_mask);
         rtcIntersect1(scene_, &context, &rh);
         if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
         hit = make_hit(rh.ray.tfar, rh.hit.instID[0], rh.hit.primID, {rh.hit.u, rh.hit.v},
@@ -108,7 +108,7 @@ public:
         context.self = this;
         context.on_hit = const_cast<void*>(static_cast<const void*>(&on_hit));
         context.direction = ray.direction;
-        RTCRayHit rh = to_embree(ray, ray_mask);
+        RTCRayHit rh = to_rtc_ray_hit(ray, ray_mask);
         rtcIntersect1(scene_, &context.base, &rh);
     }
 
@@ -148,26 +148,6 @@ private:
         const glm::dvec3 d = world_to_object_[instance] * glm::dvec3(world_direction);
         h.front_face = double(ng.x) * d.x + double(ng.y) * d.y + double(ng.z) * d.z < 0.0;
         return h;
-    }
-
-    static RTCRayHit to_embree(const Ray& ray, std::uint32_t mask) {
-        RTCRayHit rh;
-        rh.ray.org_x = ray.origin.x;
-        rh.ray.org_y = ray.origin.y;
-        rh.ray.org_z = ray.origin.z;
-        rh.ray.tnear = ray.tmin;
-        rh.ray.dir_x = ray.direction.x;
-        rh.ray.dir_y = ray.direction.y;
-        rh.ray.dir_z = ray.direction.z;
-        rh.ray.time = 0.0f;
-        rh.ray.tfar = ray.tmax;
-        rh.ray.mask = mask;
-        rh.ray.id = 0;
-        rh.ray.flags = 0;
-        rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-        rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
-        for (unsigned& id : rh.hit.instID) id = RTC_INVALID_GEOMETRY_ID;
-        return rh;
     }
 
     const Device* device_;

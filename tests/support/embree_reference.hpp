@@ -30,6 +30,27 @@
 
 namespace smoketrace::embree_reference {
 
+// A ray in Embree's layout, with no hit yet: the one conversion every Embree query here goes through.
+inline RTCRayHit to_rtc_ray_hit(const Ray& ray, unsigned mask = ~0u) {
+    RTCRayHit rh;
+    rh.ray.org_x = ray.origin.x;
+    rh.ray.org_y = ray.origin.y;
+    rh.ray.org_z = ray.origin.z;
+    rh.ray.tnear = ray.tmin;
+    rh.ray.dir_x = ray.direction.x;
+    rh.ray.dir_y = ray.direction.y;
+    rh.ray.dir_z = ray.direction.z;
+    rh.ray.time = 0.0f;
+    rh.ray.tfar = ray.tmax;
+    rh.ray.mask = mask;
+    rh.ray.id = 0;
+    rh.ray.flags = 0;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
+    for (unsigned& id : rh.hit.instID) id = RTC_INVALID_GEOMETRY_ID;
+    return rh;
+}
+
 // A hit as Embree reports it. front_face follows smoketrace's convention (ray_triangle.hpp): Embree's
 // geometric normal points out of the counter-clockwise (front) side, so the ray meets the front face
 // when the normal faces against it.
@@ -134,7 +155,7 @@ public:
     bool closest_hit(const Ray& ray, EmbreeHit& hit) const {
         RTCIntersectContext context;
         rtcInitIntersectContext(&context);
-        RTCRayHit rh = to_embree(ray);
+        RTCRayHit rh = to_rtc_ray_hit(ray);
         rtcIntersect1(scene_, &context, &rh);
         if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
         hit.t = rh.ray.tfar;
@@ -160,7 +181,7 @@ public:
         context.base.filter = &FilterContext::reject_and_report<Fn>;
         context.on_hit = const_cast<void*>(static_cast<const void*>(&on_hit));
         context.direction = ray.direction;
-        RTCRayHit rh = to_embree(ray);
+        RTCRayHit rh = to_rtc_ray_hit(ray);
         rtcIntersect1(scene_, &context.base, &rh);
     }
 
@@ -201,26 +222,6 @@ private:
 
     static bool faces_against(const glm::vec3& normal, const glm::vec3& direction) {
         return double(normal.x) * direction.x + double(normal.y) * direction.y + double(normal.z) * direction.z < 0.0;
-    }
-
-    static RTCRayHit to_embree(const Ray& ray) {
-        RTCRayHit rh;
-        rh.ray.org_x = ray.origin.x;
-        rh.ray.org_y = ray.origin.y;
-        rh.ray.org_z = ray.origin.z;
-        rh.ray.tnear = ray.tmin;
-        rh.ray.dir_x = ray.direction.x;
-        rh.ray.dir_y = ray.direction.y;
-        rh.ray.dir_z = ray.direction.z;
-        rh.ray.time = 0.0f;
-        rh.ray.tfar = ray.tmax;
-        rh.ray.mask = ~0u;
-        rh.ray.id = 0;
-        rh.ray.flags = 0;
-        rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-        rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
-        for (unsigned& id : rh.hit.instID) id = RTC_INVALID_GEOMETRY_ID;
-        return rh;
     }
 
     const Device* device_;
