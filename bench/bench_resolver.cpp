@@ -5,6 +5,7 @@
 #include "bench_registry.hpp"
 #include "timing.hpp"
 
+#include <smoketrace/prng.hpp>
 #include <smoketrace/hit_resolver.hpp>
 #include <smoketrace/radix_sort.hpp>
 
@@ -43,25 +44,11 @@ double thesis_b4_ms(std::size_t cutoff) {
     }
 }
 
-// SplitMix64 (Steele, Lea, Flood 2014): deterministic inputs, no std distributions.
-struct BenchRng {
-    std::uint64_t state;
-    std::uint64_t next() {
-        std::uint64_t z = (state += 0x9E37'79B9'7F4A'7C15ull);
-        z = (z ^ (z >> 30)) * 0xBF58'476D'1CE4'E5B9ull;
-        z = (z ^ (z >> 27)) * 0x94D0'49BB'1331'11EBull;
-        return z ^ (z >> 31);
-    }
-    std::uint32_t below(std::uint32_t n) { return static_cast<std::uint32_t>((next() >> 32) * n >> 32); }
-    float uniform(float lo, float hi) {
-        return lo + (hi - lo) * static_cast<float>(static_cast<double>(next() >> 40) * 0x1.0p-24);
-    }
-};
 
 // Exactly k hits of one optical-depth ray through a dense tube of unit-size particles, in the shuffled order
 // any-hit delivers them: 1-3 particles cover the origin (the ray's own particle among them: exits only), the
 // others are chords entered and left along the ray, overlapping their neighbours.
-std::vector<SurfaceHit> synthetic_ray_hits(BenchRng& rng, std::size_t k) {
+std::vector<SurfaceHit> synthetic_ray_hits(Pcg32& rng, std::size_t k) {
     std::vector<SurfaceHit> hits;
     const std::size_t covering = k % 2 == 1 ? (rng.below(2) ? 1 : 3) : 2;
     for (std::size_t i = 0; i < covering; ++i) hits.push_back({rng.uniform(0.2f, 1.0f), -1});
@@ -80,7 +67,7 @@ std::vector<SurfaceHit> synthetic_ray_hits(BenchRng& rng, std::size_t k) {
 }
 
 HitLists synthetic_lists(std::size_t k, std::uint64_t seed) {
-    BenchRng rng{seed};
+    Pcg32 rng(seed);
     HitLists lists;
     for (std::size_t p = 0; p < kParticles; ++p) lists.add_particle(synthetic_ray_hits(rng, k));
     return lists;
@@ -267,7 +254,7 @@ void run_resolver(const BenchOptions& options) {
                                                  512, 2048, 16384, 131072};
     std::size_t radix_first_wins = 0;
     for (const std::size_t n : sizes) {
-        BenchRng rng{3000 + n};
+        Pcg32 rng(3000 + n);
         const std::size_t lists_per_run = std::max<std::size_t>(1, 98304 / n);
         std::vector<SurfaceHit> shuffled;
         for (std::size_t l = 0; l < lists_per_run; ++l) {

@@ -1,6 +1,7 @@
 // The hit resolver (thesis 4.3.3) and its sorts: float_sort_key, radix / insertion sort against
 // std::stable_sort, eq. 3.1 and the in-smoke walk against exact answers, and the three HitSort methods
 // against each other and against an independent interval-union computation.
+#include <smoketrace/prng.hpp>
 #include <smoketrace/hit_resolver.hpp>
 #include <smoketrace/radix_sort.hpp>
 
@@ -20,22 +21,9 @@ using namespace smoketrace;
 
 namespace {
 
-// SplitMix64 (Steele, Lea, Flood 2014): a small deterministic generator, no std distributions.
-struct TestRng {
-    std::uint64_t state;
-    std::uint64_t next() {
-        std::uint64_t z = (state += 0x9E37'79B9'7F4A'7C15ull);
-        z = (z ^ (z >> 30)) * 0xBF58'476D'1CE4'E5B9ull;
-        z = (z ^ (z >> 27)) * 0x94D0'49BB'1331'11EBull;
-        return z ^ (z >> 31);
-    }
-    std::uint32_t bits32() { return static_cast<std::uint32_t>(next() >> 32); }
-    std::uint32_t below(std::uint32_t n) { return static_cast<std::uint32_t>((next() >> 32) * n >> 32); }
-    double uniform() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }  // [0, 1)
-};
 
 template <class T>
-void shuffle(std::vector<T>& v, TestRng& rng) {
+void shuffle(std::vector<T>& v, Pcg32& rng) {
     for (std::size_t i = v.size(); i > 1; --i) std::swap(v[i - 1], v[rng.below(static_cast<std::uint32_t>(i))]);
 }
 
@@ -48,16 +36,16 @@ struct Keyed {
 bool same_bits(float a, float b) { return std::bit_cast<std::uint32_t>(a) == std::bit_cast<std::uint32_t>(b); }
 
 // Key distributions that exercise every radix pass, skipped passes and ties.
-std::vector<Keyed> make_keys(std::size_t n, int kind, TestRng& rng) {
+std::vector<Keyed> make_keys(std::size_t n, int kind, Pcg32& rng) {
     std::vector<Keyed> v(n);
     for (std::size_t i = 0; i < n; ++i) {
         std::uint32_t k = 0;
         switch (kind) {
-            case 0: k = rng.bits32(); break;                     // all four digits vary
+            case 0: k = rng.next_u32(); break;                   // all four digits vary
             case 1: k = rng.below(5) * 0x0101'0101u; break;      // few distinct keys: ties everywhere
             case 2: k = rng.below(256) << 24; break;             // only the top digit varies
             case 3: k = 0xDEAD'BEEFu; break;                     // all equal: every pass skipped
-            case 4: k = 0x3F80'0000u | (rng.bits32() & 0x0000'0FFFu); break;  // only the low 12 bits vary
+            case 4: k = 0x3F80'0000u | (rng.next_u32() & 0x0000'0FFFu); break;  // only the low 12 bits vary
             case 5: k = (rng.below(4) << 30) | rng.below(4); break;  // top and bottom vary: middle passes skipped
         }
         v[i] = {k, static_cast<std::uint32_t>(i)};
@@ -103,7 +91,7 @@ std::vector<SurfaceHit> hits_of(const std::vector<Interval>& intervals) {
 
 // Random chords along one ray. On a grid (multiples of 1/8) endpoints coincide often: touching and
 // nested particles and ties in t. Otherwise endpoints are arbitrary floats.
-std::vector<Interval> random_intervals(TestRng& rng, std::size_t count, bool on_grid) {
+std::vector<Interval> random_intervals(Pcg32& rng, std::size_t count, bool on_grid) {
     std::vector<Interval> v;
     while (v.size() < count) {
         float a, b;
@@ -111,8 +99,8 @@ std::vector<Interval> random_intervals(TestRng& rng, std::size_t count, bool on_
             a = static_cast<float>(static_cast<int>(rng.below(160)) - 16) * 0.125f;  // [-2, 18)
             b = a + static_cast<float>(1 + rng.below(24)) * 0.125f;
         } else {
-            a = static_cast<float>(rng.uniform() * 22.0 - 2.0);
-            b = static_cast<float>(static_cast<double>(a) + 0.01 + rng.uniform() * 3.0);
+            a = static_cast<float>(double(rng.uniform01()) * 22.0 - 2.0);
+            b = static_cast<float>(static_cast<double>(a) + 0.01 + double(rng.uniform01()) * 3.0);
         }
         v.push_back({a, b});
     }
@@ -139,10 +127,10 @@ TEST_CASE("float_sort_key orders floats like operator<", "[resolver]") {
     // -0 and +0 compare equal as floats: adjacent keys, -0 first.
     CHECK(float_sort_key(0.0f) == float_sort_key(-0.0f) + 1);
 
-    TestRng rng{1};
+    Pcg32 rng(1);
     for (int i = 0; i < 200000; ++i) {
-        const float a = std::bit_cast<float>(rng.bits32());
-        const float b = std::bit_cast<float>(rng.bits32());
+        const float a = std::bit_cast<float>(rng.next_u32());
+        const float b = std::bit_cast<float>(rng.next_u32());
         if (std::isnan(a) || std::isnan(b)) continue;
         INFO(a << " vs " << b);
         CHECK((a < b) == (float_sort_key(a) < float_sort_key(b)));
@@ -151,7 +139,7 @@ TEST_CASE("float_sort_key orders floats like operator<", "[resolver]") {
 }
 
 TEST_CASE("radix, rank and insertion sort match std::stable_sort", "[resolver]") {
-    TestRng rng{2};
+    Pcg32 rng(2);
     auto by_key = [](const Keyed& x) { return x.key; };
     for (const std::size_t n : kSortSizes) {
         for (int kind = 0; kind < 6; ++kind) {
@@ -190,7 +178,7 @@ TEST_CASE("radix, rank and insertion sort match std::stable_sort", "[resolver]")
 }
 
 TEST_CASE("radix_sort accepts a scratch buffer longer than the items", "[resolver]") {
-    TestRng rng{3};
+    Pcg32 rng(3);
     std::vector<Keyed> items = make_keys(300, 0, rng), scratch(1000);
     std::vector<Keyed> expected = items;
     std::stable_sort(expected.begin(), expected.end(), [](const Keyed& a, const Keyed& b) { return a.key < b.key; });
@@ -204,7 +192,7 @@ TEST_CASE("sort_by_float_key sorts floats stably on both sides of the threshold"
         std::uint32_t index;
         bool operator==(const Layer&) const = default;
     };
-    TestRng rng{4};
+    Pcg32 rng(4);
     for (const std::size_t n : kSortSizes) {
         for (int kind = 0; kind < 3; ++kind) {
             INFO("n = " << n << ", kind " << kind);
@@ -212,7 +200,7 @@ TEST_CASE("sort_by_float_key sorts floats stably on both sides of the threshold"
             for (std::size_t i = 0; i < n; ++i) {
                 float d = 0.0f;
                 if (kind == 0) {  // any non-NaN float, negatives, denormals and infinities included
-                    do d = std::bit_cast<float>(rng.bits32());
+                    do d = std::bit_cast<float>(rng.next_u32());
                     while (std::isnan(d));
                 } else if (kind == 1) {  // distances along a ray with many ties
                     d = static_cast<float>(rng.below(64)) * 0.25f;
@@ -311,7 +299,7 @@ TEST_CASE("optical_path_length does not depend on the order of equal-t hits", "[
 TEST_CASE("the three HitSort methods give bit-identical lengths equal to the interval union", "[resolver]") {
     // 4000 particles: lists of 0..160 chords (up to ~320 hits, past the thesis's largest cutoff), half on a
     // grid to force ties, a few particles occluded or over the cutoff.
-    TestRng rng{5};
+    Pcg32 rng(5);
     constexpr std::size_t kParticles = 4000;
     HitLists lists;
     std::vector<DepthStatus> status(kParticles, DepthStatus::ok);

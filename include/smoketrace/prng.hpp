@@ -42,6 +42,12 @@ public:
         return static_cast<float>(next_u32() >> 8u) * kTwoToMinus24;
     }
 
+    // An integer in [0, n), n > 0: the 32 bits scaled by n (Lemire's multiply-shift). Bias below n/2^32, and
+    // no loop, so a sequence of draws is the same on every platform; for shuffles and test inputs.
+    constexpr std::uint32_t below(std::uint32_t n) {
+        return static_cast<std::uint32_t>((std::uint64_t{next_u32()} * n) >> 32u);
+    }
+
     // a + (b − a)·u, u = uniform01(). Two correctly rounded float operations (the build disables FMA
     // contraction), hence bit-exact everywhere. Rounding may return b itself, so the range is [a, b].
     constexpr float uniform(float a, float b) { return a + (b - a) * uniform01(); }
