@@ -15,6 +15,7 @@
 // disagreement is ~1e-5 relative at worst (measured: under 7e-6 on every scene here): 1e-4 leaves a margin,
 // and a surface counted twice or missed (the defects these tests are for) changes l by a chord, ~0.1–1, or
 // the hit count by one.
+#include "support/fixtures.hpp"
 #include "support/embree_reference.hpp"
 
 #include <smoketrace/optical_depth_pass.hpp>
@@ -37,6 +38,7 @@
 #include <vector>
 
 using namespace smoketrace;
+using namespace smoketrace::test;
 namespace er = smoketrace::embree_reference;
 
 namespace {
@@ -245,13 +247,6 @@ Tally compare_with_embree(const std::vector<Particle>& ps, StandInShape shape, c
     CHECK(mismatches == 0);
     CHECK(tally.anomalies == 0);  // the reference itself is consistent
     return tally;
-}
-
-Particle particle(glm::vec3 c, float r) {
-    Particle p;
-    p.center = c;
-    p.radius = r;
-    return p;
 }
 
 const StandInShape kIcosahedron{StandInKind::icosahedron, 0};

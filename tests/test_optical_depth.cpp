@@ -5,6 +5,7 @@
 //  * the status rules of optical_depth_pass.hpp (ok / occluded / cutoff) on scenes built so that the number
 //    of surfaces each ray meets is known exactly, for the cutoff at K − 1, K and K + 1;
 //  * particle groups, the three hit sorts, thread-count determinism, the ground, empty inputs.
+#include "support/fixtures.hpp"
 #include "support/sphere_reference.hpp"
 
 #include <smoketrace/optical_depth_pass.hpp>
@@ -40,19 +41,6 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 const StandInShape kSphere{StandInKind::sphere, 0};
 const StandInShape kIcosahedron{StandInKind::icosahedron, 0};
 const StandInShape kIcosphere1{StandInKind::icosphere, 1};
-
-Particle particle(glm::vec3 c, float r) {
-    Particle p;
-    p.center = c;
-    p.radius = r;
-    return p;
-}
-
-std::vector<std::uint32_t> all_of(std::size_t n) {
-    std::vector<std::uint32_t> v(n);
-    std::iota(v.begin(), v.end(), 0u);
-    return v;
-}
 
 // A committed scene for the optical-depth pass (no billboards: the pass never sees them).
 SmokeScene make_scene(const std::vector<Particle>& ps, StandInShape shape,

@@ -1,6 +1,8 @@
 // PNG in and out, and the sRGB transfer function: exact values, round trips, and every failure a user can
 // cause (missing, not a PNG, truncated, corrupt, wrong size, unwritable destination) giving a message that
 // names the file and leaving no output behind.
+#include "support/fixtures.hpp"
+
 #include <catch2/catch.hpp>
 
 #include <smoketrace/image.hpp>
@@ -19,6 +21,7 @@
 #include <unistd.h>
 
 using namespace smoketrace;
+using namespace smoketrace::test;
 namespace fs = std::filesystem;
 
 namespace {
@@ -65,15 +68,6 @@ double srgb_encode(double x) { return x <= 0.0031308 ? 12.92 * x : 1.055 * std::
 // cannot resolve either way; the reference's own pow() error is ~1e-16, so 1e-9 is generous and still
 // excludes no sample of the sweep in practice.
 constexpr double kTieMargin = 1e-9;
-
-std::string message_of(const std::function<void()>& f) {
-    try {
-        f();
-    } catch (const std::exception& e) {
-        return e.what();
-    }
-    return "(no exception)";
-}
 
 }  // namespace
 

@@ -1,9 +1,10 @@
 // Six-way lighting (thesis 4.2.2, 4.3.5): the baker (determinism, physical sanity, the committed assets),
 // the runtime texture (bilinear sampling, tile clamping, loading and its errors), the light-map formula,
 // and the bake-sixway command.
-#include <catch2/catch.hpp>
-
 #include "support/cli_runner.hpp"
+#include "support/fixtures.hpp"
+
+#include <catch2/catch.hpp>
 
 #include <smoketrace/png_io.hpp>
 #include <smoketrace/sixway_baker.hpp>
@@ -27,9 +28,7 @@
 #include <unistd.h>
 
 using namespace smoketrace;
-using smoketrace::test::CliRun;
-using smoketrace::test::run_cli;
-using smoketrace::test::TempDir;
+using namespace smoketrace::test;
 namespace fs = std::filesystem;
 
 namespace {
@@ -39,15 +38,6 @@ namespace {
 constexpr double kSampleTolerance = 1e-6;
 // The light map sums three products of floats <= 1: a few ulps.
 constexpr double kLightMapTolerance = 1e-6;
-
-std::string message_of(const std::function<void()>& f) {
-    try {
-        f();
-    } catch (const std::exception& e) {
-        return e.what();
-    }
-    return "(no exception)";
-}
 
 // Small bakes keep the tests fast; 32 texels still resolve the puff's lobes and its self-shadowing.
 SixwayBakeSettings small_settings() {

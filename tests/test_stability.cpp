@@ -9,10 +9,11 @@
 //    duplicate (a surface reported twice) breaks one of the three.
 // Measured numbers (error growth far from the origin, scale invariance) are printed with WARN, and copied into
 // the README's "Numerical stability" section.
-#include <smoketrace/frame_renderer.hpp>
-#include <smoketrace/hit_resolver.hpp>
+#include "support/fixtures.hpp"
 #include "support/sphere_reference.hpp"
 
+#include <smoketrace/frame_renderer.hpp>
+#include <smoketrace/hit_resolver.hpp>
 #include <smoketrace/optical_depth_pass.hpp>
 #include <smoketrace/prng.hpp>
 #include <smoketrace/scene_file.hpp>
@@ -48,19 +49,6 @@ constexpr double kInfD = std::numeric_limits<double>::infinity();
 const StandInShape kSphere{StandInKind::sphere, 0};
 const StandInShape kIcosahedron{StandInKind::icosahedron, 0};
 StandInShape icosphere(int level) { return {StandInKind::icosphere, level}; }
-
-Particle particle(glm::vec3 c, float r) {
-    Particle p;
-    p.center = c;
-    p.radius = r;
-    return p;
-}
-
-std::vector<std::uint32_t> all_of(std::size_t n) {
-    std::vector<std::uint32_t> v(n);
-    std::iota(v.begin(), v.end(), 0u);
-    return v;
-}
 
 // The optical-depth pass and the resolver, keeping each particle's hits (sorted by t) for the counter checks.
 struct Traced {
