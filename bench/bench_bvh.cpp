@@ -16,6 +16,7 @@
 //   closest_hit_ratio_vs_embree  our rays/s / the fastest Embree configuration's   (target ≥ 0.5)
 //   all_hits_ratio_vs_embree     our rays/s / the fastest Embree configuration's   (target ≥ 1)
 #include "bench_registry.hpp"
+#include "bench_util.hpp"
 #include "timing.hpp"
 
 #include "support/embree_reference.hpp"
@@ -34,7 +35,6 @@
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
-#include <fstream>
 #include <functional>
 #include <iomanip>
 #include <iostream>
@@ -330,19 +330,13 @@ void run_bvh(const BenchOptions& options) {
         }
     }
 
-    // ---- CSV (temp + rename: never a half-written file) ----
-    const std::string path = options.results_dir + "/bvh.csv";
-    {
-        std::ofstream out(path + ".tmp");
-        out << "measure,implementation,threads,triangles,rays,median_ms,min_ms,max_ms,per_second,ours_over_this,work\n";
-        out << std::setprecision(9);
-        for (const Row& r : rows)
-            out << r.measure << ',' << r.implementation << ',' << r.threads << ',' << r.triangles << ',' << r.rays << ','
-                << r.ms.median << ',' << r.ms.min << ',' << r.ms.max << ',' << r.per_second << ',' << r.ours_over_this << ','
-                << r.work << '\n';
-        out << "sah_cost,smoketrace,," << tris << ",," << sah << ",,,,,\n";
-    }
-    std::filesystem::rename(path + ".tmp", path);
+    // ---- CSV (written whole or not at all) ----
+    CsvFile file("measure,implementation,threads,triangles,rays,median_ms,min_ms,max_ms,per_second,ours_over_this,work");
+    for (const Row& r : rows)
+        file.row(r.measure, r.implementation, r.threads, r.triangles, r.rays, r.ms.median, r.ms.min, r.ms.max,
+                 r.per_second, r.ours_over_this, r.work);
+    file.row("sah_cost", "smoketrace", "", tris, "", sah, "", "", "", "", "");
+    file.write(std::filesystem::path(options.results_dir) / "bvh.csv");
 
     report("bvh_triangles", double(tris));
     report("bvh_sah_cost", sah);

@@ -19,6 +19,7 @@
 // same job. Times are medians over interleaved rounds; builds are timed separately (table B.1's "build AS"
 // column) except in od_100k_ms.
 #include "bench_registry.hpp"
+#include "bench_util.hpp"
 #include "support/embree_reference.hpp"
 #include "timing.hpp"
 
@@ -39,7 +40,6 @@
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
-#include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <limits>
@@ -555,16 +555,10 @@ void run_optical_depth(const BenchOptions& options) {
     std::cout.flags(cout_flags);
     std::cout.precision(cout_precision);
 
-    const std::string path = options.results_dir + "/optical_depth.csv";
-    {
-        std::ofstream out(path + ".tmp");
-        out << "particles,tracer,stand_in,threads,build_ms,pass_ms,resolve_ms,total_ms,ratio_vs_embree\n";
-        for (const CsvRow& r : csv) {
-            out << r.particles << ',' << r.tracer << ',' << r.stand_in << ',' << r.threads << ',' << r.t.build << ','
-                << r.t.pass << ',' << r.t.resolve << ',' << r.t.total << ',' << r.ratio_vs_embree << '\n';
-        }
-    }
-    std::filesystem::rename(path + ".tmp", path);
+    CsvFile file("particles,tracer,stand_in,threads,build_ms,pass_ms,resolve_ms,total_ms,ratio_vs_embree");
+    for (const CsvRow& r : csv)
+        file.row(r.particles, r.tracer, r.stand_in, r.threads, r.t.build, r.t.pass, r.t.resolve, r.t.total, r.ratio_vs_embree);
+    file.write(std::filesystem::path(options.results_dir) / "optical_depth.csv");
 
     report("od_pass_ratio_vs_embree", report_ratio);
     report("od_sphere_speedup_vs_embree_icosahedron", report_speedup);

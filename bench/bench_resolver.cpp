@@ -3,6 +3,7 @@
 // resolver's design choices: segmented vs per-particle sorting (hit_resolver.cpp), the rank/radix
 // crossover kRadixSortMinItems and the digit width rule kRadixBucketsPerItem (radix_sort.hpp).
 #include "bench_registry.hpp"
+#include "bench_util.hpp"
 #include "timing.hpp"
 
 #include <smoketrace/prng.hpp>
@@ -18,7 +19,6 @@
 #include <ctime>
 #include <cstdint>
 #include <filesystem>
-#include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <string>
@@ -309,16 +309,9 @@ void run_resolver(const BenchOptions& options) {
     std::cout << "  the radix sort first beats the rank sort at " << radix_first_wins
               << " items (kRadixSortMinItems = " << kRadixSortMinItems << ")\n";
 
-    const std::string path = options.results_dir + "/resolver.csv";
-    {
-        std::ofstream out(path + ".tmp");
-        out << "table,method,items_per_list,threads,median_ms,ns_per_item\n";
-        for (const CsvRow& r : csv) {
-            out << r.table << ',' << r.method << ',' << r.size << ',' << r.threads << ',' << r.median_ms << ','
-                << r.ns_per_item << '\n';
-        }
-    }
-    std::filesystem::rename(path + ".tmp", path);
+    CsvFile file("table,method,items_per_list,threads,median_ms,ns_per_item");
+    for (const CsvRow& r : csv) file.row(r.table, r.method, r.size, r.threads, r.median_ms, r.ns_per_item);
+    file.write(std::filesystem::path(options.results_dir) / "resolver.csv");
 
     // Single-threaded figures: per-hit cost is a property of the sort, not of the core count.
     report("resolver_ns_per_hit_cutoff20", radix_ns[0]);

@@ -9,6 +9,7 @@
 // collected by an any-hit that ignores it, so each ray walks everything it crosses. Traced on one thread
 // so that timings and counters are not shared-machine scheduling noise; medians over interleaved rounds.
 #include "bench_registry.hpp"
+#include "bench_util.hpp"
 #include "timing.hpp"
 
 #include <smoketrace/prng.hpp>
@@ -22,7 +23,6 @@
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
-#include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <limits>
@@ -131,24 +131,14 @@ std::vector<TraceCost> measure(const std::vector<const Scene*>& scenes, const st
     return cost;
 }
 
-// CSV rows, written at the end through a temporary file and a rename (never a half-written file).
+// This section's CSV: one measurement per row (bench_util.hpp writes it whole or not at all).
 struct Csv {
-    std::ostringstream rows;
-    Csv() { rows << "experiment,instances,variant,metric,value\n"; }
+    CsvFile file{"experiment,instances,variant,metric,value"};
     void add(const std::string& experiment, long instances, const std::string& variant, const std::string& metric,
              double value) {
-        rows << experiment << ',' << instances << ',' << variant << ',' << metric << ',' << std::setprecision(9)
-             << value << '\n';
+        file.row(experiment, instances, variant, metric, value);
     }
-    void write(const std::string& path) const {
-        const std::string tmp = path + ".tmp";
-        {
-            std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-            out << rows.str();
-            if (!out) throw std::runtime_error("bench tlas: cannot write " + tmp);
-        }
-        std::filesystem::rename(tmp, path);
-    }
+    void write(const std::string& path) const { file.write(path); }
 };
 
 // 1. Build vs refit.
