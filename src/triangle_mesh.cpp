@@ -39,6 +39,16 @@ MeshBlas::MeshBlas(const TriangleMesh& mesh, const BvhBuildSettings& settings) :
         triangles_[k] = {mesh.vertices[t.x], mesh.vertices[t.y], mesh.vertices[t.z]};
         bvh_.prim_indices[k] = id;  // leaf slot k now names the input triangle directly
     }
+    // Planes padded to whole blocks plus one, so that a block read starting at any triangle stays inside
+    // (the padding is zeros: lanes past a leaf's end are masked off, never used).
+    const std::size_t n = triangles_.size();
+    plane_stride_ = (n + 2 * kTriangleBlockLanes - 1) / kTriangleBlockLanes * kTriangleBlockLanes;
+    planes_.assign(9 * plane_stride_, 0.0f);
+    for (std::size_t k = 0; k < n; ++k) {
+        const glm::vec3* v = &triangles_[k].v0;
+        for (int j = 0; j < 3; ++j)
+            for (int a = 0; a < 3; ++a) planes_[std::size_t(3 * j + a) * plane_stride_ + k] = (&v[j].x)[a];
+    }
 }
 
 }  // namespace smoketrace

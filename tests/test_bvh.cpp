@@ -379,6 +379,10 @@ TEST_CASE("MeshBlas: leaf triangles are the input triangles, degenerate ones lef
         REQUIRE(blas.leaf_triangles()[k].v0 == m.vertices[t.x]);
         REQUIRE(blas.leaf_triangles()[k].v1 == m.vertices[t.y]);
         REQUIRE(blas.leaf_triangles()[k].v2 == m.vertices[t.z]);
+        // The plane form holds the same vertices (ray_triangle_block.hpp).
+        const glm::vec3* v = &blas.leaf_triangles()[k].v0;
+        for (int j = 0; j < 3; ++j)
+            for (int a = 0; a < 3; ++a) REQUIRE(*blas.leaf_planes().at(j, a, k) == v[j][a]);
     }
     // The tree's leaf ranges cover exactly the kept triangles.
     std::vector<Aabb> leaf_order_boxes;
@@ -391,7 +395,7 @@ TEST_CASE("MeshBlas: leaf triangles are the input triangles, degenerate ones lef
     }
     Bvh identity = blas.bvh();
     for (std::uint32_t k = 0; k < identity.prim_indices.size(); ++k) identity.prim_indices[k] = k;
-    check_structure(identity, leaf_order_boxes, 4);
+    check_structure(identity, leaf_order_boxes, kMeshBuildSettings.max_leaf_size);
 
     TriangleMesh bad = m;
     bad.triangles[5].y = std::uint32_t(bad.vertices.size());

@@ -11,6 +11,8 @@
 #include <smoketrace/sphere_set.hpp>
 #include <smoketrace/triangle_mesh.hpp>
 
+#include <algorithm>
+#include <bit>
 #include <cstdint>
 #include <type_traits>
 
@@ -49,16 +51,26 @@ struct SphereRay {
 };
 
 // Runs `on_hit(const BlasHit&)` for every triangle of the leaf slots [first, first + count) that the ray
-// hits in [tmin, tmax]. on_hit returns true to end the search (it may also lower tmax).
+// hits in [tmin, tmax], in slot order. on_hit returns true to end the search (it may also lower tmax).
+// Eight triangles at a time are sheared and tested for straddling (ray_triangle_block.hpp); the few that
+// remain are finished one by one against the tmax of that moment, exactly as the scalar test would.
 template <class OnHit>
 inline bool mesh_leaf_hits(const MeshBlas& blas, const BlasRay& r, const float& tmax, std::uint32_t first,
                            std::uint32_t count, TraversalStats& stats, OnHit&& on_hit) {
     const MeshBlas::Triangle* tris = blas.leaf_triangles().data();
-    for (std::uint32_t k = first; k < first + count; ++k) {
-        ++stats.primitives_tested;
-        TriangleHit th;
-        if (!intersect_triangle(r.tri, tris[k].v0, tris[k].v1, tris[k].v2, tmax, th)) continue;
-        if (on_hit(BlasHit{th.t, th.barycentrics, blas.primitive_id(k), th.front_face})) return true;
+    const TrianglePlanes planes = blas.leaf_planes();
+    stats.primitives_tested += count;
+    for (std::uint32_t k = first, end = first + count; k < end; k += kTriangleBlockLanes) {
+        ShearedBlock block;
+        unsigned keep = shear_block(r.tri, planes, k, std::min(kTriangleBlockLanes, end - k), block);
+        while (keep != 0) {
+            const unsigned i = unsigned(std::countr_zero(keep));
+            keep &= keep - 1;
+            const MeshBlas::Triangle& t = tris[k + i];
+            TriangleHit th;
+            if (!finish_triangle_hit(r.tri, block.lane(i), t.v0, t.v1, t.v2, tmax, th)) continue;
+            if (on_hit(BlasHit{th.t, th.barycentrics, blas.primitive_id(k + i), th.front_face})) return true;
+        }
     }
     return false;
 }

@@ -73,37 +73,57 @@ inline bool owns_edge(float px, float py, float qx, float qy, bool ccw) {
 }
 }  // namespace detail
 
-// Returns true and fills `hit` when the ray meets the triangle at t in [tmin, tmax].
-// Degenerate triangles (repeated or collinear vertices) and triangles seen edge-on never hit.
+// The triangle as the sheared ray sees it: its vertices' 2D positions (the ray is the +z axis) and the
+// three edge functions, each twice the signed area the ray's point makes with one edge.
+struct ShearedTriangle {
+    float ax, ay, bx, by, cx, cy;
+    double u;  // edge v1 → v2, weight of v0
+    double v;  // edge v2 → v0, weight of v1
+    double w;  // edge v0 → v1, weight of v2
+};
+
 // The edge functions are evaluated in double: a product of two floats is exact there, so each sign is
-// the exact sign for the sheared vertex positions and no FMA contraction can break the symmetry.
-inline bool intersect_triangle(const TriangleRay& r, const glm::vec3& v0, const glm::vec3& v1,
-                               const glm::vec3& v2, float tmax, TriangleHit& hit) {
+// the exact sign for the sheared vertex positions and no FMA contraction can break the symmetry. The
+// 8-wide kernel (ray_triangle_block.hpp) performs exactly these operations lane by lane.
+inline ShearedTriangle shear_triangle(const TriangleRay& r, const glm::vec3& v0, const glm::vec3& v1,
+                                      const glm::vec3& v2) {
     // Components picked by a runtime index through a pointer: glm's operator[] is a switch per access.
     const glm::vec3 a = v0 - r.origin;
     const glm::vec3 b = v1 - r.origin;
     const glm::vec3 c = v2 - r.origin;
     static_assert(sizeof(glm::vec3) == 3 * sizeof(float));
     const float *pa = &a.x, *pb = &b.x, *pc = &c.x;
-    const float ax = pa[r.kx] - r.sx * pa[r.kz], ay = pa[r.ky] - r.sy * pa[r.kz];
-    const float bx = pb[r.kx] - r.sx * pb[r.kz], by = pb[r.ky] - r.sy * pb[r.kz];
-    const float cx = pc[r.kx] - r.sx * pc[r.kz], cy = pc[r.ky] - r.sy * pc[r.kz];
+    ShearedTriangle s;
+    s.ax = pa[r.kx] - r.sx * pa[r.kz];
+    s.ay = pa[r.ky] - r.sy * pa[r.kz];
+    s.bx = pb[r.kx] - r.sx * pb[r.kz];
+    s.by = pb[r.ky] - r.sy * pb[r.kz];
+    s.cx = pc[r.kx] - r.sx * pc[r.kz];
+    s.cy = pc[r.ky] - r.sy * pc[r.kz];
+    s.u = double(s.cx) * double(s.by) - double(s.cy) * double(s.bx);
+    s.v = double(s.ax) * double(s.cy) - double(s.ay) * double(s.cx);
+    s.w = double(s.bx) * double(s.ay) - double(s.by) * double(s.ax);
+    return s;
+}
 
-    const double u = double(cx) * double(by) - double(cy) * double(bx);  // edge v1 → v2, weight of v0
-    const double v = double(ax) * double(cy) - double(ay) * double(cx);  // edge v2 → v0, weight of v1
-    const double w = double(bx) * double(ay) - double(by) * double(ax);  // edge v0 → v1, weight of v2
+// Mixed strict signs of the edge functions: the ray passes outside the triangle. Bitwise, not
+// short-circuit: one branch instead of up to six poorly predicted ones.
+inline bool straddles(const ShearedTriangle& s) {
+    const bool any_negative = (s.u < 0.0) | (s.v < 0.0) | (s.w < 0.0);
+    const bool any_positive = (s.u > 0.0) | (s.v > 0.0) | (s.w > 0.0);
+    return any_negative & any_positive;
+}
 
-    // Quick rejection: mixed strict signs mean the ray passes outside. Bitwise, not short-circuit: one
-    // branch instead of up to six poorly predicted ones.
-    const bool any_negative = (u < 0.0) | (v < 0.0) | (w < 0.0);
-    const bool any_positive = (u > 0.0) | (v > 0.0) | (w > 0.0);
-    if (any_negative & any_positive) return false;
-    const double det = u + v + w;
+// The rest of the test for a triangle that does not straddle: degeneracy, the tie-break on edges and
+// vertices, and the distance. Returns true and fills `hit` when t lies in [tmin, tmax].
+inline bool finish_triangle_hit(const TriangleRay& r, const ShearedTriangle& s, const glm::vec3& v0,
+                                const glm::vec3& v1, const glm::vec3& v2, float tmax, TriangleHit& hit) {
+    const double det = s.u + s.v + s.w;
     if (det == 0.0) return false;
     const bool ccw = det > 0.0;
-    if (u == 0.0 && !detail::owns_edge(bx, by, cx, cy, ccw)) return false;
-    if (v == 0.0 && !detail::owns_edge(cx, cy, ax, ay, ccw)) return false;
-    if (w == 0.0 && !detail::owns_edge(ax, ay, bx, by, ccw)) return false;
+    if (s.u == 0.0 && !detail::owns_edge(s.bx, s.by, s.cx, s.cy, ccw)) return false;
+    if (s.v == 0.0 && !detail::owns_edge(s.cx, s.cy, s.ax, s.ay, ccw)) return false;
+    if (s.w == 0.0 && !detail::owns_edge(s.ax, s.ay, s.bx, s.by, ccw)) return false;
 
     // The distance comes from the plane, in double, and not from the edge-weighted sum of the sheared
     // vertex depths: that sum carries an error proportional to the vertices' distance from the origin,
@@ -119,11 +139,20 @@ inline bool intersect_triangle(const TriangleRay& r, const glm::vec3& v0, const 
     if (!(t >= double(r.tmin) && t <= double(tmax))) return false;  // also rejects NaN
     hit.t = static_cast<float>(t);
     if (!(hit.t >= r.tmin && hit.t <= tmax)) return false;  // rounding to float must stay in range
-    hit.barycentrics = glm::vec2(float(v / det), float(w / det));
+    hit.barycentrics = glm::vec2(float(s.v / det), float(s.w / det));
     // The shear keeps the winding as seen from the origin looking along the ray, so a positive
     // determinant means the vertices run counter-clockwise for the viewer: the front face.
     hit.front_face = ccw;
     return true;
+}
+
+// Returns true and fills `hit` when the ray meets the triangle at t in [tmin, tmax].
+// Degenerate triangles (repeated or collinear vertices) and triangles seen edge-on never hit.
+inline bool intersect_triangle(const TriangleRay& r, const glm::vec3& v0, const glm::vec3& v1,
+                               const glm::vec3& v2, float tmax, TriangleHit& hit) {
+    const ShearedTriangle s = shear_triangle(r, v0, v1, v2);
+    if (straddles(s)) return false;
+    return finish_triangle_hit(r, s, v0, v1, v2, tmax, hit);
 }
 
 }  // namespace smoketrace
