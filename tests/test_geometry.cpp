@@ -559,8 +559,9 @@ TEST_CASE("Watertight triangle: the 8-wide block kernel computes the scalar test
           "[geometry]") {
     // Triangles sharing vertices on a dyadic grid (so rays pass exactly through vertices and edges), a few
     // degenerate ones, and some at large and tiny scales; rays of every dominant axis and sign, with zero
-    // direction components. Every block start and length is tried: a mismatch in one sheared value or
-    // edge function would break the shared-edge guarantee between the two kernels.
+    // direction components. Random block starts and lengths: a mismatch in one sheared value, edge
+    // function or straddle decision (the block kernel decides most in float, see its header) would break
+    // the shared-edge guarantee between the two kernels.
     Pcg32 rng(21);
     auto grid = [&] { return float(int(rng.below(9)) - 4) / 4.0f; };
     std::vector<Tri> tris;
@@ -580,15 +581,27 @@ TEST_CASE("Watertight triangle: the 8-wide block kernel computes the scalar test
             for (int a = 0; a < 3; ++a) planes[std::size_t(3 * j + a) * stride + k] = tris[k][j][a];
     const TrianglePlanes view{planes.data(), stride};
 
-    long lanes_checked = 0, kept = 0;
-    for (int i = 0; i < 3000; ++i) {
+    long lanes_checked = 0, kept = 0, on_edge = 0, near_edge = 0;
+    for (int i = 0; i < 20000; ++i) {
         Ray r;
-        r.origin = glm::vec3(grid(), grid(), grid()) * 2.0f;
+        std::uint32_t first = rng.below(std::uint32_t(n));
         r.direction = i % 3 == 0 ? glm::vec3(grid(), grid(), grid())  // dyadic, often with zero components
                                  : glm::vec3(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
         if (r.direction == glm::vec3(0.0f)) continue;
+        if (i % 2 == 0) {
+            r.origin = glm::vec3(grid(), grid(), grid()) * 2.0f;
+        } else {
+            // From a grid point exactly through a point of an edge of the block's first triangle (small
+            // dyadic numbers: exact): the shear's rounding leaves the edge function a few ulps from 0,
+            // where a float edge function can have the wrong sign.
+            const Tri& t = tris[first];
+            const int e = int(rng.below(3));
+            const glm::vec3 target = t[e] + (float(rng.below(9)) / 8.0f) * (t[(e + 1) % 3] - t[e]);
+            r.origin = glm::vec3(grid(), grid(), grid()) * 2.0f;
+            r.direction = target - r.origin;
+            if (r.direction == glm::vec3(0.0f)) continue;
+        }
         const TriangleRay tr(r);
-        const std::uint32_t first = rng.below(std::uint32_t(n));
         const unsigned lanes = std::min<unsigned>(1 + rng.below(kTriangleBlockLanes), unsigned(n - first));
         ShearedBlock block;
         const unsigned keep = shear_block(tr, view, first, lanes, block);
@@ -604,17 +617,25 @@ TEST_CASE("Watertight triangle: the 8-wide block kernel computes the scalar test
             REQUIRE(std::bit_cast<std::uint32_t>(got.by) == std::bit_cast<std::uint32_t>(want.by));
             REQUIRE(std::bit_cast<std::uint32_t>(got.cx) == std::bit_cast<std::uint32_t>(want.cx));
             REQUIRE(std::bit_cast<std::uint32_t>(got.cy) == std::bit_cast<std::uint32_t>(want.cy));
+            REQUIRE(bool(keep >> l & 1u) == !straddles(want));
+            ++lanes_checked;
+            // Within a few float roundings of an edge, where the float products can round together.
+            const double scale = std::abs(double(want.ax)) + std::abs(double(want.ay)) + std::abs(double(want.bx)) +
+                                 std::abs(double(want.by)) + std::abs(double(want.cx)) + std::abs(double(want.cy));
+            near_edge += std::min({std::abs(want.u), std::abs(want.v), std::abs(want.w)}) < 1e-6 * scale * scale;
+            if (!(keep >> l & 1u)) continue;
+            ++kept;
+            on_edge += want.u == 0.0 || want.v == 0.0 || want.w == 0.0;
             REQUIRE(std::bit_cast<std::uint64_t>(got.u) == std::bit_cast<std::uint64_t>(want.u));
             REQUIRE(std::bit_cast<std::uint64_t>(got.v) == std::bit_cast<std::uint64_t>(want.v));
             REQUIRE(std::bit_cast<std::uint64_t>(got.w) == std::bit_cast<std::uint64_t>(want.w));
-            REQUIRE(bool(keep >> l & 1u) == !straddles(want));
-            ++lanes_checked;
-            kept += keep >> l & 1u;
         }
     }
     CHECK(lanes_checked > 5000);
     CHECK(kept > 100);  // both outcomes occur
     CHECK(kept < lanes_checked - 100);
+    CHECK(on_edge > 100);  // rays exactly through edges and vertices: the float signs are uncertain there
+    CHECK(near_edge > 1000);
 }
 
 TEST_CASE("Watertight triangle: degenerate triangles never hit and never produce NaN", "[geometry]") {

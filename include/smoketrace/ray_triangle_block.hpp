@@ -26,7 +26,8 @@ namespace smoketrace {
 
 inline constexpr std::uint32_t kTriangleBlockLanes = 8;
 
-// One block's sheared vertices and edge functions, lane i for triangle first + i.
+// One block's sheared vertices, lane i for triangle first + i, and the edge functions of the lanes
+// shear_block() keeps.
 struct ShearedBlock {
     alignas(32) float ax[8], ay[8], bx[8], by[8], cx[8], cy[8];
     alignas(32) double u[8], v[8], w[8];
@@ -54,15 +55,12 @@ namespace detail {
 inline __m256d low_pd(__m256 x) { return _mm256_cvtps_pd(_mm256_castps256_ps128(x)); }
 inline __m256d high_pd(__m256 x) { return _mm256_cvtps_pd(_mm256_extractf128_ps(x, 1)); }
 
-// Four lanes' edge functions and their straddle test: bit i set when lane i does not straddle.
-inline unsigned edge_functions(__m256d ax, __m256d ay, __m256d bx, __m256d by, __m256d cx, __m256d cy, double* u_out,
-                               double* v_out, double* w_out) {
+// Four lanes' exact straddle test, the edge functions in double as in shear_triangle(): bit i set when
+// lane i does not straddle.
+inline unsigned exact_keep4(__m256d ax, __m256d ay, __m256d bx, __m256d by, __m256d cx, __m256d cy) {
     const __m256d u = _mm256_sub_pd(_mm256_mul_pd(cx, by), _mm256_mul_pd(cy, bx));
     const __m256d v = _mm256_sub_pd(_mm256_mul_pd(ax, cy), _mm256_mul_pd(ay, cx));
     const __m256d w = _mm256_sub_pd(_mm256_mul_pd(bx, ay), _mm256_mul_pd(by, ax));
-    _mm256_store_pd(u_out, u);
-    _mm256_store_pd(v_out, v);
-    _mm256_store_pd(w_out, w);
     const __m256d zero = _mm256_setzero_pd();
     const __m256d negative = _mm256_or_pd(_mm256_or_pd(_mm256_cmp_pd(u, zero, _CMP_LT_OQ), _mm256_cmp_pd(v, zero, _CMP_LT_OQ)),
                                           _mm256_cmp_pd(w, zero, _CMP_LT_OQ));
@@ -70,12 +68,26 @@ inline unsigned edge_functions(__m256d ax, __m256d ay, __m256d bx, __m256d by, _
                                           _mm256_cmp_pd(w, zero, _CMP_GT_OQ));
     return ~unsigned(_mm256_movemask_pd(_mm256_and_pd(negative, positive))) & 0xFu;
 }
+
+// An edge function p·q − r·s in float, and whether its sign is the exact one. Rounding is monotonic,
+// so p·q > r·s implies fl(p·q) ≥ fl(r·s), and a difference of two floats rounds with its exact sign:
+// a nonzero result has the sign of the exact value. Zero (the two products rounded together) or NaN
+// (overflow) says nothing, and the double computation decides.
+inline __m256 float_edge(__m256 p, __m256 q, __m256 r, __m256 s, __m256& certain) {
+    const __m256 e = _mm256_sub_ps(_mm256_mul_ps(p, q), _mm256_mul_ps(r, s));
+    certain = _mm256_cmp_ps(e, _mm256_setzero_ps(), _CMP_NEQ_OQ);
+    return e;
+}
 }  // namespace detail
 #endif
 
-// Shears triangles [first, first + lanes) (lanes ≤ 8) and forms their edge functions into `out`; returns
-// the mask of those that do not straddle the ray (bit i: triangle first + i), which are exactly the
-// triangles for which straddles(shear_triangle(...)) is false.
+// Shears triangles [first, first + lanes) (lanes ≤ 8) into `out`; returns the mask of those that do not
+// straddle the ray (bit i: triangle first + i), exactly the triangles for which
+// straddles(shear_triangle(...)) is false, and for those lanes (only) also the exact edge functions.
+//
+// The straddle decision is made from float edge functions wherever their signs are certain, which is
+// everywhere but on an edge (see float_edge). Only a block with a lane whose float edge function is 0
+// forms the edge functions in double, with the scalar test's operations, to decide it exactly.
 inline unsigned shear_block(const TriangleRay& r, const TrianglePlanes& tris, std::uint32_t first, unsigned lanes,
                             ShearedBlock& out) {
     const unsigned valid = (1u << lanes) - 1u;
@@ -98,13 +110,36 @@ inline unsigned shear_block(const TriangleRay& r, const TrianglePlanes& tris, st
     _mm256_store_ps(out.by, py[1]);
     _mm256_store_ps(out.cx, px[2]);
     _mm256_store_ps(out.cy, py[2]);
-    using detail::high_pd;
-    using detail::low_pd;
-    const unsigned lo = detail::edge_functions(low_pd(px[0]), low_pd(py[0]), low_pd(px[1]), low_pd(py[1]),
-                                               low_pd(px[2]), low_pd(py[2]), out.u, out.v, out.w);
-    const unsigned hi = detail::edge_functions(high_pd(px[0]), high_pd(py[0]), high_pd(px[1]), high_pd(py[1]),
-                                               high_pd(px[2]), high_pd(py[2]), out.u + 4, out.v + 4, out.w + 4);
-    return (lo | hi << 4) & valid;
+
+    __m256 cu, cv, cw;
+    const __m256 u = detail::float_edge(px[2], py[1], py[2], px[1], cu);
+    const __m256 v = detail::float_edge(px[0], py[2], py[0], px[2], cv);
+    const __m256 w = detail::float_edge(px[1], py[0], py[1], px[0], cw);
+    const __m256 zero = _mm256_setzero_ps();
+    const __m256 negative = _mm256_or_ps(_mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_LT_OQ), _mm256_cmp_ps(v, zero, _CMP_LT_OQ)),
+                                         _mm256_cmp_ps(w, zero, _CMP_LT_OQ));
+    const __m256 positive = _mm256_or_ps(_mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_GT_OQ), _mm256_cmp_ps(v, zero, _CMP_GT_OQ)),
+                                         _mm256_cmp_ps(w, zero, _CMP_GT_OQ));
+    const unsigned certain = unsigned(_mm256_movemask_ps(_mm256_and_ps(_mm256_and_ps(cu, cv), cw)));
+    const unsigned straddling = unsigned(_mm256_movemask_ps(_mm256_and_ps(negative, positive)));
+    unsigned keep = certain & ~straddling & valid;
+    if (const unsigned uncertain = ~certain & valid; uncertain != 0) {
+        using detail::high_pd;
+        using detail::low_pd;
+        const unsigned exact = detail::exact_keep4(low_pd(px[0]), low_pd(py[0]), low_pd(px[1]), low_pd(py[1]),
+                                                   low_pd(px[2]), low_pd(py[2])) |
+                               detail::exact_keep4(high_pd(px[0]), high_pd(py[0]), high_pd(px[1]), high_pd(py[1]),
+                                                   high_pd(px[2]), high_pd(py[2])) << 4;
+        keep |= exact & uncertain;
+    }
+    // The survivors' exact edge functions, with shear_triangle()'s expressions on the same floats.
+    for (unsigned m = keep; m != 0; m &= m - 1) {
+        const unsigned i = unsigned(__builtin_ctz(m));
+        out.u[i] = double(out.cx[i]) * double(out.by[i]) - double(out.cy[i]) * double(out.bx[i]);
+        out.v[i] = double(out.ax[i]) * double(out.cy[i]) - double(out.ay[i]) * double(out.cx[i]);
+        out.w[i] = double(out.bx[i]) * double(out.ay[i]) - double(out.by[i]) * double(out.ax[i]);
+    }
+    return keep;
 #else
     unsigned keep = 0;
     for (unsigned i = 0; i < lanes; ++i) {
