@@ -2,6 +2,7 @@
 #include <smoketrace/bvh_builder.hpp>
 #include <smoketrace/scene.hpp>
 
+#include <glm/geometric.hpp>
 #include <glm/matrix.hpp>
 #include <cmath>
 #include <limits>
@@ -75,12 +76,54 @@ void Scene::set_mask(std::uint32_t index, std::uint8_t mask) {
     transforms_dirty_ = true;  // node masks are refreshed by the refit sweep
 }
 
+namespace {
+
+// Relative tolerance of the similarity test. The sphere the fast path then tests differs from the true
+// image of the BLAS sphere (an ellipsoid, strictly) by at most ~1e-12 of its radius, far below the float
+// resolution of t (6e-8); and the tolerance is far above the rounding of a rotation built in double.
+constexpr double kSimilarityTolerance = 1e-12;
+
+// Whether m is a uniform scale times an orthogonal matrix (rotation, possibly mirrored): columns of equal
+// length and pairwise orthogonal, to kSimilarityTolerance. Then m maps a sphere of radius r to a sphere
+// of radius scale·r, scale the length of the first column (exactly |s| for m = s·I: √(s²) rounds to |s|).
+bool is_similarity(const glm::dmat3& m, double& scale) {
+    const double n0 = glm::dot(m[0], m[0]), n1 = glm::dot(m[1], m[1]), n2 = glm::dot(m[2], m[2]);
+    if (!(n0 > 0.0) || !std::isfinite(n0)) return false;
+    const double tol = kSimilarityTolerance * n0;
+    if (!(std::fabs(n1 - n0) <= tol && std::fabs(n2 - n0) <= tol)) return false;
+    if (!(std::fabs(glm::dot(m[0], m[1])) <= tol && std::fabs(glm::dot(m[0], m[2])) <= tol &&
+          std::fabs(glm::dot(m[1], m[2])) <= tol))
+        return false;
+    scale = std::sqrt(n0);
+    return true;
+}
+
+}  // namespace
+
 // World box: the 8 transformed corners of the object box, in double, rounded outward to float.
 void Scene::update_instance(std::uint32_t i) {
     const Instance& in = instances_[i];
     const BottomLevel& b = *blases_[in.blas];
     const AffineTransform inv = in.object_to_world.inverse();
-    records_[i] = InstanceRecord{inv.linear, in.object_to_world.translation, &b, in.user_id, in.mask, in.flags};
+    InstanceRecord& r = records_[i];
+    r = InstanceRecord{};
+    r.mask = in.mask;
+    r.flags = in.flags;
+    // Rule 2's instance part: FORCE_NON_OPAQUE over FORCE_OPAQUE over the geometry's opacity.
+    r.opaque = !(in.flags & instance_flag_force_non_opaque) && ((in.flags & instance_flag_force_opaque) || b.opaque);
+    r.user_id = in.user_id;
+    r.blas = &b;
+    r.object_to_world_translation = in.object_to_world.translation;
+    r.world_to_object_linear = inv.linear;
+    // The world-sphere fast path of trace() (see InstanceRecord); anything else takes the general path.
+    double scale = 0.0;
+    if (b.kind == GeometryKind::spheres && b.spheres.leaf_spheres().size() == 1 &&
+        is_similarity(in.object_to_world.linear, scale)) {
+        const Sphere& sp = b.spheres.leaf_spheres()[0];
+        r.world_sphere = true;
+        r.sphere_offset = in.object_to_world.linear * glm::dvec3(sp.center);
+        r.sphere_radius = scale * double(sp.radius);
+    }
     const Aabb ob = b.bounds();
     Aabb wb;
     if (!ob.empty()) {

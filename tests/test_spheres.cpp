@@ -393,3 +393,324 @@ TEST_CASE("spheres: a sphere set against the analytic answer, rays from inside a
     CHECK(checked >= 300 * 600 * 99 / 100);
     CHECK(found > 300);
 }
+
+// ---------------------------------------------------------------------------------------------------
+// The world-sphere fast path (InstanceRecord::world_sphere: one sphere, similarity transform) against
+// the general object-space path, and non-similarity transforms (ellipsoids), which must take the latter.
+//
+// Tolerance. Both paths solve in double from the same float ray, with inputs that differ by double
+// rounding (the fast path rounds L·c and s·r, the general path L⁻¹(o − T) and L⁻¹d): a perturbation of
+// the centre's distance from the ray line of at most a few 2⁻⁵³ of the sizes involved, bounded here by
+// δ = 2⁻⁴⁰·(|o − T| + |L·c| + |t_c|·|d| + R), t_c the parameter of closest approach. A root then moves
+// by at most (R/h)·δ/|d| (h the half chord), and both are rounded to float (≤ 2⁻²³·|t| apart after
+// that), so tol(t) = 2⁻²²·|t| + 4·(R/h)·δ/|d|. Within δ of tangency either path may hit or miss (not
+// checked), as may a root within tol of tmin or tmax.
+
+namespace {
+
+struct Ld3 {
+    long double x = 0, y = 0, z = 0;
+};
+Ld3 ld(const glm::dvec3& v) { return {v.x, v.y, v.z}; }
+Ld3 operator+(Ld3 a, Ld3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+Ld3 operator-(Ld3 a, Ld3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+Ld3 operator*(long double s, Ld3 a) { return {s * a.x, s * a.y, s * a.z}; }
+long double dot(Ld3 a, Ld3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+long double len(Ld3 a) { return std::sqrt(dot(a, a)); }
+
+// One sphere against a ray, both given in long double: roots, half chord, closest approach.
+struct LdRoots {
+    bool crosses = false;  // perp < radius
+    long double perp = 0, h = 0, t_closest = 0, t_enter = 0, t_exit = 0;
+};
+LdRoots ld_roots(Ld3 o, Ld3 d, Ld3 centre, long double radius) {
+    LdRoots r;
+    const Ld3 f = o - centre;
+    const long double a = dot(d, d), b = dot(f, d);
+    r.t_closest = -b / a;
+    r.perp = len(f - (b / a) * d);
+    if (!(r.perp < radius)) return r;
+    r.crosses = true;
+    const long double h2 = (radius - r.perp) * (radius + r.perp);
+    r.h = std::sqrt(h2);
+    const long double q = -(b + std::copysign(std::sqrt(a * h2), b));
+    const long double c = (r.perp - radius) * (r.perp + radius) + b * b / a;
+    r.t_enter = std::min(c / q, q / a);
+    r.t_exit = std::max(c / q, q / a);
+    return r;
+}
+
+// A rotation from Gram–Schmidt on two random vectors, in double; `mirror` flips the third axis.
+glm::dmat3 random_rotation(Pcg32& rng, bool mirror) {
+    glm::dvec3 a, b;
+    do a = glm::dvec3(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1)); while (glm::length(a) < 0.1);
+    do b = glm::dvec3(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1)); while (glm::length(glm::cross(a, b)) < 0.1);
+    const glm::dvec3 x = glm::normalize(a), y = glm::normalize(b - glm::dot(b, x) * x);
+    return glm::dmat3(x, y, mirror ? -glm::cross(x, y) : glm::cross(x, y));
+}
+
+// All hits (force non-opaque, any-hit ignores) with the counters.
+struct Listing {
+    std::vector<TraceHit> hits;
+    TraceCounters counters;
+};
+Listing listing(const Scene& s, const Ray& r) {
+    Listing l;
+    l.counters = trace(s, r, ray_flag_force_non_opaque, 0xFF, [&](const TraceHit& h) {
+        l.hits.push_back(h);
+        return AnyHitDecision::ignore;
+    }).counters;
+    return l;
+}
+
+}  // namespace
+
+TEST_CASE("spheres: the world-sphere fast path agrees with the object-space path", "[sphere][trace]") {
+    // 60 one-sphere BLASes, the sphere off its object origin (so the centre's offset is exercised),
+    // each placed by uniform scale (0.3 … 3) × rotation (a third mirrored) + translation: all take the
+    // fast path. The same instances of two-sphere BLASes, the same sphere (primitive 0) plus a
+    // concentric one of a quarter its radius (primitive 1, dropped from the comparison), take the
+    // general path with the same bounds, hence the same TLAS and the same traversal: hits must agree in
+    // number, kind and order, t and object_point to the tolerance above, and the counters exactly (the
+    // general path tests two primitives per instance). Rays: random, from inside spheres, and near
+    // tangency (relative offsets 1e-3 … 1e-12 and 0, blurred to ~1e-7 by the float origin); near the
+    // origin and 3e4 away.
+    constexpr int kSpheres = 60;
+    Pcg32 rng(61);
+    int compared_hits = 0, compared_rays = 0, committed_compared = 0, near_tangent = 0;
+    for (const glm::dvec3 base : {glm::dvec3(0.0), glm::dvec3(3e4, -1e4, 2e4)}) {
+        Scene fast, general;
+        struct World {
+            Ld3 centre;
+            long double radius;
+            double scale;
+            glm::dvec3 translation, offset;
+        };
+        std::vector<World> world;
+        for (int i = 0; i < kSpheres; ++i) {
+            const Sphere sp{{rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1)}, rng.uniform(0.2f, 1.5f)};
+            const double s = 0.3 + 2.7 * double(rng.uniform01());
+            AffineTransform m;
+            m.linear = s * random_rotation(rng, i % 3 == 0);
+            m.translation = base + glm::dvec3(rng.uniform(-20, 20), rng.uniform(-20, 20), rng.uniform(-20, 20));
+            const auto bf = fast.add_bottom_level(BottomLevel::from_spheres({sp}, false));
+            const auto bg = general.add_bottom_level(BottomLevel::from_spheres({sp, Sphere{sp.center, 0.25f * sp.radius}}, false));
+            REQUIRE(general.bottom_level(bg).spheres.bvh().nodes[0].is_leaf());  // one leaf, like the fast path
+            fast.add_instance(Instance{bf, m, 0xFF, std::uint32_t(i), 0});
+            general.add_instance(Instance{bg, m, 0xFF, std::uint32_t(i), 0});
+            REQUIRE(fast.record(std::uint32_t(i)).world_sphere);
+            REQUIRE_FALSE(general.record(std::uint32_t(i)).world_sphere);
+            const glm::dvec3 offset = m.linear * glm::dvec3(sp.center);
+            world.push_back({ld(m.translation) + ld(offset), (long double)s * sp.radius, s, m.translation, offset});
+        }
+        fast.commit();
+        general.commit();
+
+        for (int k = 0; k < 1200; ++k) {
+            glm::dvec3 o, d(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
+            if (glm::length(d) < 1e-3) continue;
+            const World& w = world[rng.below(kSpheres)];
+            const glm::dvec3 centre(double(w.centre.x), double(w.centre.y), double(w.centre.z));
+            const double radius = double(w.radius);
+            if (k % 3 == 0) {  // anywhere
+                o = base + glm::dvec3(rng.uniform(-25, 25), rng.uniform(-25, 25), rng.uniform(-25, 25));
+            } else if (k % 3 == 1) {  // inside a sphere
+                o = centre + 0.95 * radius / std::sqrt(3.0) * glm::dvec3(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
+            } else {  // near tangency: the line passes the centre at radius·(1 + ε)
+                const double eps[] = {1e-3, -1e-3, 1e-6, -1e-6, 1e-9, -1e-9, 1e-12, -1e-12, 0.0};
+                const glm::dvec3 any(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
+                const glm::dvec3 n = glm::normalize(glm::cross(d, any));
+                o = centre + radius * (1.0 + eps[k % 9]) * n - 3.0 * radius * glm::normalize(d);
+            }
+            const float tmin = k % 7 == 0 ? rng.uniform(0, 2) : 0.0f;
+            const float tmax = k % 11 == 0 ? rng.uniform(2, 30) : kInf;
+            const Ray ray = make_ray(glm::vec3(o), glm::vec3(d), tmin, tmax);
+            const Ld3 ro{ray.origin.x, ray.origin.y, ray.origin.z}, rd{ray.direction.x, ray.direction.y, ray.direction.z};
+            const long double dlen = len(rd);
+
+            // Which instances are decided (not within δ of tangency, no root within tol of tmin/tmax),
+            // and each decided instance's root tolerance.
+            std::vector<bool> decided(kSpheres, true);
+            std::vector<long double> tol(kSpheres, 0);
+            for (int i = 0; i < kSpheres; ++i) {
+                const World& s = world[i];
+                const LdRoots r = ld_roots(ro, rd, s.centre, s.radius);
+                const long double delta = 0x1p-40L * (len(ro - ld(s.translation)) + len(ld(s.offset)) +
+                                                      std::fabs(r.t_closest) * dlen + s.radius);
+                if (std::fabs(r.perp - s.radius) <= delta) {
+                    decided[i] = false;
+                    continue;
+                }
+                if (!r.crosses) continue;
+                if (s.radius - r.perp < 1e-5L * s.radius) ++near_tangent;  // R/h > 200: the tolerance at work
+                auto tol_at = [&](long double t) { return 0x1p-22L * std::fabs(t) + 4.0L * (s.radius / r.h) * delta / dlen; };
+                tol[i] = std::max(tol_at(r.t_enter), tol_at(r.t_exit));
+                for (const long double t : {r.t_enter, r.t_exit})
+                    if (std::fabs(t - tmin) <= tol[i] || std::fabs(t - tmax) <= tol[i]) decided[i] = false;
+            }
+
+            const Listing f = listing(fast, ray), g_all = listing(general, ray);
+            std::vector<TraceHit> fd, gd;  // hits of decided instances; the general path's primitive 0 only
+            int inner_hits = 0;
+            for (const TraceHit& h : f.hits) {
+                CHECK(h.primitive_index == 0);
+                if (decided[h.instance_index]) fd.push_back(h);
+            }
+            for (const TraceHit& h : g_all.hits) {
+                if (h.primitive_index != 0) ++inner_hits;
+                else if (decided[h.instance_index]) gd.push_back(h);
+            }
+            CAPTURE(k, base.x, ray.origin.x, ray.origin.y, ray.origin.z, ray.direction.x, ray.direction.y,
+                    ray.direction.z, tmin, tmax);
+            REQUIRE(fd.size() == gd.size());
+            for (std::size_t j = 0; j < fd.size(); ++j) {
+                const TraceHit &a = fd[j], &b = gd[j];
+                CAPTURE(j, a.instance_index, b.instance_index, a.t, b.t);
+                REQUIRE(a.instance_index == b.instance_index);
+                CHECK(a.kind == b.kind);
+                CHECK(a.instance_id == b.instance_id);
+                CHECK(a.geometry == GeometryKind::spheres);
+                const long double dt = std::fabs((long double)a.t - b.t);
+                CHECK(dt <= tol[a.instance_index]);
+                // object_point: o' + t·d' in object space; apart by the t difference times |d'| = |d|/s,
+                // plus the float rounding of the point.
+                const double tol_p = double(dt * dlen) / world[a.instance_index].scale * 1.01 +
+                                     0x1p-21 * double(std::max({std::fabs(a.object_point.x), std::fabs(a.object_point.y),
+                                                                std::fabs(a.object_point.z), 1e-30f}));
+                for (int c = 0; c < 3; ++c) CHECK(std::fabs(double(a.object_point[c]) - b.object_point[c]) <= tol_p);
+                ++compared_hits;
+            }
+            // The same traversal, the same instances entered, one primitive per instance against two.
+            CHECK(f.counters.tlas_nodes == g_all.counters.tlas_nodes);
+            CHECK(f.counters.boxes_tested == g_all.counters.boxes_tested);
+            CHECK(f.counters.instances_entered == g_all.counters.instances_entered);
+            CHECK(f.counters.blas_nodes == g_all.counters.blas_nodes);
+            CHECK(f.counters.blas_nodes == f.counters.instances_entered);
+            CHECK(2 * f.counters.primitives_tested == g_all.counters.primitives_tested);
+            CHECK(f.counters.any_hit_invocations == f.hits.size());
+            CHECK(g_all.counters.any_hit_invocations == g_all.hits.size());
+            CHECK(f.counters.hits_accepted == 0);
+            ++compared_rays;
+
+            // Opaque: the closest hit, and the first commit in traversal order, are the same hit.
+            const bool all_decided = std::all_of(decided.begin(), decided.end(), [](bool b) { return b; });
+            if (!all_decided || inner_hits > 0) continue;
+            for (const std::uint32_t flags : {std::uint32_t(ray_flag_force_opaque),
+                                              std::uint32_t(ray_flag_force_opaque | ray_flag_accept_first_hit_and_end_search)}) {
+                const TraceResult rf = trace(fast, ray, flags, 0xFF), rg = trace(general, ray, flags, 0xFF);
+                REQUIRE(rf.hit == rg.hit);
+                CHECK(rf.counters.hits_accepted == rg.counters.hits_accepted);
+                if (!rf.hit) continue;
+                CHECK(rf.committed.instance_index == rg.committed.instance_index);
+                CHECK(rf.committed.kind == rg.committed.kind);
+                CHECK(std::fabs((long double)rf.committed.t - rg.committed.t) <= tol[rf.committed.instance_index]);
+                ++committed_compared;
+            }
+        }
+    }
+    CHECK(compared_rays >= 2 * 1150);
+    CHECK(compared_hits >= 1800);
+    CHECK(committed_compared >= 1000);
+    CHECK(near_tangent >= 100);
+}
+
+TEST_CASE("spheres: a single sphere under a non-similarity transform (an ellipsoid) takes the general path", "[sphere][trace]") {
+    // Which transforms the fast path takes: similarities only (tolerance 1e-12 relative).
+    const Sphere sp{{0.3f, -0.2f, 0.1f}, 0.8f};
+    Pcg32 rng(62);
+    const glm::dmat3 rot = random_rotation(rng, false), mirrored = random_rotation(rng, true);
+    auto takes_fast_path = [&](const glm::dmat3& linear, std::vector<Sphere> spheres = {}) {
+        Scene s;
+        const auto b = s.add_bottom_level(BottomLevel::from_spheres(spheres.empty() ? std::vector<Sphere>{sp} : spheres, true));
+        s.add_instance(Instance{b, AffineTransform{linear, glm::dvec3(1, 2, 3)}, 0xFF, 0, 0});
+        return s.record(0).world_sphere;
+    };
+    CHECK(takes_fast_path(glm::dmat3(1.0)));
+    CHECK(takes_fast_path(2.5 * rot));
+    CHECK(takes_fast_path(0.01 * mirrored));
+    CHECK_FALSE(takes_fast_path(rot * glm::dmat3(glm::dvec3(1, 0, 0), glm::dvec3(0, 1 + 1e-9, 0), glm::dvec3(0, 0, 1))));
+    CHECK_FALSE(takes_fast_path(glm::dmat3(glm::dvec3(1, 0, 0), glm::dvec3(1e-6, 1, 0), glm::dvec3(0, 0, 1))));  // shear
+    CHECK_FALSE(takes_fast_path(2.0 * rot, {sp, Sphere{{5, 5, 5}, 1.0f}}));                                      // two spheres
+    {
+        Scene s;  // a mesh never does
+        TriangleMesh m;
+        m.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+        m.triangles = {{0, 1, 2}};
+        s.add_instance(Instance{s.add_bottom_level(BottomLevel::from_mesh(m, true)), {}, 0xFF, 0, 0});
+        CHECK_FALSE(s.record(0).world_sphere);
+    }
+
+    // Ellipsoids against the analytic answer in object space (long double): the ray taken into object
+    // space exactly, then the sphere. The general path errs there by double rounding amplified by the
+    // condition number (≤ 3 here), so δ = 2⁻⁴⁰·(|o' − c| + |t_c|·|d'| + r) and tol as above.
+    const glm::dmat3 scales[] = {
+        glm::dmat3(glm::dvec3(2.0, 0, 0), glm::dvec3(0, 0.7, 0), glm::dvec3(0, 0, 1.3)),
+        glm::dmat3(glm::dvec3(1.0, 0, 0), glm::dvec3(0, 1.0 + 1e-9, 0), glm::dvec3(0, 0, 1.0)),  // just not uniform
+        glm::dmat3(glm::dvec3(1.0, 0, 0), glm::dvec3(0.5, 1.0, 0), glm::dvec3(0, 0.3, 1.0)),     // shear
+    };
+    int checked = 0;
+    for (const glm::dmat3& scale : scales) {
+        for (const bool mirror : {false, true}) {
+            AffineTransform m;
+            m.linear = random_rotation(rng, mirror) * scale;
+            m.translation = glm::dvec3(rng.uniform(-10, 10), rng.uniform(-10, 10), rng.uniform(-10, 10));
+            Scene s;
+            s.add_instance(Instance{s.add_bottom_level(BottomLevel::from_spheres({sp}, false)), m, 0xFF, 7, 0});
+            s.commit();
+            REQUIRE_FALSE(s.record(0).world_sphere);
+            // The exact inverse in long double (adjugate over determinant).
+            const glm::dmat3& L = m.linear;
+            long double inv[3][3];  // inv[row][col]
+            const long double a00 = L[0][0], a01 = L[1][0], a02 = L[2][0], a10 = L[0][1], a11 = L[1][1], a12 = L[2][1],
+                              a20 = L[0][2], a21 = L[1][2], a22 = L[2][2];
+            const long double det = a00 * (a11 * a22 - a12 * a21) - a01 * (a10 * a22 - a12 * a20) + a02 * (a10 * a21 - a11 * a20);
+            inv[0][0] = (a11 * a22 - a12 * a21) / det, inv[0][1] = (a02 * a21 - a01 * a22) / det, inv[0][2] = (a01 * a12 - a02 * a11) / det;
+            inv[1][0] = (a12 * a20 - a10 * a22) / det, inv[1][1] = (a00 * a22 - a02 * a20) / det, inv[1][2] = (a02 * a10 - a00 * a12) / det;
+            inv[2][0] = (a10 * a21 - a11 * a20) / det, inv[2][1] = (a01 * a20 - a00 * a21) / det, inv[2][2] = (a00 * a11 - a01 * a10) / det;
+            auto to_object = [&](Ld3 v) {
+                return Ld3{inv[0][0] * v.x + inv[0][1] * v.y + inv[0][2] * v.z, inv[1][0] * v.x + inv[1][1] * v.y + inv[1][2] * v.z,
+                           inv[2][0] * v.x + inv[2][1] * v.y + inv[2][2] * v.z};
+            };
+            const Ld3 c{sp.center.x, sp.center.y, sp.center.z};
+            const glm::dvec3 world_centre = m.point(glm::dvec3(sp.center));
+            for (int k = 0; k < 200; ++k) {
+                const glm::dvec3 d(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
+                if (glm::length(d) < 1e-3) continue;
+                // Half from anywhere near, half from inside (object-space points within 0.9 r).
+                const glm::dvec3 o = k % 2 == 0
+                                         ? world_centre + glm::dvec3(rng.uniform(-4, 4), rng.uniform(-4, 4), rng.uniform(-4, 4))
+                                         : m.point(glm::dvec3(sp.center) + 0.9 * double(sp.radius) / std::sqrt(3.0) *
+                                                                             glm::dvec3(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1)));
+                const Ray ray = make_ray(glm::vec3(o), glm::vec3(d));
+                const Ld3 oo = to_object(Ld3{ray.origin.x, ray.origin.y, ray.origin.z} - ld(m.translation));
+                const Ld3 od = to_object(Ld3{ray.direction.x, ray.direction.y, ray.direction.z});
+                const LdRoots r = ld_roots(oo, od, c, sp.radius);
+                const long double delta = 0x1p-40L * (len(oo - c) + std::fabs(r.t_closest) * len(od) + sp.radius);
+                if (std::fabs(r.perp - sp.radius) <= delta) continue;
+                const auto hits = all_hits(s, ray);
+                CAPTURE(k, ray.origin.x, ray.origin.y, ray.origin.z, ray.direction.x, ray.direction.y, ray.direction.z);
+                if (!r.crosses) {
+                    CHECK(hits.empty());
+                    ++checked;
+                    continue;
+                }
+                auto tol_at = [&](long double t) { return 0x1p-22L * std::fabs(t) + 4.0L * (sp.radius / r.h) * delta / len(od); };
+                if (std::fabs(r.t_enter) <= tol_at(r.t_enter) || std::fabs(r.t_exit) <= tol_at(r.t_exit)) continue;
+                std::vector<std::pair<long double, HitKind>> want;
+                if (r.t_enter > 0) want.push_back({r.t_enter, HitKind::front_face});
+                if (r.t_exit > 0) want.push_back({r.t_exit, HitKind::back_face});
+                REQUIRE(hits.size() == want.size());
+                for (std::size_t j = 0; j < want.size(); ++j) {
+                    CHECK(hits[j].kind == want[j].second);
+                    CHECK(hits[j].instance_id == 7);
+                    CHECK(std::fabs((long double)hits[j].t - want[j].first) <= tol_at(want[j].first));
+                    // The object-space point lies on the object sphere.
+                    const Ld3 p{hits[j].object_point.x, hits[j].object_point.y, hits[j].object_point.z};
+                    CHECK(std::fabs(len(p - c) - sp.radius) <= 1e-5L);
+                }
+                ++checked;
+            }
+        }
+    }
+    CHECK(checked >= 3 * 2 * 180);
+}

@@ -41,14 +41,28 @@ inline constexpr double kTlasRebuildSahRatio = 1.2;
 enum class TlasUpdate : std::uint8_t { none, refit, rebuild };
 [[nodiscard]] const char* to_string(TlasUpdate u);
 
-// What trace() reads per instance, kept together (one cache line) in instance order.
+// What trace() reads per instance, kept together in instance order. The fields up to and including
+// sphere_radius (the first 72 bytes) are all that a visit to a world sphere reads until it reports a
+// hit; world_to_object_linear comes last, needed by the general path and for a sphere hit's object_point.
 struct InstanceRecord {
-    glm::dmat3 world_to_object_linear;
-    glm::dvec3 object_to_world_translation;  // subtracted first, then the linear inverse applied
-    const BottomLevel* blas;
-    std::uint32_t user_id;
     std::uint8_t mask;
     std::uint8_t flags;
+    // Rule 2 as far as the instance decides it: the geometry's opacity after the instance's FORCE_OPAQUE /
+    // FORCE_NON_OPAQUE, so that trace() need not chase `blas` to decide it.
+    bool opaque;
+    // The BLAS is one sphere and the transform a similarity (uniform scale · orthogonal): the instance is
+    // that sphere in world space, sphere_offset and sphere_radius below, and trace() intersects the world
+    // ray with it directly instead of taking the ray into object space (t is the same in both).
+    bool world_sphere;
+    std::uint32_t user_id;
+    const BottomLevel* blas;
+    glm::dvec3 object_to_world_translation;  // subtracted first, then the linear inverse applied
+    // world_sphere only. The centre relative to the translation (linear · centre), not the world centre:
+    // trace() subtracts the translation from the ray origin first, exactly as the general path does, so
+    // a small sphere far from the world origin is as precise as there.
+    glm::dvec3 sphere_offset;
+    double sphere_radius;  // scale · radius
+    glm::dmat3 world_to_object_linear;
 };
 
 class Scene {

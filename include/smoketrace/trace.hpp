@@ -30,8 +30,13 @@
 // Beyond DXR: per-call counters, and a cutoff (TraceLimits::max_any_hit_invocations = K): any-hit is
 // called at most K times; a (K+1)-th non-opaque candidate ends the search, uncalled, and sets
 // TraceResult::cut_off. A ray with exactly K candidates is therefore never cut off.
+//
+// An instance of a single sphere placed by a similarity transform (every particle stand-in) is tested
+// as a sphere in world space (InstanceRecord::world_sphere), without taking the ray into object space;
+// the hits, their order and the counters are those of the general path, t to double rounding.
 #include <smoketrace/any_hit.hpp>
 #include <smoketrace/blas_traversal.hpp>
+#include <smoketrace/ray_sphere.hpp>
 #include <smoketrace/scene.hpp>
 
 #include <cstdint>
@@ -72,7 +77,7 @@ struct TraceCounters {
     std::uint32_t tlas_nodes = 0;          // TLAS nodes visited
     std::uint32_t blas_nodes = 0;          // BLAS nodes visited, summed over instances
     std::uint32_t boxes_tested = 0;
-    std::uint32_t instances_entered = 0;   // object-space rays set up
+    std::uint32_t instances_entered = 0;   // instances whose geometry was tested (past rules 1-3)
     std::uint32_t primitives_tested = 0;
     std::uint32_t any_hit_invocations = 0;
     std::uint32_t hits_accepted = 0;       // commits, opaque or by any-hit
@@ -105,95 +110,153 @@ TraceResult trace(const Scene& scene, const Ray& ray, std::uint32_t flags, std::
     const std::uint8_t* node_masks = scene.tlas_node_masks().data();
     const BoxRay world_ray(ray);
     const glm::dvec3 world_origin(ray.origin), world_dir(ray.direction);
+    // Locals, not reads through `ray` and `limits`: the any-hit callback could alias them for all the
+    // compiler knows, which would force a reload after every call.
+    const float tmin = ray.tmin;
+    const std::uint32_t max_any_hit = limits.max_any_hit_invocations;
     const bool skip_closest = (flags & ray_flag_skip_closest_hit_shader) != 0;
     const bool end_on_first = (flags & ray_flag_accept_first_hit_and_end_search) != 0;
+    // Rules 2-3, the ray's part, hoisted out of the instance loop: the instance's opacity
+    // (InstanceRecord::opaque) is overridden by the ray's FORCE_OPAQUE, and both by its FORCE_NON_OPAQUE.
+    const bool ray_force_opaque = (flags & ray_flag_force_opaque) != 0;
+    const bool ray_allows_opaque = (flags & ray_flag_force_non_opaque) == 0;
+    const bool cull_opaque = (flags & ray_flag_cull_opaque) != 0;
+    const bool cull_non_opaque = (flags & ray_flag_cull_non_opaque) != 0;
+
+    // Rules 5-8 and the cutoff, for a candidate that passed rules 1-4. make_hit() supplies its TraceHit
+    // and is called only where the hit is used, so that what nobody reads is never computed: inlined,
+    // a world-sphere candidate that the any-hit callback only counts costs no object_point. Returns
+    // true to end the search.
+    auto report = [&, max_any_hit, skip_closest, end_on_first](bool opaque, auto&& make_hit) {
+        auto commit = [&](const TraceHit& cand, AnyHitDecision decision) {
+            ++c.hits_accepted;
+            result.hit = true;
+            if (!skip_closest) result.committed = cand;  // rule 8
+            tmax = cand.t;
+            if (decision == AnyHitDecision::accept_and_end || end_on_first) ended = true;  // rule 7
+        };
+        if (opaque) {  // rule 5
+            commit(make_hit(), AnyHitDecision::accept);
+            return ended;
+        }
+        // Rule 6, with the cutoff: a candidate beyond the K allowed any-hit calls ends the search
+        // without a call, so exactly K candidates are never reported as cut off.
+        if (max_any_hit != 0 && c.any_hit_invocations >= max_any_hit) {
+            result.cut_off = true;
+            ended = true;
+            return true;
+        }
+        ++c.any_hit_invocations;
+        const TraceHit& cand = make_hit();
+        const AnyHitDecision decision = any_hit(cand);
+        if (decision != AnyHitDecision::ignore) commit(cand, decision);
+        return ended;
+    };
 
     TraversalStats tlas_stats, blas_stats;
+    std::uint32_t world_spheres = 0;  // world-sphere instances tested (each one BLAS node, one primitive)
+
+    // Every instance but a world sphere: the ray taken into object space and the BLAS run there (rule 4
+    // lives here: it concerns triangles only). Out of line, so that the instance loop below, the TLAS
+    // walk's leaf callback, stays small enough to be inlined into it. What the loop also uses and never
+    // changes is captured by value, `report` included, so that none of it escapes through this call
+    // and the loop keeps it in registers. Returns true to end the search.
+    auto visit_object_space = [&, report, tmin, world_origin, world_dir](std::uint32_t index,
+                                                                        const InstanceRecord& inst,
+                                                                        bool opaque) __attribute__((noinline)) {
+        ++c.instances_entered;
+        const BottomLevel& blas = *inst.blas;
+        const bool triangles = blas.kind == GeometryKind::triangles;
+        const bool facing_cull = triangles && !(inst.flags & instance_flag_triangle_cull_disable);
+        const bool cull_back = facing_cull && (flags & ray_flag_cull_back_facing_triangles);
+        const bool cull_front = facing_cull && (flags & ray_flag_cull_front_facing_triangles);
+        const bool flip_facing = triangles && (inst.flags & instance_flag_triangle_front_clockwise);
+
+        // The object-space ray keeps t: direction transformed without normalising.
+        const glm::dvec3 o = inst.world_to_object_linear * (world_origin - inst.object_to_world_translation);
+        const glm::dvec3 d = inst.world_to_object_linear * world_dir;
+        // Triangles are intersected in float (watertight for the rounded ray: every triangle of the
+        // instance sees the same one); spheres take the double ray as it is.
+        const Ray obj_ray{glm::vec3(o), tmin, glm::vec3(d), ray.tmax};
+
+        auto on_hit = [&](const BlasHit& h) {
+            const bool front = h.front_face != flip_facing;
+            if ((cull_back && !front) || (cull_front && front)) return false;  // rule 4
+            TraceHit cand;
+            cand.t = h.t;
+            cand.barycentrics = h.barycentrics;
+            if (!triangles) cand.object_point = glm::vec3(o + double(h.t) * d);
+            cand.instance_index = index;
+            cand.instance_id = inst.user_id;
+            cand.primitive_index = h.primitive;
+            cand.kind = front ? HitKind::front_face : HitKind::back_face;
+            cand.geometry = blas.kind;
+            return report(opaque, [&]() -> const TraceHit& { return cand; });
+        };
+        // A BLAS that is a single leaf (a billboard quad, a particle's unit sphere) needs no
+        // traversal: the TLAS has already tested a box around it.
+        auto run = [&](const Bvh& bvh, auto&& leaf) {
+            if (bvh.nodes[0].is_leaf()) {
+                ++blas_stats.nodes_visited;
+                leaf(bvh.nodes[0].first, bvh.nodes[0].count);
+            } else {
+                traverse_bvh(bvh, BoxRay(obj_ray), tmax, leaf, blas_stats);
+            }
+        };
+        if (triangles) {
+            const BlasRay obj(obj_ray);
+            run(blas.mesh.bvh(), [&](std::uint32_t f, std::uint32_t n) {
+                return mesh_leaf_hits(blas.mesh, obj, tmax, f, n, blas_stats, on_hit);
+            });
+        } else {
+            const SphereRay obj(o, d, tmin);
+            run(blas.spheres.bvh(), [&](std::uint32_t f, std::uint32_t n) {
+                return sphere_leaf_hits(blas.spheres, obj, tmax, f, n, blas_stats, on_hit);
+            });
+        }
+        return ended;
+    };
+
     auto visit_instances = [&](std::uint32_t first, std::uint32_t count) {
         for (std::uint32_t k = first; k < first + count; ++k) {
             const std::uint32_t index = tlas.prim_indices[k];
             const InstanceRecord& inst = scene.record(index);
             if ((inst.mask & inclusion_mask) == 0) continue;  // rule 1
-            const BottomLevel& blas = *inst.blas;
-
-            bool opaque = blas.opaque;  // rule 2
-            if (inst.flags & instance_flag_force_opaque) opaque = true;
-            if (inst.flags & instance_flag_force_non_opaque) opaque = false;
-            if (flags & ray_flag_force_opaque) opaque = true;
-            if (flags & ray_flag_force_non_opaque) opaque = false;
-            if ((flags & ray_flag_cull_opaque) && opaque) continue;  // rule 3
-            if ((flags & ray_flag_cull_non_opaque) && !opaque) continue;
-
-            const bool triangles = blas.kind == GeometryKind::triangles;
-            const bool facing_cull = triangles && !(inst.flags & instance_flag_triangle_cull_disable);
-            const bool cull_back = facing_cull && (flags & ray_flag_cull_back_facing_triangles);
-            const bool cull_front = facing_cull && (flags & ray_flag_cull_front_facing_triangles);
-            const bool flip_facing = triangles && (inst.flags & instance_flag_triangle_front_clockwise);
-
-            // The object-space ray keeps t: direction transformed without normalising.
-            ++c.instances_entered;
-            const glm::dvec3 o = inst.world_to_object_linear * (world_origin - inst.object_to_world_translation);
-            const glm::dvec3 d = inst.world_to_object_linear * world_dir;
-            // Triangles are intersected in float (watertight for the rounded ray: every triangle of the
-            // instance sees the same one); spheres take the double ray as it is.
-            const Ray obj_ray{glm::vec3(o), ray.tmin, glm::vec3(d), ray.tmax};
-
-            auto on_hit = [&](const BlasHit& h) {
-                const bool front = h.front_face != flip_facing;
-                if ((cull_back && !front) || (cull_front && front)) return false;  // rule 4
-                TraceHit cand;
-                cand.t = h.t;
-                cand.barycentrics = h.barycentrics;
-                if (!triangles) cand.object_point = glm::vec3(o + double(h.t) * d);
-                cand.instance_index = index;
-                cand.instance_id = inst.user_id;
-                cand.primitive_index = h.primitive;
-                cand.kind = front ? HitKind::front_face : HitKind::back_face;
-                cand.geometry = blas.kind;
-                AnyHitDecision decision = AnyHitDecision::accept;  // rule 5
-                if (!opaque) {                                     // rule 6
-                    // The cutoff: a candidate beyond the K allowed any-hit calls ends the search
-                    // without a call, so exactly K candidates are never reported as cut off.
-                    if (limits.max_any_hit_invocations != 0 &&
-                        c.any_hit_invocations >= limits.max_any_hit_invocations) {
-                        result.cut_off = true;
-                        ended = true;
-                        return true;
-                    }
-                    ++c.any_hit_invocations;
-                    decision = any_hit(static_cast<const TraceHit&>(cand));
-                }
-                if (decision != AnyHitDecision::ignore) {
-                    ++c.hits_accepted;
-                    result.hit = true;
-                    if (!skip_closest) result.committed = cand;  // rule 8
-                    tmax = cand.t;
-                    if (decision == AnyHitDecision::accept_and_end || end_on_first) ended = true;  // rule 7
-                }
-                return ended;
-            };
-            // A BLAS that is a single leaf (a billboard quad, a particle's unit sphere) needs no
-            // traversal: the TLAS has already tested a box around it.
-            auto run = [&](const Bvh& bvh, auto&& leaf) {
-                if (bvh.nodes[0].is_leaf()) {
-                    ++blas_stats.nodes_visited;
-                    leaf(bvh.nodes[0].first, bvh.nodes[0].count);
-                } else {
-                    traverse_bvh(bvh, BoxRay(obj_ray), tmax, leaf, blas_stats);
-                }
-            };
-            if (triangles) {
-                const BlasRay obj(obj_ray);
-                run(blas.mesh.bvh(), [&](std::uint32_t f, std::uint32_t n) {
-                    return mesh_leaf_hits(blas.mesh, obj, tmax, f, n, blas_stats, on_hit);
-                });
-            } else {
-                const SphereRay obj(o, d, ray.tmin);
-                run(blas.spheres.bvh(), [&](std::uint32_t f, std::uint32_t n) {
-                    return sphere_leaf_hits(blas.spheres, obj, tmax, f, n, blas_stats, on_hit);
-                });
+            const bool opaque = (inst.opaque || ray_force_opaque) && ray_allows_opaque;  // rule 2
+            if (opaque ? cull_opaque : cull_non_opaque) continue;                        // rule 3
+            if (!inst.world_sphere) {
+                if (visit_object_space(index, inst, opaque)) return true;
+                continue;
             }
-            if (ended) return true;
+            // A world sphere: the world ray against the instance's sphere in world space. A similarity
+            // transform keeps t, so this is the object-space test of the general path (sphere_leaf_hits
+            // on a single leaf) to double rounding, reported and counted the same way. The origin is
+            // taken relative to the instance's translation first, as in object space.
+            ++world_spheres;
+            const glm::dvec3 rel_origin = world_origin - inst.object_to_world_translation;
+            SphereRoots roots;
+            if (!sphere_roots(rel_origin, world_dir, inst.sphere_offset, inst.sphere_radius, roots)) continue;
+            // Entry (front), then exit (back), each if in [tmin, tmax] when it is reported, as in
+            // sphere_leaf_hits. A loop, so that `report` has one call site here and is inlined; unrolled.
+#pragma GCC unroll 2
+            for (int side = 0; side < 2; ++side) {
+                const float t = static_cast<float>(side == 0 ? roots.t_enter : roots.t_exit);
+                if (!(t >= tmin && t <= tmax)) continue;
+                const bool end = report(opaque, [&] {
+                    TraceHit h;
+                    h.t = t;
+                    // In object space: W·(o − T + t·d), the general path's o + t·d.
+                    const glm::dvec3 rel_point = rel_origin + double(t) * world_dir;
+                    h.object_point = glm::vec3(inst.world_to_object_linear * rel_point);
+                    h.instance_index = index;
+                    h.instance_id = inst.user_id;
+                    h.primitive_index = 0;  // the BLAS's only sphere
+                    h.kind = side == 0 ? HitKind::front_face : HitKind::back_face;
+                    h.geometry = GeometryKind::spheres;
+                    return h;
+                });
+                if (end) return true;
+            }
         }
         return false;
     };
@@ -201,9 +264,10 @@ TraceResult trace(const Scene& scene, const Ray& ray, std::uint32_t flags, std::
                  [&](std::uint32_t node) { return (node_masks[node] & inclusion_mask) != 0; });
 
     c.tlas_nodes = tlas_stats.nodes_visited;
-    c.blas_nodes = blas_stats.nodes_visited;
+    c.blas_nodes = blas_stats.nodes_visited + world_spheres;
     c.boxes_tested = tlas_stats.boxes_tested + blas_stats.boxes_tested;
-    c.primitives_tested = blas_stats.primitives_tested;
+    c.primitives_tested = blas_stats.primitives_tested + world_spheres;
+    c.instances_entered += world_spheres;
     return result;
 }
 
