@@ -4,15 +4,16 @@
 // A mesh BLAS keeps its triangles twice: as records in leaf order (for the rare full test) and as nine
 // planes of floats, plane 3·j + a holding coordinate a of vertex j of every triangle in the same order
 // (structure of arrays). shear_block() reads eight consecutive triangles from the planes, shears them
-// and forms their edge functions with AVX2, and returns which of them do not straddle the ray; only
-// those go on to finish_triangle_hit(), one by one. In a typical leaf every triangle straddles (a ray
-// crosses a closed surface twice), so the expensive part of the scalar test, the shear and the three
-// double-precision edge functions, is done for eight triangles in about the instructions of one.
+// with AVX2, decides from float edge functions which of them do not straddle the ray (exactly: see
+// float_edge), and only those go on to finish_triangle_hit(), one by one. Most triangles of a leaf
+// straddle (a ray crosses a closed surface twice), so the expensive part of the scalar test, the shear
+// and the three double-precision edge functions, is done for eight triangles in about the instructions
+// of one.
 //
 // Same answers, bit for bit: every lane performs the scalar shear_triangle()'s operations in the same
-// order and precision (the build disables FMA contraction, CMakeLists.txt), and the straddle test and
-// finish_triangle_hit() then see the same numbers. Shared edges therefore stay watertight whichever
-// kernel runs, and a test (test_geometry.cpp) checks the two kernels against each other.
+// order and precision (the build disables FMA contraction, CMakeLists.txt), the straddle decision is the
+// scalar one, and finish_triangle_hit() sees the same numbers. Shared edges therefore stay watertight
+// whichever kernel runs, and a test (test_geometry.cpp) checks the two kernels against each other.
 #include <smoketrace/ray_triangle.hpp>
 
 #include <cstddef>

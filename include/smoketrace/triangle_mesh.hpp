@@ -26,7 +26,9 @@ struct TriangleMesh {
 // instructions of one scalar test, and leaves of up to three blocks (a 20-triangle icosahedron stand-in
 // becomes one leaf, no traversal). Against 1:1 costs and 4-triangle leaves, measured side by side with
 // Embree (bench "bvh", 133k triangles): closest hit 0.51 → 0.59 of Embree's rays/s, all hits 0.47 → 0.55;
-// an optical-depth pass over icosahedra 151.7M → 93.4M instructions (callgrind, 750 particles × 10).
+// an optical-depth pass over icosahedra 151.7M → 93.4M instructions (callgrind, 750 particles × 10;
+// 87.9M with the float straddle decision and the world-sphere path of trace()). The view pass's
+// two-triangle billboards pay for it: see the README's "known regression".
 inline constexpr BvhBuildSettings kMeshBuildSettings{SahCosts{1.0f, 1.0f / 8.0f}, 24};
 
 // A BVH over a mesh's triangles. Triangles are copied into leaf order, once as records (three vertices
