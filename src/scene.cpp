@@ -45,6 +45,12 @@ std::uint32_t Scene::add_instance(const Instance& instance) {
     if (instance.blas >= blases_.size()) throw std::out_of_range("Scene::add_instance: no bottom level " + std::to_string(instance.blas));
     instances_.push_back(instance);
     records_.emplace_back();
+    // The world_triangles path depends on the BLAS alone, so an instance's slots are fixed here.
+    const MeshBlas& mesh = blases_[instance.blas]->mesh;
+    if (takes_world_triangles(*blases_[instance.blas])) {
+        records_.back().first_world_triangle = static_cast<std::uint32_t>(world_triangles_.size());
+        world_triangles_.resize(world_triangles_.size() + mesh.leaf_triangles().size());
+    }
     world_boxes_.emplace_back();
     instance_masks_.push_back(instance.mask);
     update_instance(static_cast<std::uint32_t>(instances_.size() - 1));
@@ -54,6 +60,13 @@ std::uint32_t Scene::add_instance(const Instance& instance) {
 
 void Scene::remove_instance(std::uint32_t index) {
     if (index >= instances_.size()) throw std::out_of_range("Scene::remove_instance");
+    const InstanceRecord& gone = records_[index];
+    if (gone.path == InstancePath::world_triangles) {
+        const std::uint32_t first = gone.first_world_triangle, n = gone.world_triangle_count;
+        world_triangles_.erase(world_triangles_.begin() + first, world_triangles_.begin() + first + n);
+        for (InstanceRecord& r : records_)
+            if (r.path == InstancePath::world_triangles && r.first_world_triangle > first) r.first_world_triangle -= n;
+    }
     instances_.erase(instances_.begin() + index);
     records_.erase(records_.begin() + index);
     world_boxes_.erase(world_boxes_.begin() + index);
@@ -100,13 +113,20 @@ bool is_similarity(const glm::dmat3& m, double& scale) {
 
 }  // namespace
 
+bool Scene::takes_world_triangles(const BottomLevel& b) const {
+    return paths_ == InstancePaths::fastest && b.kind == GeometryKind::triangles && !b.mesh.bvh().empty() && b.mesh.bvh().nodes[0].is_leaf() &&
+           b.mesh.leaf_triangles().size() <= kMaxWorldTriangles;
+}
+
 // World box: the 8 transformed corners of the object box, in double, rounded outward to float.
 void Scene::update_instance(std::uint32_t i) {
     const Instance& in = instances_[i];
     const BottomLevel& b = *blases_[in.blas];
     const AffineTransform inv = in.object_to_world.inverse();
     InstanceRecord& r = records_[i];
+    const std::uint32_t first_world_triangle = r.first_world_triangle;  // fixed by add_instance
     r = InstanceRecord{};
+    r.path = InstancePath::object_space;
     r.mask = in.mask;
     r.flags = in.flags;
     // Rule 2's instance part: FORCE_NON_OPAQUE over FORCE_OPAQUE over the geometry's opacity.
@@ -117,12 +137,26 @@ void Scene::update_instance(std::uint32_t i) {
     r.world_to_object_linear = inv.linear;
     // The world-sphere fast path of trace() (see InstanceRecord); anything else takes the general path.
     double scale = 0.0;
-    if (b.kind == GeometryKind::spheres && b.spheres.leaf_spheres().size() == 1 &&
+    if (paths_ == InstancePaths::fastest && b.kind == GeometryKind::spheres && b.spheres.leaf_spheres().size() == 1 &&
         is_similarity(in.object_to_world.linear, scale)) {
         const Sphere& sp = b.spheres.leaf_spheres()[0];
-        r.world_sphere = true;
+        r.path = InstancePath::world_sphere;
         r.sphere_offset = in.object_to_world.linear * glm::dvec3(sp.center);
         r.sphere_radius = scale * double(sp.radius);
+    }
+    if (takes_world_triangles(b)) {
+        // Each vertex transformed in double and rounded once; a vertex shared by two triangles rounds to
+        // the same float in both, so the world-space mesh stays watertight for the watertight test.
+        r.path = InstancePath::world_triangles;
+        r.first_world_triangle = first_world_triangle;
+        r.world_triangle_count = static_cast<std::uint8_t>(b.mesh.leaf_triangles().size());
+        const bool mirrored = glm::determinant(in.object_to_world.linear) < 0.0;
+        r.world_facing_flipped = mirrored != ((in.flags & instance_flag_triangle_front_clockwise) != 0);
+        auto to_world = [&](const glm::vec3& v) { return glm::vec3(in.object_to_world.point(glm::dvec3(v))); };
+        for (std::uint32_t k = 0; k < r.world_triangle_count; ++k) {
+            const MeshBlas::Triangle& t = b.mesh.leaf_triangles()[k];
+            world_triangles_[first_world_triangle + k] = {to_world(t.v0), to_world(t.v1), to_world(t.v2)};
+        }
     }
     const Aabb ob = b.bounds();
     Aabb wb;

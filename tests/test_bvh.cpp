@@ -669,7 +669,7 @@ TEST_CASE("Closest hit keeps a triangle lying in a face of its box when a commit
     r.origin = {0.1f, 0.7f, 1.0f};
     r.direction = {0.3f, -1.9f, -0.7f};
     const glm::vec3 g0(-1000, -1000, 0), g1(1000, -1000, 0), g2(0, 1000, 0);
-    TriangleHit ground;
+    TriangleHit ground{};
     REQUIRE(intersect_triangle(TriangleRay(r), g0, g1, g2, kInf, ground));
     const float t_blocker = std::nextafter(ground.t, kInf);
     const glm::vec3 p = r.origin + t_blocker * r.direction;

@@ -18,6 +18,7 @@
 #include <limits>
 #include <stdexcept>
 #include <tuple>
+#include <utility>
 #include <vector>
 
 using namespace smoketrace;
@@ -221,6 +222,30 @@ TEST_CASE("scene: removing an instance removes its geometry and renumbers the la
     CHECK(r.committed.instance_index == 0);
     CHECK(r.committed.instance_id == 11);
     CHECK(r.committed.t == 22.0f);
+}
+
+TEST_CASE("scene: removing a world-triangles instance keeps the others' triangles in place", "[scene]") {
+    // Quads at z = 0, 3, 6 (user ids 20, 21, 22) take the world-triangles path, whose triangles sit in
+    // one array in instance order; removing the first must move the others' slots with them.
+    TriangleMesh quad;
+    quad.vertices = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
+    quad.triangles = {{0, 1, 2}, {0, 2, 3}};
+    Scene s;
+    const auto b = s.add_bottom_level(BottomLevel::from_mesh(quad, false));
+    for (std::uint32_t i = 0; i < 3; ++i)
+        s.add_instance(Instance{b, AffineTransform::translate_scale({0, 0, 3.0 * i}, 1.0), 0xFF, 20 + i, 0});
+    REQUIRE(s.record(2).path == InstancePath::world_triangles);
+    s.remove_instance(0);
+    s.commit();
+    std::vector<std::pair<float, std::uint32_t>> hits;  // (t, user id)
+    trace(s, Ray{{0.3f, 0.2f, 20.0f}, 0.0f, {0, 0, -1}, kInf}, ray_flag_none, 0xFF, [&](const TraceHit& h) {
+        hits.emplace_back(h.t, h.instance_id);
+        return AnyHitDecision::ignore;
+    });
+    std::sort(hits.begin(), hits.end());
+    REQUIRE(hits.size() == 2);
+    CHECK(hits[0] == std::pair<float, std::uint32_t>(14.0f, 22));
+    CHECK(hits[1] == std::pair<float, std::uint32_t>(17.0f, 21));
 }
 
 TEST_CASE("scene: a scene with every instance removed traces as empty", "[scene]") {

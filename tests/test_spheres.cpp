@@ -498,8 +498,8 @@ TEST_CASE("spheres: the world-sphere fast path agrees with the object-space path
             REQUIRE(general.bottom_level(bg).spheres.bvh().nodes[0].is_leaf());  // one leaf, like the fast path
             fast.add_instance(Instance{bf, m, 0xFF, std::uint32_t(i), 0});
             general.add_instance(Instance{bg, m, 0xFF, std::uint32_t(i), 0});
-            REQUIRE(fast.record(std::uint32_t(i)).world_sphere);
-            REQUIRE_FALSE(general.record(std::uint32_t(i)).world_sphere);
+            REQUIRE(fast.record(std::uint32_t(i)).path == InstancePath::world_sphere);
+            REQUIRE(general.record(std::uint32_t(i)).path == InstancePath::object_space);
             const glm::dvec3 offset = m.linear * glm::dvec3(sp.center);
             world.push_back({ld(m.translation) + ld(offset), (long double)s * sp.radius, s, m.translation, offset});
         }
@@ -623,7 +623,7 @@ TEST_CASE("spheres: a single sphere under a non-similarity transform (an ellipso
         Scene s;
         const auto b = s.add_bottom_level(BottomLevel::from_spheres(spheres.empty() ? std::vector<Sphere>{sp} : spheres, true));
         s.add_instance(Instance{b, AffineTransform{linear, glm::dvec3(1, 2, 3)}, 0xFF, 0, 0});
-        return s.record(0).world_sphere;
+        return s.record(0).path == InstancePath::world_sphere;
     };
     CHECK(takes_fast_path(glm::dmat3(1.0)));
     CHECK(takes_fast_path(2.5 * rot));
@@ -632,12 +632,12 @@ TEST_CASE("spheres: a single sphere under a non-similarity transform (an ellipso
     CHECK_FALSE(takes_fast_path(glm::dmat3(glm::dvec3(1, 0, 0), glm::dvec3(1e-6, 1, 0), glm::dvec3(0, 0, 1))));  // shear
     CHECK_FALSE(takes_fast_path(2.0 * rot, {sp, Sphere{{5, 5, 5}, 1.0f}}));                                      // two spheres
     {
-        Scene s;  // a mesh never does
+        Scene s;  // a mesh never does (this one takes the world-triangles path)
         TriangleMesh m;
         m.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
         m.triangles = {{0, 1, 2}};
         s.add_instance(Instance{s.add_bottom_level(BottomLevel::from_mesh(m, true)), {}, 0xFF, 0, 0});
-        CHECK_FALSE(s.record(0).world_sphere);
+        CHECK(s.record(0).path == InstancePath::world_triangles);
     }
 
     // Ellipsoids against the analytic answer in object space (long double): the ray taken into object
@@ -657,7 +657,7 @@ TEST_CASE("spheres: a single sphere under a non-similarity transform (an ellipso
             Scene s;
             s.add_instance(Instance{s.add_bottom_level(BottomLevel::from_spheres({sp}, false)), m, 0xFF, 7, 0});
             s.commit();
-            REQUIRE_FALSE(s.record(0).world_sphere);
+            REQUIRE(s.record(0).path == InstancePath::object_space);
             // The exact inverse in long double (adjugate over determinant).
             const glm::dmat3& L = m.linear;
             long double inv[3][3];  // inv[row][col]

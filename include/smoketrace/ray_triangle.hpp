@@ -34,6 +34,7 @@ struct TriangleRay {
     float sx, sy, sz;
     float tmin;
 
+    TriangleRay() = default;
     explicit TriangleRay(const Ray& r) : origin(r.origin), direction(r.direction), tmin(r.tmin) {
         const glm::vec3 a = glm::abs(r.direction);
         kz = (a.x > a.y) ? (a.x > a.z ? 0 : 2) : (a.y > a.z ? 1 : 2);

@@ -41,20 +41,40 @@ inline constexpr double kTlasRebuildSahRatio = 1.2;
 enum class TlasUpdate : std::uint8_t { none, refit, rebuild };
 [[nodiscard]] const char* to_string(TlasUpdate u);
 
+// How trace() tests an instance, decided when its transform is set (Scene::update_instance).
+enum class InstancePath : std::uint8_t {
+    object_space,     // the general path: the ray taken into object space, the BLAS traversed there
+    world_sphere,     // one sphere under a similarity transform: the sphere tested in world space
+    world_triangles,  // a one-leaf mesh of a few triangles: its triangles kept transformed, tested in world space
+};
+
+// Whether a Scene may use the world-space paths (the default) or takes every instance through the
+// object-space path.
+enum class InstancePaths : std::uint8_t { fastest, object_space_only };
+
+// Meshes of up to this many triangles in one BLAS leaf (a billboard quad, a ground quad) take the
+// world_triangles path: per instance, their vertices transformed once per transform change save every
+// ray the object-space ray and its triangle set-up, about as much work as the two triangle tests.
+inline constexpr std::uint32_t kMaxWorldTriangles = 4;
+
 // What trace() reads per instance, kept together in instance order. The fields up to and including
-// sphere_radius (the first 72 bytes) are all that a visit to a world sphere reads until it reports a
-// hit; world_to_object_linear comes last, needed by the general path and for a sphere hit's object_point.
+// sphere_radius (the first 72 bytes) are all that a visit to a world sphere or world triangles reads
+// until it reports a hit; world_to_object_linear comes last, needed by the general path and for a sphere
+// hit's object_point.
 struct InstanceRecord {
     std::uint8_t mask;
     std::uint8_t flags;
     // Rule 2 as far as the instance decides it: the geometry's opacity after the instance's FORCE_OPAQUE /
     // FORCE_NON_OPAQUE, so that trace() need not chase `blas` to decide it.
     bool opaque;
-    // The BLAS is one sphere and the transform a similarity (uniform scale · orthogonal): the instance is
-    // that sphere in world space, sphere_offset and sphere_radius below, and trace() intersects the world
-    // ray with it directly instead of taking the ray into object space (t is the same in both).
-    bool world_sphere;
+    InstancePath path;
+    // world_triangles only: how many (in the BLAS's leaf order, from Scene::world_triangles()[first_world_
+    // triangle]), and whether a world-space front face is an object-space back face (a mirroring transform)
+    // — XOR TRIANGLE_FRONT_CLOCKWISE, so that rule 4 sees the facing the general path would.
+    std::uint8_t world_triangle_count;
+    bool world_facing_flipped;
     std::uint32_t user_id;
+    std::uint32_t first_world_triangle;
     const BottomLevel* blas;
     glm::dvec3 object_to_world_translation;  // subtracted first, then the linear inverse applied
     // world_sphere only. The centre relative to the translation (linear · centre), not the world centre:
@@ -67,7 +87,9 @@ struct InstanceRecord {
 
 class Scene {
 public:
-    Scene() = default;
+    // `paths` = object_space_only turns the world-space paths off (every instance takes the general path):
+    // for tests that hold the two against each other, and for whoever wants DXR's one mechanism only.
+    explicit Scene(InstancePaths paths = InstancePaths::fastest) : paths_(paths) {}
     Scene(const Scene&) = delete;
     Scene& operator=(const Scene&) = delete;
     Scene(Scene&&) = default;
@@ -91,6 +113,9 @@ public:
     [[nodiscard]] const Bvh& tlas() const { return tlas_; }
     [[nodiscard]] const std::vector<std::uint8_t>& tlas_node_masks() const { return node_masks_; }
     [[nodiscard]] const InstanceRecord& record(std::uint32_t i) const { return records_[i]; }
+    // The world_triangles instances' triangles in world space, each instance's from its
+    // InstanceRecord::first_world_triangle.
+    [[nodiscard]] const MeshBlas::Triangle* world_triangles() const { return world_triangles_.data(); }
     [[nodiscard]] bool committed() const { return !structure_dirty_ && !transforms_dirty_; }
 
     [[nodiscard]] double tlas_sah_cost() const { return sah_current_; }
@@ -98,6 +123,7 @@ public:
     void set_rebuild_ratio(double r) { rebuild_ratio_ = r; }
 
 private:
+    [[nodiscard]] bool takes_world_triangles(const BottomLevel& b) const;
     void update_instance(std::uint32_t i);
     void rebuild();
     void refit();
@@ -105,6 +131,7 @@ private:
     std::vector<std::unique_ptr<BottomLevel>> blases_;  // stable addresses for InstanceRecord::blas
     std::vector<Instance> instances_;
     std::vector<InstanceRecord> records_;
+    std::vector<MeshBlas::Triangle> world_triangles_;  // in instance order; slots fixed when added
     std::vector<Aabb> world_boxes_;
     // Each instance's mask again, one byte apiece: the refit sweep reads it at random (TLAS leaf order),
     // and from the 100-byte Instance records that was a cache miss per leaf.
@@ -114,6 +141,7 @@ private:
     double sah_at_build_ = 0.0;
     double sah_current_ = 0.0;  // of the tree as last refit or built
     double rebuild_ratio_ = kTlasRebuildSahRatio;
+    InstancePaths paths_ = InstancePaths::fastest;
     bool structure_dirty_ = true;
     bool transforms_dirty_ = false;
 };

@@ -31,9 +31,11 @@
 // called at most K times; a (K+1)-th non-opaque candidate ends the search, uncalled, and sets
 // TraceResult::cut_off. A ray with exactly K candidates is therefore never cut off.
 //
-// An instance of a single sphere placed by a similarity transform (every particle stand-in) is tested
-// as a sphere in world space (InstanceRecord::world_sphere), without taking the ray into object space;
-// the hits, their order and the counters are those of the general path, t to double rounding.
+// Two kinds of instance skip the object-space ray (InstancePath, scene.hpp): a single sphere under a
+// similarity transform (every sphere stand-in) is tested as a sphere in world space, and a one-leaf mesh
+// of a few triangles (every billboard, the ground) as triangles kept transformed to world space. The
+// hits, their order and the counters are those of the general path; t (and barycentrics) differ by
+// rounding only. Scene(InstancePaths::object_space_only) turns both off.
 #include <smoketrace/any_hit.hpp>
 #include <smoketrace/blas_traversal.hpp>
 #include <smoketrace/ray_sphere.hpp>
@@ -155,9 +157,17 @@ TraceResult trace(const Scene& scene, const Ray& ray, std::uint32_t flags, std::
 
     TraversalStats tlas_stats, blas_stats;
     std::uint32_t world_spheres = 0;  // world-sphere instances tested (each one BLAS node, one primitive)
+    std::uint32_t world_leaves = 0;   // world-triangles instances tested (each one BLAS node)
+    // The world ray's triangle set-up, shared by every world_triangles instance; made at the first one,
+    // since most rays (a light ray rising from a particle) meet none.
+    TriangleRay world_tri;
+    bool world_tri_ready = false;
+    const MeshBlas::Triangle* world_triangles = scene.world_triangles();
+    const bool cull_back_facing = (flags & ray_flag_cull_back_facing_triangles) != 0;
+    const bool cull_front_facing = (flags & ray_flag_cull_front_facing_triangles) != 0;
 
-    // Every instance but a world sphere: the ray taken into object space and the BLAS run there (rule 4
-    // lives here: it concerns triangles only). Out of line, so that the instance loop below, the TLAS
+    // The general path (InstancePath::object_space): the ray taken into object space and the BLAS run
+    // there (rule 4 applies to triangles only). Out of line, so that the instance loop below, the TLAS
     // walk's leaf callback, stays small enough to be inlined into it. What the loop also uses and never
     // changes is captured by value, `report` included, so that none of it escapes through this call
     // and the loop keeps it in registers. Returns true to end the search.
@@ -224,7 +234,39 @@ TraceResult trace(const Scene& scene, const Ray& ray, std::uint32_t flags, std::
             if ((inst.mask & inclusion_mask) == 0) continue;  // rule 1
             const bool opaque = (inst.opaque || ray_force_opaque) && ray_allows_opaque;  // rule 2
             if (opaque ? cull_opaque : cull_non_opaque) continue;                        // rule 3
-            if (!inst.world_sphere) {
+            if (inst.path == InstancePath::world_triangles) {
+                // A few triangles kept in world space: the world ray's watertight test on each, in leaf
+                // order, with rule 4 on the object-space facing. Counted as the one-leaf BLAS it stands for.
+                ++world_leaves;
+                const std::uint32_t n = inst.world_triangle_count;
+                c.primitives_tested += n;
+                const bool cull_enabled = !(inst.flags & instance_flag_triangle_cull_disable);
+                const MeshBlas::Triangle* tris = world_triangles + inst.first_world_triangle;
+                if (!world_tri_ready) {
+                    world_tri = TriangleRay(ray);
+                    world_tri_ready = true;
+                }
+                for (std::uint32_t k = 0; k < n; ++k) {
+                    TriangleHit th;
+                    if (!intersect_triangle(world_tri, tris[k].v0, tris[k].v1, tris[k].v2, tmax, th)) continue;
+                    const bool front = th.front_face != inst.world_facing_flipped;
+                    if (cull_enabled && (front ? cull_front_facing : cull_back_facing)) continue;  // rule 4
+                    const bool end = report(opaque, [&] {
+                        TraceHit h;
+                        h.t = th.t;
+                        h.barycentrics = th.barycentrics;  // an affine map keeps them
+                        h.instance_index = index;
+                        h.instance_id = inst.user_id;
+                        h.primitive_index = inst.blas->mesh.primitive_id(k);
+                        h.kind = front ? HitKind::front_face : HitKind::back_face;
+                        h.geometry = GeometryKind::triangles;
+                        return h;
+                    });
+                    if (end) return true;
+                }
+                continue;
+            }
+            if (inst.path == InstancePath::object_space) {
                 if (visit_object_space(index, inst, opaque)) return true;
                 continue;
             }
@@ -264,10 +306,10 @@ TraceResult trace(const Scene& scene, const Ray& ray, std::uint32_t flags, std::
                  [&](std::uint32_t node) { return (node_masks[node] & inclusion_mask) != 0; });
 
     c.tlas_nodes = tlas_stats.nodes_visited;
-    c.blas_nodes = blas_stats.nodes_visited + world_spheres;
+    c.blas_nodes = blas_stats.nodes_visited + world_spheres + world_leaves;
     c.boxes_tested = tlas_stats.boxes_tested + blas_stats.boxes_tested;
-    c.primitives_tested = blas_stats.primitives_tested + world_spheres;
-    c.instances_entered += world_spheres;
+    c.primitives_tested += blas_stats.primitives_tested + world_spheres;
+    c.instances_entered += world_spheres + world_leaves;
     return result;
 }
 

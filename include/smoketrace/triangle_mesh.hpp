@@ -27,8 +27,8 @@ struct TriangleMesh {
 // becomes one leaf, no traversal). Against 1:1 costs and 4-triangle leaves, measured side by side with
 // Embree (bench "bvh", 133k triangles): closest hit 0.51 → 0.59 of Embree's rays/s, all hits 0.47 → 0.55;
 // an optical-depth pass over icosahedra 151.7M → 93.4M instructions (callgrind, 750 particles × 10;
-// 87.9M with the float straddle decision and the world-sphere path of trace()). The view pass's
-// two-triangle billboards pay for it: see the README's "known regression".
+// 87.9M with the float straddle decision and the world-sphere path of trace()). Two-triangle
+// billboards never reach it: they take trace()'s world-triangles path (scene.hpp).
 inline constexpr BvhBuildSettings kMeshBuildSettings{SahCosts{1.0f, 1.0f / 8.0f}, 24};
 
 // A BVH over a mesh's triangles. Triangles are copied into leaf order, once as records (three vertices
