@@ -36,6 +36,7 @@ ParticleRayResult trace_particle(const SmokeScene& smoke, const Particle& p, con
     };
     TraceLimits limits;
     if (cutoff > 0) limits.max_any_hit_invocations = cutoff;  // a (K+1)-th surface cuts the ray off
+    limits.walk = TlasWalk::all_hits;  // every surface is collected: the 4-wide TLAS (trace.hpp)
     const TraceResult r = trace(scene, ray, ray_flag_none, kLightRayMask, collect, limits);
 
     ParticleRayResult out;
@@ -53,7 +54,7 @@ ParticleRayResult trace_particle(const SmokeScene& smoke, const Particle& p, con
         trace(scene, front, ray_flag_force_non_opaque, kStandInMask, [&](const TraceHit&) {
             ++n;
             return AnyHitDecision::ignore;
-        });
+        }, TraceLimits{.walk = TlasWalk::all_hits});
         return {DepthStatus::occluded, n};
     }
     if (r.hit) {

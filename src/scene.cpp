@@ -186,13 +186,14 @@ void Scene::rebuild() {
     const std::vector<std::uint32_t> masks(instance_masks_.begin(), instance_masks_.end());
     tlas_ = build_grouped_bvh(world_boxes_, masks, BvhBuildSettings{.max_leaf_size = 1});
     node_masks_.assign(tlas_.nodes.size(), 0);
-    refit();  // fills the node masks (boxes are already exact)
+    refit_binary();  // fills the node masks (boxes are already exact)
+    wide_tlas_.collapse(tlas_, node_masks_);
     sah_at_build_ = sah_current_;
 }
 
 // One backward sweep (children before parents) refits the boxes, ORs the instance masks and sums the
 // SAH cost, with the terms and order of Bvh::sah_cost, so the rebuild test costs no extra pass.
-void Scene::refit() {
+void Scene::refit_binary() {
     auto& nodes = tlas_.nodes;
     const SahCosts costs{};
     double weighted = 0.0;
@@ -227,11 +228,12 @@ TlasUpdate Scene::commit() {
     }
     if (!transforms_dirty_) return TlasUpdate::none;
     transforms_dirty_ = false;
-    refit();
+    refit_binary();
     if (sah_current_ > rebuild_ratio_ * sah_at_build_) {
         rebuild();
         return TlasUpdate::rebuild;
     }
+    wide_tlas_.refit(tlas_, node_masks_);
     return TlasUpdate::refit;
 }
 

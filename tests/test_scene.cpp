@@ -87,6 +87,62 @@ std::vector<HitKey> all_hits(const Scene& s, const Ray& r, std::uint8_t mask, st
     return keys;
 }
 
+// The 4-wide tree trace() walks, against the same definition: below the root, every used slot's box is
+// exactly the union of the instances' world boxes under it and its mask their OR, every unused slot is
+// empty with mask 0, and every instance sits in exactly one leaf slot.
+struct WideCheck {
+    std::vector<int> seen;
+    int bad_box = 0, bad_mask = 0, bad_unused = 0, nodes = 0;
+};
+void check_wide_node(const Scene& s, std::uint32_t node, WideCheck& c, Aabb& box, std::uint8_t& mask) {
+    const WideBvhNode& n = s.wide_tlas().nodes()[node];
+    ++c.nodes;
+    for (unsigned i = 0; i < kWideBvhWidth; ++i) {
+        Aabb slot;
+        slot.lo = {n.bounds[0][i], n.bounds[1][i], n.bounds[2][i]};
+        slot.hi = {n.bounds[3][i], n.bounds[4][i], n.bounds[5][i]};
+        if (slot.empty()) {
+            c.bad_unused += (n.mask[i] != 0 || n.count[i] != 0 || slot.lo.x != kInf || slot.hi.x != -kInf) ? 1 : 0;
+            continue;
+        }
+        Aabb below;
+        std::uint8_t m = 0;
+        if (n.count[i] == 0) {
+            check_wide_node(s, n.child[i], c, below, m);
+        } else {
+            for (std::uint32_t j = n.child[i]; j < n.child[i] + n.count[i]; ++j) {
+                const std::uint32_t inst = s.tlas().prim_indices[j];
+                ++c.seen[inst];
+                below.grow(s.instance_bounds(inst));
+                m |= s.instance(inst).mask;
+            }
+        }
+        c.bad_box += (below.lo != slot.lo || below.hi != slot.hi) ? 1 : 0;
+        c.bad_mask += m != n.mask[i] ? 1 : 0;
+        box.grow(below);
+        mask |= m;
+    }
+}
+void check_wide_tlas(const Scene& s) {
+    WideCheck c;
+    c.seen.assign(s.instance_count(), 0);
+    if (s.instance_count() == 0) {
+        CHECK(s.wide_tlas().empty());
+        return;
+    }
+    Aabb box;
+    std::uint8_t mask = 0;
+    check_wide_node(s, 0, c, box, mask);
+    CHECK(mask == s.wide_tlas().root_mask());
+    CHECK(c.nodes == int(s.wide_tlas().node_count()));  // every node reachable, none twice
+    CHECK(c.bad_box == 0);
+    CHECK(c.bad_mask == 0);
+    CHECK(c.bad_unused == 0);
+    CHECK(std::all_of(c.seen.begin(), c.seen.end(), [](int k) { return k == 1; }));
+    // Collapsing halves the depth: at most about half as many nodes as the binary tree has inner nodes.
+    CHECK(s.wide_tlas().node_count() <= s.tlas().nodes.size() / 2);
+}
+
 // Checks the committed TLAS against its definition: every leaf box is exactly the union of its
 // instances' world boxes, every inner box exactly the union of its children's, every node mask exactly
 // the OR of the masks below it; every instance sits in exactly one leaf.
@@ -117,6 +173,7 @@ void check_tlas_invariants(const Scene& s) {
     CHECK(bad_box == 0);
     CHECK(bad_mask == 0);
     CHECK(std::all_of(seen.begin(), seen.end(), [](int c) { return c == 1; }));
+    check_wide_tlas(s);
 }
 
 std::vector<unsigned char> tlas_bytes(const Scene& s) {

@@ -19,6 +19,7 @@
 #include <cstdint>
 #include <limits>
 #include <set>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -88,13 +89,14 @@ std::vector<float> ts_of(const std::vector<TraceHit>& hits) {
     return t;
 }
 
-// Instance A: a large quad at z = 1 plus a small triangle up at z = 8 far off the ray, so A's world box
-// starts at z = 8 and the front-to-back TLAS walk enters A (box at t = 2) before B, a small quad at z = 5
-// (box at t = 5). For the down ray, A's hit (t = 9) is therefore the first candidate, B's (t = 5) the
-// nearer one. (Checked in the tests that rely on it: with plain accept, two commits happen.)
+// Instance A: a large quad at z = 1 plus a small triangle up at z = 9.5 far off the ray, so A's world box
+// reaches up to z = 9.5 and the TLAS walk enters A before B, a small quad at z = 5: A's box is met first
+// (t = 0.5 against 4.5) and lies higher along z (centre 5.25 against 5), the two orders a traversal may
+// follow (wide_bvh_traversal.hpp). For the down ray, A's hit (t = 9) is therefore the first candidate,
+// B's (t = 5) the nearer one. (Checked in the tests that rely on it: with plain accept, two commits happen.)
 Scene far_first_scene(bool opaque) {
     TriangleMesh a = quad(1.0f, 4.0f);
-    a.vertices.insert(a.vertices.end(), {{3.5f, 3.5f, 8.0f}, {3.9f, 3.5f, 8.0f}, {3.5f, 3.9f, 8.0f}});
+    a.vertices.insert(a.vertices.end(), {{3.5f, 3.5f, 9.5f}, {3.9f, 3.5f, 9.5f}, {3.5f, 3.9f, 9.5f}});
     a.triangles.push_back({4, 5, 6});
     Scene s;
     s.add_instance(instance_of(s.add_bottom_level(BottomLevel::from_mesh(a, opaque))));
@@ -413,14 +415,17 @@ TEST_CASE("trace: a ray whose mask excludes every instance visits no TLAS node a
 }
 
 namespace {
-// Brute-force count of the TLAS nodes a traversal must visit when nothing shrinks tmax: a node is
-// visited iff its mask and every ancestor's mask intersect the inclusion mask and the ray meets its box
-// and every ancestor's box. Also counts the leaves' instances that pass the per-instance mask test.
+// Brute-force count of the TLAS nodes a traversal must visit when nothing shrinks tmax. Binary tree
+// (TlasWalk::nearest_first): a node is visited iff its mask and every ancestor's mask intersect the
+// inclusion mask and the ray meets its box and every ancestor's box. 4-wide tree (TlasWalk::all_hits):
+// the root if any instance can match, and every child (wide node or leaf) whose mask and ancestors'
+// masks intersect the inclusion mask and whose box and ancestors' boxes the ray meets. Both also count
+// the leaves' instances that pass the per-instance mask test.
 struct ExpectedVisits {
     std::uint32_t nodes = 0;
     std::uint32_t instances = 0;
 };
-void count_visits(const Scene& s, const BoxRay& r, float tmax, std::uint8_t incl, std::uint32_t node,
+void count_binary(const Scene& s, const BoxRay& r, float tmax, std::uint8_t incl, std::uint32_t node,
                   ExpectedVisits& out) {
     if ((s.tlas_node_masks()[node] & incl) == 0) return;
     const BvhNode& n = s.tlas().nodes[node];
@@ -432,8 +437,34 @@ void count_visits(const Scene& s, const BoxRay& r, float tmax, std::uint8_t incl
             if (s.instance(s.tlas().prim_indices[k]).mask & incl) ++out.instances;
         return;
     }
-    count_visits(s, r, tmax, incl, n.first, out);
-    count_visits(s, r, tmax, incl, n.first + 1, out);
+    count_binary(s, r, tmax, incl, n.first, out);
+    count_binary(s, r, tmax, incl, n.first + 1, out);
+}
+void count_wide(const Scene& s, const BoxRay& r, float tmax, std::uint8_t incl, std::uint32_t node,
+                ExpectedVisits& out) {
+    const WideBvhNode& n = s.wide_tlas().nodes()[node];
+    ++out.nodes;
+    for (unsigned i = 0; i < kWideBvhWidth; ++i) {
+        if ((n.mask[i] & incl) == 0) continue;
+        Aabb box;
+        box.lo = {n.bounds[0][i], n.bounds[1][i], n.bounds[2][i]};
+        box.hi = {n.bounds[3][i], n.bounds[4][i], n.bounds[5][i]};
+        float t;
+        if (!intersect(box, r, tmax, t)) continue;
+        if (n.count[i] == 0) {
+            count_wide(s, r, tmax, incl, n.child[i], out);
+            continue;
+        }
+        ++out.nodes;
+        for (std::uint32_t k = n.child[i]; k < n.child[i] + n.count[i]; ++k)
+            if (s.instance(s.tlas().prim_indices[k]).mask & incl) ++out.instances;
+    }
+}
+ExpectedVisits count_visits(const Scene& s, const BoxRay& r, float tmax, std::uint8_t incl, TlasWalk walk) {
+    ExpectedVisits out;
+    if (walk == TlasWalk::nearest_first) count_binary(s, r, tmax, incl, 0, out);
+    else if (!s.wide_tlas().empty() && (s.wide_tlas().root_mask() & incl) != 0) count_wide(s, r, tmax, incl, 0, out);
+    return out;
 }
 }  // namespace
 
@@ -453,20 +484,19 @@ TEST_CASE("trace: node masks prune subtrees whose instances the inclusion mask e
     s.commit();
     const Ray ray = make_ray({-1.0f, 0.1f, 0.05f}, {1, 0, 0});
     const BoxRay box_ray(ray);
-    for (const std::uint8_t incl : {std::uint8_t(0x01), std::uint8_t(0x02), std::uint8_t(0x03), std::uint8_t(0x04)}) {
-        ExpectedVisits expected;
-        count_visits(s, box_ray, ray.tmax, incl, 0, expected);
-        const AllHits a = all_hits(s, ray, ray_flag_none, incl);
-        CAPTURE(int(incl));
-        CHECK(a.result.counters.tlas_nodes == expected.nodes);
-        CHECK(a.result.counters.instances_entered == expected.instances);
-        CHECK(a.hits.size() == (incl == 0x03 ? 128u : incl == 0x04 ? 0u : 64u));
-    }
+    for (const TlasWalk walk : {TlasWalk::nearest_first, TlasWalk::all_hits})
+        for (const std::uint8_t incl : {std::uint8_t(0x01), std::uint8_t(0x02), std::uint8_t(0x03), std::uint8_t(0x04)}) {
+            const ExpectedVisits expected = count_visits(s, box_ray, ray.tmax, incl, walk);
+            const AllHits a = all_hits(s, ray, ray_flag_none, incl, TraceLimits{.walk = walk});
+            CAPTURE(int(incl), int(walk));
+            CHECK(a.result.counters.tlas_nodes == expected.nodes);
+            CHECK(a.result.counters.instances_entered == expected.instances);
+            CHECK(a.hits.size() == (incl == 0x03 ? 128u : incl == 0x04 ? 0u : 64u));
+        }
     // The scene must actually exercise pruning: with one population the nodes visited are well below
     // the count for both (a per-instance mask test alone would visit every node of the full count).
-    ExpectedVisits one, both;
-    count_visits(s, box_ray, ray.tmax, 0x01, 0, one);
-    count_visits(s, box_ray, ray.tmax, 0x03, 0, both);
+    const ExpectedVisits one = count_visits(s, box_ray, ray.tmax, 0x01, TlasWalk::nearest_first);
+    const ExpectedVisits both = count_visits(s, box_ray, ray.tmax, 0x03, TlasWalk::nearest_first);
     CHECK(one.nodes * 3 < both.nodes * 2);
 }
 
@@ -917,4 +947,95 @@ TEST_CASE("trace: the world-triangles path agrees with the object-space path", "
         }
     }
     CHECK(compared > 1000);
+}
+
+TEST_CASE("trace: both TLAS walks go near to far along the ray", "[trace]") {
+    // 64 opaque quads stacked along z, rays straight down and straight up. The binary walk takes the
+    // nearer child first at every node, so the first leaf it reaches holds the nearest quad, whose commit
+    // prunes every other subtree: one instance entered. The 4-wide walk takes each node's children in the
+    // ray's order along the node's axis (wide_bvh_traversal.hpp): at most the leaves of the nearest node.
+    // A walk in slot order, or against the ray's order, would enter most of the 64 for one direction.
+    const Scene s = stacked_quads(layers(64), true);
+    for (const TlasWalk walk : {TlasWalk::nearest_first, TlasWalk::all_hits})
+        for (const Ray& r : {make_ray({0.3f, 0.2f, 100.0f}, {0, 0, -1}), up_ray()}) {
+            const TraceResult res = trace(s, r, ray_flag_none, 0xFF, AcceptAll{}, TraceLimits{.walk = walk});
+            REQUIRE(res.hit);
+            CHECK(res.committed.t == (r.direction.z < 0 ? 36.0f : 11.0f));  // the quads at z = 64 and z = 1
+            CAPTURE(int(walk), r.direction.z, res.counters.instances_entered);
+            CHECK(res.counters.instances_entered <= (walk == TlasWalk::nearest_first ? 1u : 4u));
+        }
+}
+
+TEST_CASE("trace: the two TLAS walks find the same hits", "[trace]") {
+    // A random scene of quads, icospheres and spheres with mixed masks and opacities; random rays. Either
+    // walk must report the same candidates (as a set: their order may differ), commit the same closest
+    // hit, and agree on the cutoff, which depends on the number of candidates only.
+    Pcg32 rng(23);
+    Scene s;
+    const std::uint32_t blases[] = {s.add_bottom_level(BottomLevel::from_mesh(quad(0.0f), false)),
+                                    s.add_bottom_level(BottomLevel::from_mesh(make_icosphere(1, 1.0f), false)),
+                                    s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 1.0f}}, false)),
+                                    s.add_bottom_level(BottomLevel::from_mesh(quad(0.0f), true))};
+    for (int i = 0; i < 300; ++i)
+        s.add_instance(instance_of(blases[i % 4], random_affine(rng, glm::dvec3(0.0), i), std::uint8_t(1u << (i % 3)),
+                                   std::uint32_t(i)));
+    s.commit();
+    int compared = 0;
+    for (int k = 0; k < 3000; ++k) {
+        const glm::vec3 o(rng.uniform(-40, 40), rng.uniform(-40, 40), rng.uniform(-40, 40));
+        const glm::vec3 to(rng.uniform(-20, 20), rng.uniform(-20, 20), rng.uniform(-20, 20));
+        const Ray ray = make_ray(o, to - o);
+        const std::uint8_t incl = std::uint8_t(1u + rng.below(7));
+        auto key = [](const TraceHit& h) { return std::tuple(h.instance_index, h.primitive_index, h.kind, h.t); };
+        std::vector<std::tuple<std::uint32_t, std::uint32_t, HitKind, float>> hits[2];
+        TraceResult closest[2], cut[2];
+        for (int w = 0; w < 2; ++w) {
+            const TlasWalk walk = w == 0 ? TlasWalk::nearest_first : TlasWalk::all_hits;
+            for (const TraceHit& h : all_hits(s, ray, ray_flag_force_non_opaque, incl, TraceLimits{.walk = walk}).hits)
+                hits[w].push_back(key(h));
+            std::sort(hits[w].begin(), hits[w].end());
+            closest[w] = trace(s, ray, ray_flag_none, incl, AcceptAll{}, TraceLimits{.walk = walk});
+            cut[w] = trace(s, ray, ray_flag_force_non_opaque, incl, [](const TraceHit&) { return AnyHitDecision::ignore; },
+                           TraceLimits{.max_any_hit_invocations = 3, .walk = walk});
+        }
+        CAPTURE(k, int(incl));
+        CHECK(hits[0] == hits[1]);
+        CHECK(closest[0].hit == closest[1].hit);
+        if (closest[0].hit && closest[1].hit) {
+            CHECK(closest[0].committed.t == closest[1].committed.t);
+            CHECK(closest[0].committed.instance_index == closest[1].committed.instance_index);
+        }
+        CHECK(cut[0].cut_off == cut[1].cut_off);
+        CHECK(cut[0].cut_off == (hits[0].size() > 3));
+        compared += int(hits[0].size());
+    }
+    CHECK(compared > 3000);
+
+    // Directed: three leaves of one 4-wide node, ordered along x by their boxes' centres (0, 1, 7) for a
+    // ray going +x. The first (a quad at x = 0) commits t = 100; the second's box starts beyond that; the
+    // third, last in that order, is a long box whose quad at x = −40 is the nearest hit (t = 60). A walk
+    // that stopped at the first leaf beyond tmax would return the quad at x = 0.
+    Scene d;
+    auto facing_x = [](float x, float h) {  // a quad in the plane x, counter-clockwise seen from −x
+        TriangleMesh m;
+        m.vertices = {{x, -h, -h}, {x, -h, h}, {x, h, h}, {x, h, -h}};
+        m.triangles = {{0, 1, 2}, {0, 2, 3}};
+        return m;
+    };
+    TriangleMesh long_one = facing_x(-40.0f, 1.0f);
+    long_one.vertices.insert(long_one.vertices.end(), {{54.0f, 0.2f, 0.2f}, {54.0f, 0.3f, 0.2f}, {54.0f, 0.2f, 0.3f}});
+    long_one.triangles.push_back({4, 5, 6});
+    d.add_instance(instance_of(d.add_bottom_level(BottomLevel::from_mesh(facing_x(0.0f, 1.0f), true)), {}, 0xFF, 0));
+    d.add_instance(instance_of(d.add_bottom_level(BottomLevel::from_mesh(facing_x(1.0f, 1.0f), true)), {}, 0xFF, 1));
+    d.add_instance(instance_of(d.add_bottom_level(BottomLevel::from_mesh(long_one, true)), {}, 0xFF, 2));
+    d.commit();
+    REQUIRE(d.wide_tlas().node_count() == 1);
+    for (const TlasWalk walk : {TlasWalk::nearest_first, TlasWalk::all_hits}) {
+        const TraceResult r = trace(d, make_ray({-100.0f, 0.1f, -0.1f}, {1, 0, 0}), ray_flag_none, 0xFF, AcceptAll{},
+                                    TraceLimits{.walk = walk});
+        CAPTURE(int(walk));
+        REQUIRE(r.hit);
+        CHECK(r.committed.t == 60.0f);
+        CHECK(r.committed.instance_id == 2);
+    }
 }

@@ -12,6 +12,7 @@
 #include <smoketrace/instance.hpp>
 #include <smoketrace/sphere_set.hpp>
 #include <smoketrace/triangle_mesh.hpp>
+#include <smoketrace/wide_bvh.hpp>
 
 #include <cstdint>
 #include <memory>
@@ -112,6 +113,8 @@ public:
     // For trace(): the committed top level. Valid after commit().
     [[nodiscard]] const Bvh& tlas() const { return tlas_; }
     [[nodiscard]] const std::vector<std::uint8_t>& tlas_node_masks() const { return node_masks_; }
+    // The same tree collapsed to 4-wide nodes, with the masks: what trace() walks.
+    [[nodiscard]] const WideBvh& wide_tlas() const { return wide_tlas_; }
     [[nodiscard]] const InstanceRecord& record(std::uint32_t i) const { return records_[i]; }
     // The world_triangles instances' triangles in world space, each instance's from its
     // InstanceRecord::first_world_triangle.
@@ -126,7 +129,7 @@ private:
     [[nodiscard]] bool takes_world_triangles(const BottomLevel& b) const;
     void update_instance(std::uint32_t i);
     void rebuild();
-    void refit();
+    void refit_binary();
 
     std::vector<std::unique_ptr<BottomLevel>> blases_;  // stable addresses for InstanceRecord::blas
     std::vector<Instance> instances_;
@@ -138,6 +141,7 @@ private:
     std::vector<std::uint8_t> instance_masks_;
     Bvh tlas_;
     std::vector<std::uint8_t> node_masks_;  // OR of the instance masks below each TLAS node
+    WideBvh wide_tlas_;                     // collapsed from tlas_ at each build, refit with it
     double sah_at_build_ = 0.0;
     double sah_current_ = 0.0;  // of the tree as last refit or built
     double rebuild_ratio_ = kTlasRebuildSahRatio;

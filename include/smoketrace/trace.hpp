@@ -4,7 +4,7 @@
 //
 // The rules implemented, from the DXR specification (microsoft/DirectX-Specs, d3d/Raytracing.md):
 //  1. Instance inclusion: an instance is visible to a ray iff (InstanceMask & InclusionMask) != 0. Each
-//     TLAS node stores the OR of the masks below it, so a subtree no visible instance lives in is never
+//     TLAS node stores, per child, the OR of the masks below it, so a subtree no visible instance lives in is never
 //     entered.
 //  2. Opacity: a primitive is opaque iff its geometry is opaque (BottomLevel::opaque); the instance
 //     flags FORCE_OPAQUE / FORCE_NON_OPAQUE override the geometry, and the ray flags FORCE_OPAQUE /
@@ -40,6 +40,7 @@
 #include <smoketrace/blas_traversal.hpp>
 #include <smoketrace/ray_sphere.hpp>
 #include <smoketrace/scene.hpp>
+#include <smoketrace/wide_bvh_traversal.hpp>
 
 #include <cstdint>
 
@@ -76,7 +77,7 @@ struct TraceHit {
 };
 
 struct TraceCounters {
-    std::uint32_t tlas_nodes = 0;          // TLAS nodes visited
+    std::uint32_t tlas_nodes = 0;          // TLAS nodes visited (4-wide nodes and leaves)
     std::uint32_t blas_nodes = 0;          // BLAS nodes visited, summed over instances
     std::uint32_t boxes_tested = 0;
     std::uint32_t instances_entered = 0;   // instances whose geometry was tested (past rules 1-3)
@@ -85,8 +86,23 @@ struct TraceCounters {
     std::uint32_t hits_accepted = 0;       // commits, opaque or by any-hit
 };
 
+// How trace() walks the top level: a hint, like Embree's coherent / incoherent context flags. The hits
+// and the committed result are the same either way; what differs is the order any-hit sees candidates
+// in, the counters and the speed.
+enum class TlasWalk : std::uint8_t {
+    // The binary TLAS, strictly near to far: the nearer child first at every node. For rays that stop
+    // early or shrink tmax (closest hit, shadow rays, the compositor's layers with early termination).
+    nearest_first,
+    // The 4-wide TLAS (wide_bvh.hpp), each node's children in the ray's order along the node's axis,
+    // leaves before inner children: half the nodes and a third fewer branch mispredictions, at the cost
+    // of a looser order. For rays that collect every hit (the optical-depth pass): 17 % faster over
+    // icosahedra and 34 % over spheres there, but camera rays over billboards 35 % slower.
+    all_hits,
+};
+
 struct TraceLimits {
     std::uint32_t max_any_hit_invocations = 0;  // 0 = no cutoff
+    TlasWalk walk = TlasWalk::nearest_first;
 };
 
 struct TraceResult {
@@ -109,7 +125,6 @@ TraceResult trace(const Scene& scene, const Ray& ray, std::uint32_t flags, std::
     float tmax = ray.tmax;
     bool ended = false;
     const Bvh& tlas = scene.tlas();
-    const std::uint8_t* node_masks = scene.tlas_node_masks().data();
     const BoxRay world_ray(ray);
     const glm::dvec3 world_origin(ray.origin), world_dir(ray.direction);
     // Locals, not reads through `ray` and `limits`: the any-hit callback could alias them for all the
@@ -302,8 +317,13 @@ TraceResult trace(const Scene& scene, const Ray& ray, std::uint32_t flags, std::
         }
         return false;
     };
-    traverse_bvh(tlas, world_ray, tmax, visit_instances, tlas_stats,
-                 [&](std::uint32_t node) { return (node_masks[node] & inclusion_mask) != 0; });
+    if (limits.walk == TlasWalk::all_hits) {
+        traverse_wide_bvh(scene.wide_tlas(), world_ray, tmax, inclusion_mask, visit_instances, tlas_stats);
+    } else {
+        const std::uint8_t* node_masks = scene.tlas_node_masks().data();
+        traverse_bvh(tlas, world_ray, tmax, visit_instances, tlas_stats,
+                     [&](std::uint32_t node) { return (node_masks[node] & inclusion_mask) != 0; });
+    }
 
     c.tlas_nodes = tlas_stats.nodes_visited;
     c.blas_nodes = blas_stats.nodes_visited + world_spheres + world_leaves;
