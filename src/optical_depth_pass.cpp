@@ -36,8 +36,8 @@ ParticleRayResult trace_particle(const SmokeScene& smoke, const Particle& p, con
     };
     TraceLimits limits;
     if (cutoff > 0) limits.max_any_hit_invocations = cutoff;  // a (K+1)-th surface cuts the ray off
-    limits.walk = TlasWalk::all_hits;  // every surface is collected: the 4-wide TLAS (trace.hpp)
-    const TraceResult r = trace(scene, ray, ray_flag_none, kLightRayMask, collect, limits);
+    // Every surface is collected: the 4-wide TLAS walk (trace.hpp).
+    const TraceResult r = trace<TlasWalk::all_hits>(scene, ray, ray_flag_none, kLightRayMask, collect, limits);
 
     ParticleRayResult out;
     if (r.cut_off) {
@@ -51,10 +51,10 @@ ParticleRayResult trace_particle(const SmokeScene& smoke, const Particle& p, con
         // tmax just below the ground: the same "t < t_ground" count as the uncut path below.
         const Ray front{p.center, kOpticalDepthTmin, dir, std::nextafter(g.committed.t, 0.0f)};
         std::uint32_t n = 0;
-        trace(scene, front, ray_flag_force_non_opaque, kStandInMask, [&](const TraceHit&) {
+        trace<TlasWalk::all_hits>(scene, front, ray_flag_force_non_opaque, kStandInMask, [&](const TraceHit&) {
             ++n;
             return AnyHitDecision::ignore;
-        }, TraceLimits{.walk = TlasWalk::all_hits});
+        });
         return {DepthStatus::occluded, n};
     }
     if (r.hit) {

@@ -73,12 +73,14 @@ struct AllHits {
     TraceResult result;
 };
 AllHits all_hits(const Scene& s, const Ray& r, std::uint32_t flags = ray_flag_none, std::uint8_t mask = 0xFF,
-                 const TraceLimits& limits = {}) {
+                 const TraceLimits& limits = {}, TlasWalk walk = TlasWalk::nearest_first) {
     AllHits a;
-    a.result = trace(s, r, flags, mask, [&](const TraceHit& h) {
+    auto record = [&](const TraceHit& h) {
         a.hits.push_back(h);
         return AnyHitDecision::ignore;
-    }, limits);
+    };
+    a.result = walk == TlasWalk::all_hits ? trace<TlasWalk::all_hits>(s, r, flags, mask, record, limits)
+                                          : trace(s, r, flags, mask, record, limits);
     std::sort(a.hits.begin(), a.hits.end(), [](const TraceHit& x, const TraceHit& y) { return x.t < y.t; });
     return a;
 }
@@ -487,7 +489,7 @@ TEST_CASE("trace: node masks prune subtrees whose instances the inclusion mask e
     for (const TlasWalk walk : {TlasWalk::nearest_first, TlasWalk::all_hits})
         for (const std::uint8_t incl : {std::uint8_t(0x01), std::uint8_t(0x02), std::uint8_t(0x03), std::uint8_t(0x04)}) {
             const ExpectedVisits expected = count_visits(s, box_ray, ray.tmax, incl, walk);
-            const AllHits a = all_hits(s, ray, ray_flag_none, incl, TraceLimits{.walk = walk});
+            const AllHits a = all_hits(s, ray, ray_flag_none, incl, {}, walk);
             CAPTURE(int(incl), int(walk));
             CHECK(a.result.counters.tlas_nodes == expected.nodes);
             CHECK(a.result.counters.instances_entered == expected.instances);
@@ -958,7 +960,8 @@ TEST_CASE("trace: both TLAS walks go near to far along the ray", "[trace]") {
     const Scene s = stacked_quads(layers(64), true);
     for (const TlasWalk walk : {TlasWalk::nearest_first, TlasWalk::all_hits})
         for (const Ray& r : {make_ray({0.3f, 0.2f, 100.0f}, {0, 0, -1}), up_ray()}) {
-            const TraceResult res = trace(s, r, ray_flag_none, 0xFF, AcceptAll{}, TraceLimits{.walk = walk});
+            const TraceResult res = walk == TlasWalk::all_hits ? trace<TlasWalk::all_hits>(s, r, ray_flag_none, 0xFF)
+                                                               : trace(s, r, ray_flag_none, 0xFF);
             REQUIRE(res.hit);
             CHECK(res.committed.t == (r.direction.z < 0 ? 36.0f : 11.0f));  // the quads at z = 64 and z = 1
             CAPTURE(int(walk), r.direction.z, res.counters.instances_entered);
@@ -991,12 +994,17 @@ TEST_CASE("trace: the two TLAS walks find the same hits", "[trace]") {
         TraceResult closest[2], cut[2];
         for (int w = 0; w < 2; ++w) {
             const TlasWalk walk = w == 0 ? TlasWalk::nearest_first : TlasWalk::all_hits;
-            for (const TraceHit& h : all_hits(s, ray, ray_flag_force_non_opaque, incl, TraceLimits{.walk = walk}).hits)
+            for (const TraceHit& h : all_hits(s, ray, ray_flag_force_non_opaque, incl, {}, walk).hits)
                 hits[w].push_back(key(h));
             std::sort(hits[w].begin(), hits[w].end());
-            closest[w] = trace(s, ray, ray_flag_none, incl, AcceptAll{}, TraceLimits{.walk = walk});
-            cut[w] = trace(s, ray, ray_flag_force_non_opaque, incl, [](const TraceHit&) { return AnyHitDecision::ignore; },
-                           TraceLimits{.max_any_hit_invocations = 3, .walk = walk});
+            auto ignore = [](const TraceHit&) { return AnyHitDecision::ignore; };
+            if (walk == TlasWalk::all_hits) {
+                closest[w] = trace<TlasWalk::all_hits>(s, ray, ray_flag_none, incl);
+                cut[w] = trace<TlasWalk::all_hits>(s, ray, ray_flag_force_non_opaque, incl, ignore, TraceLimits{3});
+            } else {
+                closest[w] = trace(s, ray, ray_flag_none, incl);
+                cut[w] = trace(s, ray, ray_flag_force_non_opaque, incl, ignore, TraceLimits{3});
+            }
         }
         CAPTURE(k, int(incl));
         CHECK(hits[0] == hits[1]);
@@ -1031,8 +1039,9 @@ TEST_CASE("trace: the two TLAS walks find the same hits", "[trace]") {
     d.commit();
     REQUIRE(d.wide_tlas().node_count() == 1);
     for (const TlasWalk walk : {TlasWalk::nearest_first, TlasWalk::all_hits}) {
-        const TraceResult r = trace(d, make_ray({-100.0f, 0.1f, -0.1f}, {1, 0, 0}), ray_flag_none, 0xFF, AcceptAll{},
-                                    TraceLimits{.walk = walk});
+        const Ray ray = make_ray({-100.0f, 0.1f, -0.1f}, {1, 0, 0});
+        const TraceResult r = walk == TlasWalk::all_hits ? trace<TlasWalk::all_hits>(d, ray, ray_flag_none, 0xFF)
+                                                         : trace(d, ray, ray_flag_none, 0xFF);
         CAPTURE(int(walk));
         REQUIRE(r.hit);
         CHECK(r.committed.t == 60.0f);
