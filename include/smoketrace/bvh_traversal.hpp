@@ -74,6 +74,25 @@ private:
 #endif
 };
 
+// A subtree left for later on a traversal stack, with the distance at which the ray enters its box.
+struct StackEntry {
+    std::uint32_t node;
+    float t;
+};
+
+// Pops entries until one can still hold a hit before tmax, and returns its node; false when the stack
+// runs out. Shared by the binary and the 4-wide walk (wide_bvh_traversal.hpp).
+[[gnu::always_inline]] inline bool pop_live_entry(const StackEntry* stack, int& sp, float tmax, std::uint32_t& node) {
+    for (;;) {
+        if (sp == 0) return false;
+        const StackEntry e = stack[--sp];
+        if (e.t <= tmax * kSlabFarScale) {
+            node = e.node;
+            return true;
+        }
+    }
+}
+
 // Calls leaf(first, count) for every leaf whose box the ray enters before tmax; `tmax` is read
 // through the reference on every step, so a leaf callback that commits a hit narrows the search.
 // leaf returns true to end the traversal; traverse_bvh then returns true.
@@ -93,11 +112,7 @@ inline bool traverse_bvh(const Bvh& bvh, const BoxRay& ray, const float& tmax, L
     if (!intersect(nodes[0].bounds, ray, tmax, t_root)) return false;
     const ChildPairTest pair_test(ray);
 
-    struct Entry {
-        std::uint32_t node;
-        float t;
-    };
-    Entry stack[kMaxBvhDepth + 1];
+    StackEntry stack[kMaxBvhDepth + 1];
     int sp = 0;
     std::uint32_t node = 0;
     for (;;) {
@@ -113,7 +128,7 @@ inline bool traverse_bvh(const Bvh& bvh, const BoxRay& ray, const float& tmax, L
             const bool hl = el && (hits & 1u), hr = er && (hits & 2u);
             if (hl && hr) {
                 const bool right_first = tr < tl;
-                stack[sp++] = right_first ? Entry{n.first, tl} : Entry{n.first + 1, tr};
+                stack[sp++] = right_first ? StackEntry{n.first, tl} : StackEntry{n.first + 1, tr};
                 node = right_first ? n.first + 1 : n.first;
                 continue;
             }
@@ -122,15 +137,8 @@ inline bool traverse_bvh(const Bvh& bvh, const BoxRay& ray, const float& tmax, L
                 continue;
             }
         }
-        // Pop the next subtree that can still hold a hit before tmax.
-        for (;;) {
-            if (sp == 0) return false;
-            const Entry e = stack[--sp];
-            if (e.t <= tmax * kSlabFarScale) {
-                node = e.node;
-                break;
-            }
-        }
+        // The next subtree that can still hold a hit before tmax.
+        if (!pop_live_entry(stack, sp, tmax, node)) return false;
     }
 }
 

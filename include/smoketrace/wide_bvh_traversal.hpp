@@ -113,13 +113,9 @@ inline bool traverse_wide_bvh(const WideBvh& bvh, const BoxRay& ray, const float
     unsigned flip_of_axis[3];
     for (int a = 0; a < 3; ++a) flip_of_axis[a] = ray.near[a] == a + 3 ? 3u : 0u;
 
-    // An inner child to visit, with its entry distance.
-    struct Entry {
-        std::uint32_t node;
-        float t;
-    };
-    // Each wide node pushes at most width − 1 entries, and the wide tree is no deeper than the binary.
-    Entry stack[(kWideBvhWidth - 1) * kMaxBvhDepth + 1];
+    // Inner children left for later. Each wide node pushes at most width − 1, and the wide tree is no
+    // deeper than the binary.
+    StackEntry stack[(kWideBvhWidth - 1) * kMaxBvhDepth + 1];
     int sp = 0;
     std::uint32_t node = 0;
     for (;;) {
@@ -151,7 +147,7 @@ inline bool traverse_wide_bvh(const WideBvh& bvh, const BoxRay& ray, const float
                 const unsigned j = 31u - unsigned(std::countl_zero(m));
                 m &= ~(1u << j);
                 const unsigned i = j ^ flip;
-                stack[sp++] = Entry{n.child[i], t[i]};
+                stack[sp++] = StackEntry{n.child[i], t[i]};
             }
             // Tested again: a leaf above may have shrunk tmax since the box test.
             if (t[first] <= tmax * kSlabFarScale) {
@@ -159,15 +155,8 @@ inline bool traverse_wide_bvh(const WideBvh& bvh, const BoxRay& ray, const float
                 continue;
             }
         }
-        // Pop the next child that can still hold a hit before tmax.
-        for (;;) {
-            if (sp == 0) return false;
-            const Entry e = stack[--sp];
-            if (e.t <= tmax * kSlabFarScale) {
-                node = e.node;
-                break;
-            }
-        }
+        // The next inner child that can still hold a hit before tmax.
+        if (!pop_live_entry(stack, sp, tmax, node)) return false;
     }
 }
 
