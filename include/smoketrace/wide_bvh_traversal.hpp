@@ -7,8 +7,8 @@
 // hit has shrunk tmax is skipped.
 //
 // Not strictly near to far, on purpose. Measured on the optical-depth pass (750 particles, one thread,
-// side by side): ordering by entry distance and pushing leaves like inner nodes cost 18 % more time on
-// spheres than this, and a branch-free sorting network more still; this walk is 34 % (spheres) and 17 %
+// side by side): ordering by entry distance and pushing leaves like inner nodes cost 17 % more time on
+// spheres than this, and a branch-free sorting network more still; this walk is 35 % (spheres) and 18 %
 // (icosahedra) faster than the binary tree's. For camera rays over overlapping billboards, whose commits
 // and early termination need the strict order, the binary walk stays the faster (by 35 %).
 #include <smoketrace/aabb.hpp>
