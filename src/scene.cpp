@@ -46,10 +46,9 @@ std::uint32_t Scene::add_instance(const Instance& instance) {
     instances_.push_back(instance);
     records_.emplace_back();
     // The world_triangles path depends on the BLAS alone, so an instance's slots are fixed here.
-    const MeshBlas& mesh = blases_[instance.blas]->mesh;
-    if (takes_world_triangles(*blases_[instance.blas])) {
+    if (const BottomLevel& b = *blases_[instance.blas]; takes_world_triangles(b)) {
         records_.back().first_world_triangle = static_cast<std::uint32_t>(world_triangles_.size());
-        world_triangles_.resize(world_triangles_.size() + mesh.leaf_triangles().size());
+        world_triangles_.resize(world_triangles_.size() + b.mesh.leaf_triangles().size());
     }
     world_boxes_.emplace_back();
     instance_masks_.push_back(instance.mask);
@@ -114,8 +113,8 @@ bool is_similarity(const glm::dmat3& m, double& scale) {
 }  // namespace
 
 bool Scene::takes_world_triangles(const BottomLevel& b) const {
-    return paths_ == InstancePaths::fastest && b.kind == GeometryKind::triangles && !b.mesh.bvh().empty() && b.mesh.bvh().nodes[0].is_leaf() &&
-           b.mesh.leaf_triangles().size() <= kMaxWorldTriangles;
+    return paths_ == InstancePaths::fastest && b.kind == GeometryKind::triangles && !b.mesh.bvh().empty() &&
+           b.mesh.bvh().nodes[0].is_leaf() && b.mesh.leaf_triangles().size() <= kMaxWorldTriangles;
 }
 
 // World box: the 8 transformed corners of the object box, in double, rounded outward to float.
@@ -135,7 +134,7 @@ void Scene::update_instance(std::uint32_t i) {
     r.blas = &b;
     r.object_to_world_translation = in.object_to_world.translation;
     r.world_to_object_linear = inv.linear;
-    // The world-sphere fast path of trace() (see InstanceRecord); anything else takes the general path.
+    // The world-space paths of trace() (see InstancePath); anything else takes the general path.
     double scale = 0.0;
     if (paths_ == InstancePaths::fastest && b.kind == GeometryKind::spheres && b.spheres.leaf_spheres().size() == 1 &&
         is_similarity(in.object_to_world.linear, scale)) {
