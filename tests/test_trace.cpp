@@ -4,7 +4,9 @@
 // Geometry used throughout: quads, two triangles wound counter-clockwise seen from +z (so a ray coming
 // down the −z axis meets their FRONT face, ray_triangle.hpp), stacked along z; rays go down x = 0.3,
 // y = 0.2, which avoids the quad's diagonal. All coordinates and distances are small integers or
-// halves, exact in float, so hit distances are exact and compared with ==.
+// halves, exact in float, so hit distances are exact and compared with ==. The last sections (the
+// world-triangles path against the object-space path, and the two TLAS walks against each other) use
+// random affine maps instead, with the tolerances derived where they are used.
 #include <smoketrace/prng.hpp>
 #include <smoketrace/stand_in_shapes.hpp>
 #include <smoketrace/trace.hpp>
