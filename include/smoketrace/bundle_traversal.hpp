@@ -1,0 +1,181 @@
+#pragma once
+// The walk of a 4-wide BVH (wide_bvh.hpp) for a ray bundle (ray_bundle.hpp): the top level's walk in
+// trace_bundle(). A node is visited once for every lane that entered it; each of its children (masks
+// first, as in wide_bvh_traversal.hpp) is box-tested for those lanes at once, and a child is entered
+// with the lanes whose rays meet its box.
+//
+// Lane by lane the same walk as traverse_wide_bvh(): the same box test with the same roundings (so a
+// lane enters exactly the nodes its ray alone would enter, given the same tmax), children in the ray's
+// order along each node's axis, leaves first. The per-lane counters therefore equal a single ray's when
+// nothing is committed.
+#include <smoketrace/aabb.hpp>
+#include <smoketrace/bvh_traversal.hpp>
+#include <smoketrace/ray_bundle.hpp>
+#include <smoketrace/wide_bvh.hpp>
+#include <smoketrace/wide_bvh_traversal.hpp>
+
+#include <bit>
+#include <cstdint>
+
+#if defined(__AVX2__)
+#include <immintrin.h>
+#endif
+
+namespace smoketrace {
+
+// Per-lane walk counters (TraversalStats for each ray of the bundle).
+struct BundleStats {
+    alignas(32) std::uint32_t nodes_visited[kBundleWidth] = {};
+    alignas(32) std::uint32_t boxes_tested[kBundleWidth] = {};
+};
+
+// One child box of a wide node against every ray of a bundle: bit i of the result set when lane i's ray
+// meets the box in [tmin_i, tmax_i]. Lane by lane exactly intersect() of aabb.hpp: the shared direction
+// gives every lane the same reciprocal and near / far planes, and maxps / minps keep the accumulator
+// (their second operand) where a slab distance is NaN, as the scalar test does.
+class BundleBoxTest {
+public:
+    explicit BundleBoxTest(const RayBundle& b) : shared_(Ray{glm::vec3(0.0f), 0.0f, b.direction, 0.0f}) {
+#if defined(__AVX2__)
+        origin_[0] = _mm256_load_ps(b.x);
+        origin_[1] = _mm256_load_ps(b.y);
+        origin_[2] = _mm256_load_ps(b.z);
+        tmin_ = _mm256_load_ps(b.tmin);
+        for (int a = 0; a < 3; ++a) {
+            inv_dir_[a] = _mm256_set1_ps(shared_.inv_dir[a]);
+            inv_far_[a] = _mm256_set1_ps(shared_.inv_far[a]);
+        }
+#else
+        for (unsigned i = 0; i < kBundleWidth; ++i) lane_rays_[i] = BoxRay(b.ray(i));
+#endif
+    }
+
+    // The plane index entered first on axis a, shared by every lane (BoxRay::near).
+    [[nodiscard]] int near_plane(int a) const { return shared_.near[a]; }
+
+#if defined(__AVX2__)
+    // `far_tmax`: each lane's tmax · kSlabFarScale (far_limits()).
+    [[gnu::always_inline]] unsigned test(const WideBvhNode& n, unsigned slot, __m256 far_tmax) const {
+        __m256 t0 = tmin_, t1 = far_tmax;
+#pragma GCC unroll 3
+        for (int a = 0; a < 3; ++a) {
+            const __m256 t_near = _mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(n.bounds[shared_.near[a]][slot]), origin_[a]),
+                                                inv_dir_[a]);
+            const __m256 t_far = _mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(n.bounds[shared_.far[a]][slot]), origin_[a]),
+                                               inv_far_[a]);
+            t0 = _mm256_max_ps(t_near, t0);
+            t1 = _mm256_min_ps(t_far, t1);
+        }
+        return unsigned(_mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ)));
+    }
+    [[gnu::always_inline]] static __m256 far_limits(const float* tmax) {
+        return _mm256_mul_ps(_mm256_load_ps(tmax), _mm256_set1_ps(kSlabFarScale));
+    }
+#else
+    using FarLimits = const float*;
+    [[gnu::always_inline]] unsigned test(const WideBvhNode& n, unsigned slot, FarLimits tmax) const {
+        Aabb box;
+        box.lo = {n.bounds[0][slot], n.bounds[1][slot], n.bounds[2][slot]};
+        box.hi = {n.bounds[3][slot], n.bounds[4][slot], n.bounds[5][slot]};
+        unsigned hits = 0;
+        float t_enter;
+        for (unsigned i = 0; i < kBundleWidth; ++i) hits |= unsigned(intersect(box, lane_rays_[i], tmax[i], t_enter)) << i;
+        return hits;
+    }
+    [[gnu::always_inline]] static FarLimits far_limits(const float* tmax) { return tmax; }
+#endif
+
+private:
+    BoxRay shared_;  // the direction's part of the slab test
+#if defined(__AVX2__)
+    __m256 origin_[3], inv_dir_[3], inv_far_[3], tmin_;
+#else
+    BoxRay lane_rays_[kBundleWidth];
+#endif
+};
+
+// Adds 1 to the counter of every lane in `lanes`.
+[[gnu::always_inline]] inline void count_lanes(std::uint32_t* counters, unsigned lanes, unsigned times = 1) {
+#if defined(__AVX2__)
+    const __m256i bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+    const __m256i in = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(int(lanes)), bits), bits);
+    const __m256i add = _mm256_and_si256(in, _mm256_set1_epi32(int(times)));
+    _mm256_store_si256(reinterpret_cast<__m256i*>(counters),
+                       _mm256_add_epi32(_mm256_load_si256(reinterpret_cast<const __m256i*>(counters)), add));
+#else
+    for (unsigned m = lanes; m != 0; m &= m - 1) counters[std::countr_zero(m)] += times;
+#endif
+}
+
+// Calls leaf(first, count, lanes) for every leaf whose mask meets `inclusion_mask` and whose box the
+// rays of `lanes` (a nonzero subset of `live`) enter before their tmax. `tmax` (kBundleWidth floats,
+// 32-byte aligned) and `live` (the lanes still searching) are read at every step, so a leaf callback
+// that commits a hit or ends a lane's search narrows the walk at once. The walk ends when no lane is
+// live or every node has been visited.
+template <class LeafFn>
+inline void traverse_wide_bvh_bundle(const WideBvh& bvh, const BundleBoxTest& box_test, const float* tmax,
+                                     const unsigned& live, std::uint8_t inclusion_mask, LeafFn&& leaf,
+                                     BundleStats& stats) {
+    if (bvh.empty() || (bvh.root_mask() & inclusion_mask) == 0 || live == 0) return;
+    const WideBvhNode* nodes = bvh.nodes();
+    unsigned flip_of_axis[3];
+    for (int a = 0; a < 3; ++a) flip_of_axis[a] = box_test.near_plane(a) == a + 3 ? 3u : 0u;
+
+    struct Entry {
+        std::uint32_t node;
+        unsigned lanes;
+    };
+    Entry stack[(kWideBvhWidth - 1) * kMaxBvhDepth + 1];
+    int sp = 0;
+    Entry e{0, live};
+    for (;;) {
+        const WideBvhNode& n = nodes[e.node];
+        count_lanes(stats.nodes_visited, e.lanes);
+        const unsigned admitted = admitted_children(n, inclusion_mask);
+        count_lanes(stats.boxes_tested, e.lanes, unsigned(std::popcount(admitted)));
+        const auto far = BundleBoxTest::far_limits(tmax);
+        // Children in the ray's order along the node's axis (as in traverse_wide_bvh), the lanes that
+        // enter each.
+        const unsigned flip = flip_of_axis[n.axis];
+        unsigned enter[kWideBvhWidth] = {};
+        unsigned leaves = 0, inner = 0;  // in ray order: bit j for the j-th child along the ray
+        for (unsigned m = admitted; m != 0; m &= m - 1) {
+            const unsigned slot = unsigned(std::countr_zero(m));
+            enter[slot] = box_test.test(n, slot, far) & e.lanes;
+            if (enter[slot] == 0) continue;
+            ((n.leaves >> slot) & 1u ? leaves : inner) |= 1u << (slot ^ flip);
+        }
+        for (unsigned m = leaves; m != 0; m &= m - 1) {
+            const unsigned slot = unsigned(std::countr_zero(m)) ^ flip;
+            const unsigned lanes = enter[slot] & live;  // a leaf before may have ended lanes
+            if (lanes == 0) continue;
+            count_lanes(stats.nodes_visited, lanes);
+            leaf(n.child[slot], n.count[slot], lanes);
+        }
+        // Inner children: the first along the ray next, the others pushed last first.
+        bool next = false;
+        for (unsigned m = inner; m != 0;) {
+            const unsigned j = 31u - unsigned(std::countl_zero(m));
+            m &= ~(1u << j);
+            const unsigned slot = j ^ flip;
+            const unsigned lanes = enter[slot] & live;
+            if (lanes == 0) continue;
+            if (m == 0) {
+                e = Entry{n.child[slot], lanes};
+                next = true;
+            } else {
+                stack[sp++] = Entry{n.child[slot], lanes};
+            }
+        }
+        if (next) continue;
+        // The next entry with a live lane.
+        for (;;) {
+            if (sp == 0) return;
+            e = stack[--sp];
+            e.lanes &= live;
+            if (e.lanes != 0) break;
+        }
+    }
+}
+
+}  // namespace smoketrace

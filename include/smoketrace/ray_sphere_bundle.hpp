@@ -1,0 +1,110 @@
+#pragma once
+// sphere_roots() (ray_sphere.hpp) for the rays of a bundle (ray_bundle.hpp) against one sphere: eight
+// origins, one direction, four lanes of doubles per AVX2 operation; and which of the crossings found lie
+// in each ray's [tmin, tmax], the candidates trace_bundle() hands to the rays' searches.
+//
+// Same answers, bit for bit: each lane performs sphere_roots()'s operations in its order and precision
+// (the build disables FMA contraction, CMakeLists.txt), copysign and negation are exact bit operations,
+// and "swap if t0 > t1" is a blend on the same comparison, and the conversion to float rounds to nearest like
+// static_cast<float>. So a sphere hit has the same t whether its ray was traced alone or in a bundle; a test (test_trace_bundle.cpp) holds the two against each other.
+// Without AVX2 the lanes run sphere_roots() itself.
+#include <smoketrace/ray_bundle.hpp>
+#include <smoketrace/ray_sphere.hpp>
+
+#include <glm/vec3.hpp>
+
+#include <limits>
+
+#if defined(__AVX2__)
+#include <immintrin.h>
+#endif
+
+namespace smoketrace {
+
+// What a sphere shows the rays of a bundle: per lane, the roots as sphere_roots() gives them, and the
+// lanes whose entry / exit, rounded to float as trace() reports it, lies in their [tmin, tmax].
+struct BundleSphereCrossings {
+    alignas(32) double t_enter[kBundleWidth];
+    alignas(32) double t_exit[kBundleWidth];
+    unsigned enter = 0;  // bit i: lane i's ray crosses the sphere and enters it inside [tmin_i, tmax_i]
+    unsigned exit = 0;   // the same for leaving it
+};
+
+// For each lane of `lanes` (a bit set over the bundle's lanes): the roots of the lane's ray, its origin
+// taken relative to `translation` first (o − T, as trace()'s world-sphere path does), against the sphere
+// (center, radius) in that frame; `tmax`: the lanes' current tmax (kBundleWidth floats, 32-byte
+// aligned). A lane for which sphere_roots() returns false has neither bit set; t_enter / t_exit are
+// meaningful only where a bit is set, and then equal sphere_roots()'s roots bit for bit.
+inline void sphere_crossings_bundle(const RayBundle& b, unsigned lanes, const float* tmax, const glm::dvec3& translation,
+                                    const glm::dvec3& center, double radius, BundleSphereCrossings& out) {
+    const glm::dvec3 d(b.direction);
+    out.enter = out.exit = 0;
+#if defined(__AVX2__)
+    const double a_scalar = d.x * d.x + d.y * d.y + d.z * d.z;
+    if (!(a_scalar > 0.0)) return;
+    const __m256d dx = _mm256_set1_pd(d.x), dy = _mm256_set1_pd(d.y), dz = _mm256_set1_pd(d.z);
+    const __m256d a = _mm256_set1_pd(a_scalar);
+    const __m256d r2 = _mm256_set1_pd(radius * radius);
+    const __m256d sign_bit = _mm256_set1_pd(-0.0);
+    const __m256d infinity = _mm256_set1_pd(std::numeric_limits<double>::infinity());
+    for (unsigned half = 0; half < kBundleWidth; half += 4) {
+        if (((lanes >> half) & 0xFu) == 0) continue;
+        // f = (o − T) − c, each lane's origin widened exactly to double.
+        const __m256d fx = _mm256_sub_pd(_mm256_sub_pd(_mm256_cvtps_pd(_mm_load_ps(b.x + half)), _mm256_set1_pd(translation.x)),
+                                         _mm256_set1_pd(center.x));
+        const __m256d fy = _mm256_sub_pd(_mm256_sub_pd(_mm256_cvtps_pd(_mm_load_ps(b.y + half)), _mm256_set1_pd(translation.y)),
+                                         _mm256_set1_pd(center.y));
+        const __m256d fz = _mm256_sub_pd(_mm256_sub_pd(_mm256_cvtps_pd(_mm_load_ps(b.z + half)), _mm256_set1_pd(translation.z)),
+                                         _mm256_set1_pd(center.z));
+        // b = f·d, perp = f − (b/a)·d, h² = r² − |perp|²: sphere_roots()'s lines, term by term.
+        const __m256d bq = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(fx, dx), _mm256_mul_pd(fy, dy)), _mm256_mul_pd(fz, dz));
+        const __m256d b_over_a = _mm256_div_pd(bq, a);
+        const __m256d px = _mm256_sub_pd(fx, _mm256_mul_pd(b_over_a, dx));
+        const __m256d py = _mm256_sub_pd(fy, _mm256_mul_pd(b_over_a, dy));
+        const __m256d pz = _mm256_sub_pd(fz, _mm256_mul_pd(b_over_a, dz));
+        const __m256d h2 = _mm256_sub_pd(
+            r2, _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(px, px), _mm256_mul_pd(py, py)), _mm256_mul_pd(pz, pz)));
+        const __m256d positive = _mm256_cmp_pd(h2, _mm256_setzero_pd(), _CMP_GT_OQ);
+        if (_mm256_movemask_pd(positive) == 0) continue;
+        const __m256d c = _mm256_sub_pd(
+            _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(fx, fx), _mm256_mul_pd(fy, fy)), _mm256_mul_pd(fz, fz)), r2);
+        // q = −(b + copysign(√(a·h²), b)); lanes with h² ≤ 0 compute a NaN that is masked out below.
+        const __m256d root = _mm256_sqrt_pd(_mm256_mul_pd(a, h2));
+        const __m256d signed_root = _mm256_or_pd(_mm256_andnot_pd(sign_bit, root), _mm256_and_pd(sign_bit, bq));
+        const __m256d q = _mm256_xor_pd(_mm256_add_pd(bq, signed_root), sign_bit);
+        const __m256d t0 = _mm256_div_pd(c, q);
+        const __m256d t1 = _mm256_div_pd(q, a);
+        // std::isfinite of both roots (|t| < ∞, false for NaN), then "swap if t0 > t1".
+        const __m256d finite = _mm256_and_pd(_mm256_cmp_pd(_mm256_andnot_pd(sign_bit, t0), infinity, _CMP_LT_OQ),
+                                             _mm256_cmp_pd(_mm256_andnot_pd(sign_bit, t1), infinity, _CMP_LT_OQ));
+        const __m256d swap = _mm256_cmp_pd(t0, t1, _CMP_GT_OQ);
+        const __m256d near = _mm256_blendv_pd(t0, t1, swap), far = _mm256_blendv_pd(t1, t0, swap);
+        _mm256_store_pd(out.t_enter + half, near);
+        _mm256_store_pd(out.t_exit + half, far);
+        const __m128 t_enter = _mm256_cvtpd_ps(near);  // rounded to nearest, as static_cast<float>
+        const __m128 t_exit = _mm256_cvtpd_ps(far);
+        const unsigned crosses = unsigned(_mm256_movemask_pd(_mm256_and_pd(positive, finite)));
+        const __m128 lo = _mm_load_ps(b.tmin + half), hi = _mm_load_ps(tmax + half);
+        auto in_range = [&](__m128 t) {
+            return unsigned(_mm_movemask_ps(_mm_and_ps(_mm_cmp_ps(t, lo, _CMP_GE_OQ), _mm_cmp_ps(t, hi, _CMP_LE_OQ))));
+        };
+        out.enter |= (crosses & in_range(t_enter)) << half;
+        out.exit |= (crosses & in_range(t_exit)) << half;
+    }
+    out.enter &= lanes;
+    out.exit &= lanes;
+#else
+    for (unsigned m = lanes; m != 0; m &= m - 1) {
+        const unsigned i = unsigned(__builtin_ctz(m));
+        SphereRoots r;
+        if (!sphere_roots(glm::dvec3(b.origin(i)) - translation, d, center, radius, r)) continue;
+        out.t_enter[i] = r.t_enter;
+        out.t_exit[i] = r.t_exit;
+        const float te = static_cast<float>(r.t_enter), tx = static_cast<float>(r.t_exit);
+        out.enter |= unsigned(te >= b.tmin[i] && te <= tmax[i]) << i;
+        out.exit |= unsigned(tx >= b.tmin[i] && tx <= tmax[i]) << i;
+    }
+#endif
+}
+
+}  // namespace smoketrace
