@@ -1,7 +1,9 @@
 // The optical-depth pass (thesis 4.3.2), see optical_depth_pass.hpp.
 #include <smoketrace/memory_budget.hpp>
 #include <smoketrace/optical_depth_pass.hpp>
+#include <smoketrace/ray_bundle.hpp>
 #include <smoketrace/trace.hpp>
+#include <smoketrace/trace_bundle.hpp>
 
 #include <glm/geometric.hpp>
 #include <tbb/parallel_for.h>
@@ -15,41 +17,29 @@
 namespace smoketrace {
 namespace {
 
-// Particles per parallel chunk: large enough to amortise the task, small enough to balance 2–64 cores.
-// Fixed chunk boundaries (simple_partitioner) make the layout of the hit buffer thread-count independent.
+// Particles per parallel chunk (a multiple of kBundleWidth): large enough to amortise the task, small
+// enough to balance 2–64 cores. Fixed chunk boundaries (simple_partitioner) make the layout of the hit
+// buffer thread-count independent.
 constexpr std::size_t kParticlesPerChunk = 64;
+static_assert(kParticlesPerChunk % kBundleWidth == 0);
 
-struct ParticleRayResult {
+struct RayOutcome {
     DepthStatus status = DepthStatus::ok;
     std::uint32_t hits = 0;
 };
 
-// One particle's ray. Appends its hits to `hits` and returns status and count.
-ParticleRayResult trace_particle(const SmokeScene& smoke, const Particle& p, const glm::vec3& dir, std::uint32_t cutoff,
-                                 std::vector<SurfaceHit>& hits) {
-    const Scene& scene = smoke.scene();
-    const Ray ray{p.center, kOpticalDepthTmin, dir, kOpticalDepthTmax};
-    const std::size_t start = hits.size();
-    auto collect = [&](const TraceHit& h) {
-        hits.push_back(SurfaceHit{h.t, h.front_face() ? +1 : -1});
-        return AnyHitDecision::ignore;
-    };
-    TraceLimits limits;
-    if (cutoff > 0) limits.max_any_hit_invocations = cutoff;  // a (K+1)-th surface cuts the ray off
-    // Every surface is collected: the 4-wide TLAS walk (trace.hpp).
-    const TraceResult r = trace<TlasWalk::all_hits>(scene, ray, ray_flag_none, kLightRayMask, collect, limits);
-
-    ParticleRayResult out;
+// A particle's status and hit count from its ray's search `r`, which collected `hits`. A search that
+// did not see the whole ray, because it was cut off or met the ground, is completed here.
+RayOutcome outcome_of(const Scene& scene, const Ray& ray, const TraceResult& r, std::span<const SurfaceHit> hits,
+                      std::uint32_t cutoff) {
     if (r.cut_off) {
-        hits.resize(start);
         // Cut off before the whole ray was seen: only a ground-only ray can tell whether it is occluded.
-        const Ray ground_ray{p.center, kOpticalDepthTmin, dir, kOpticalDepthTmax};
-        const TraceResult g = trace(scene, ground_ray, ray_flag_accept_first_hit_and_end_search | ray_flag_force_opaque,
-                                    kGroundMask);
+        const TraceResult g =
+            trace(scene, ray, ray_flag_accept_first_hit_and_end_search | ray_flag_force_opaque, kGroundMask);
         if (!g.hit) return {DepthStatus::cutoff, cutoff + 1};
         // Occluded: count the surfaces in front of the opaque hit, with no cutoff.
         // tmax just below the ground: the same "t < t_ground" count as the uncut path below.
-        const Ray front{p.center, kOpticalDepthTmin, dir, std::nextafter(g.committed.t, 0.0f)};
+        const Ray front{ray.origin, ray.tmin, ray.direction, std::nextafter(g.committed.t, 0.0f)};
         std::uint32_t n = 0;
         trace<TlasWalk::all_hits>(scene, front, ray_flag_force_non_opaque, kStandInMask, [&](const TraceHit&) {
             ++n;
@@ -60,13 +50,10 @@ ParticleRayResult trace_particle(const SmokeScene& smoke, const Particle& p, con
     if (r.hit) {
         // Occluded: hits found before the opaque commit may lie behind it; keep the count in front.
         const float t_opaque = r.committed.t;
-        const auto n = std::count_if(hits.begin() + std::ptrdiff_t(start), hits.end(),
-                                     [&](const SurfaceHit& h) { return h.t < t_opaque; });
-        hits.resize(start);
+        const auto n = std::count_if(hits.begin(), hits.end(), [&](const SurfaceHit& h) { return h.t < t_opaque; });
         return {DepthStatus::occluded, static_cast<std::uint32_t>(n)};
     }
-    out.hits = static_cast<std::uint32_t>(hits.size() - start);
-    return out;
+    return {DepthStatus::ok, static_cast<std::uint32_t>(hits.size())};
 }
 
 [[noreturn]] void over_budget(std::uint64_t budget) {
@@ -88,11 +75,19 @@ std::uint64_t default_max_total_hits() {
 void OpticalDepthPass::run(const SmokeScene& smoke, std::span<const Particle> particles,
                            std::span<const std::uint32_t> which, const glm::vec3& to_light,
                            const OpticalDepthSettings& settings, OpticalDepthHits& out) {
+    const Scene& scene = smoke.scene();
     const glm::vec3 dir = glm::normalize(to_light);
     const std::size_t n = which.size();
     out.particles.assign(which.begin(), which.end());
     out.status.assign(n, DepthStatus::ok);
     out.hit_counts.assign(n, 0);
+    // The rays in bundles of neighbours (ray_bundle.hpp): ray_order_[k] is the k-th ray traced, an index
+    // into `which`.
+    origins_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) origins_[i] = particles[which[i]].center;
+    bundle_order(origins_, dir, ray_order_, order_scratch_);
+    first_kept_.resize(n);
+
     const std::size_t chunk_count = (n + kParticlesPerChunk - 1) / kParticlesPerChunk;
     if (chunks_.size() < chunk_count) chunks_.resize(chunk_count);
     // Hits kept so far, over all chunks; the budget also keeps the 32-bit offsets below from wrapping.
@@ -100,20 +95,40 @@ void OpticalDepthPass::run(const SmokeScene& smoke, std::span<const Particle> pa
         settings.max_total_hits > 0 ? settings.max_total_hits : default_max_total_hits(),
         std::numeric_limits<std::uint32_t>::max());
     std::atomic<std::uint64_t> kept{0};
+    TraceLimits limits;
+    if (settings.cutoff > 0) limits.max_any_hit_invocations = settings.cutoff;  // a (K+1)-th surface cuts off
 
     tbb::parallel_for(
         tbb::blocked_range<std::size_t>(0, chunk_count, 1),
         [&](const tbb::blocked_range<std::size_t>& r) {
             for (std::size_t c = r.begin(); c < r.end(); ++c) {
-                std::vector<SurfaceHit>& hits = chunks_[c].hits;
-                hits.clear();
+                Chunk& chunk = chunks_[c];
+                chunk.hits.clear();
                 const std::size_t end = std::min(n, (c + 1) * kParticlesPerChunk);
-                for (std::size_t i = c * kParticlesPerChunk; i < end; ++i) {
-                    const ParticleRayResult res = trace_particle(smoke, particles[which[i]], dir, settings.cutoff, hits);
-                    out.status[i] = res.status;
-                    out.hit_counts[i] = res.hits;
-                    if (res.status == DepthStatus::ok && kept.fetch_add(res.hits, std::memory_order_relaxed) + res.hits > budget)
-                        over_budget(budget);  // TBB cancels the other chunks and rethrows in run()'s caller
+                for (std::size_t k = c * kParticlesPerChunk; k < end; k += kBundleWidth) {
+                    RayBundle bundle(dir);
+                    for (std::size_t j = k; j < std::min(end, k + kBundleWidth); ++j)
+                        bundle.add(origins_[ray_order_[j]], kOpticalDepthTmin, kOpticalDepthTmax);
+                    for (std::vector<SurfaceHit>& lane : chunk.lane_hits) lane.clear();
+                    // Thesis 4.3.2's any-hit shader: store (t, +1) entering a stand-in, (t, −1) leaving one,
+                    // and IgnoreHit() so that the search goes on.
+                    auto collect = [&](unsigned lane, const TraceHit& h) {
+                        chunk.lane_hits[lane].push_back(SurfaceHit{h.t, h.front_face() ? +1 : -1});
+                        return AnyHitDecision::ignore;
+                    };
+                    const BundleResults results = trace_bundle(scene, bundle, ray_flag_none, kLightRayMask, collect, limits);
+                    for (unsigned lane = 0; lane < bundle.count; ++lane) {
+                        const std::size_t i = ray_order_[k + lane];
+                        const std::vector<SurfaceHit>& hits = chunk.lane_hits[lane];
+                        const RayOutcome o = outcome_of(scene, bundle.ray(lane), results[lane], hits, settings.cutoff);
+                        out.status[i] = o.status;
+                        out.hit_counts[i] = o.hits;
+                        if (o.status != DepthStatus::ok) continue;
+                        if (kept.fetch_add(o.hits, std::memory_order_relaxed) + o.hits > budget)
+                            over_budget(budget);  // TBB cancels the other chunks and rethrows in run()'s caller
+                        first_kept_[i] = static_cast<std::uint32_t>(chunk.hits.size());
+                        chunk.hits.insert(chunk.hits.end(), hits.begin(), hits.end());
+                    }
                 }
             }
         },
@@ -127,8 +142,13 @@ void OpticalDepthPass::run(const SmokeScene& smoke, std::span<const Particle> pa
         lists.offsets[i + 1] = lists.offsets[i] + (out.status[i] == DepthStatus::ok ? out.hit_counts[i] : 0);
     lists.hits.resize(lists.offsets[n]);
     tbb::parallel_for(std::size_t(0), chunk_count, [&](std::size_t c) {
-        const std::size_t first = c * kParticlesPerChunk;
-        std::copy(chunks_[c].hits.begin(), chunks_[c].hits.end(), lists.hits.begin() + lists.offsets[first]);
+        const std::size_t end = std::min(n, (c + 1) * kParticlesPerChunk);
+        for (std::size_t k = c * kParticlesPerChunk; k < end; ++k) {
+            const std::size_t i = ray_order_[k];
+            if (out.status[i] != DepthStatus::ok) continue;
+            const auto from = chunks_[c].hits.begin() + first_kept_[i];
+            std::copy(from, from + out.hit_counts[i], lists.hits.begin() + lists.offsets[i]);
+        }
     });
 }
 

@@ -17,8 +17,10 @@
 // A crossing of a shared edge or vertex counts once (ray_triangle.hpp). Hits go into one flat buffer of
 // variable-length per-particle lists: no fixed K-slot arrays (the thesis's limitation 6.1).
 #include <smoketrace/hit_resolver.hpp>
+#include <smoketrace/ray_bundle.hpp>
 #include <smoketrace/smoke_scene.hpp>
 
+#include <array>
 #include <cstdint>
 #include <span>
 #include <stdexcept>
@@ -69,9 +71,15 @@ public:
 
 private:
     struct Chunk {
-        std::vector<SurfaceHit> hits;
+        std::vector<SurfaceHit> hits;  // its rays' kept hits, in ray order
+        std::array<std::vector<SurfaceHit>, kBundleWidth> lane_hits;  // the bundle in flight's, per ray
     };
-    std::vector<Chunk> chunks_;  // kept between frames so that a steady state allocates nothing
+    // All kept between frames, so that a steady state allocates nothing.
+    std::vector<Chunk> chunks_;
+    std::vector<glm::vec3> origins_;         // the rays' origins, in the order of `which`
+    std::vector<std::uint32_t> ray_order_;   // bundle_order() of origins_
+    BundleOrderScratch order_scratch_;
+    std::vector<std::uint32_t> first_kept_;  // where particle i's hits start in its chunk's buffer
 };
 
 
