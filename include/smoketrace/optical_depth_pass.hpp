@@ -20,6 +20,8 @@
 #include <smoketrace/ray_bundle.hpp>
 #include <smoketrace/smoke_scene.hpp>
 
+#include <tbb/enumerable_thread_specific.h>
+
 #include <array>
 #include <cstdint>
 #include <span>
@@ -70,16 +72,21 @@ public:
              const glm::vec3& to_light, const OpticalDepthSettings& settings, OpticalDepthHits& out);
 
 private:
-    struct Chunk {
-        std::vector<SurfaceHit> hits;  // its rays' kept hits, in ray order
+    // A thread's working memory, reused from bundle to bundle and frame to frame so that it stays in the
+    // thread's cache and a steady state allocates nothing.
+    struct Scratch {
         std::array<std::vector<SurfaceHit>, kBundleWidth> lane_hits;  // the bundle in flight's, per ray
+        std::vector<SurfaceHit> kept;  // the hits of this thread's ok rays, ray after ray
     };
-    // All kept between frames, so that a steady state allocates nothing.
-    std::vector<Chunk> chunks_;
-    std::vector<glm::vec3> origins_;         // the rays' origins, in the order of `which`
-    std::vector<std::uint32_t> ray_order_;   // bundle_order() of origins_
+    struct KeptAt {
+        const Scratch* scratch;
+        std::uint32_t offset;
+    };
+    tbb::enumerable_thread_specific<Scratch> scratch_;
+    std::vector<glm::vec3> origins_;        // the rays' origins, in the order of `which`
+    std::vector<std::uint32_t> ray_order_;  // bundle_order() of origins_
     BundleOrderScratch order_scratch_;
-    std::vector<std::uint32_t> first_kept_;  // where particle i's hits start in its chunk's buffer
+    std::vector<KeptAt> kept_at_;           // where particle i's hits are, until gathered
 };
 
 
