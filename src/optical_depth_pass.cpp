@@ -106,6 +106,7 @@ void OpticalDepthPass::run(const SmokeScene& smoke, std::span<const Particle> pa
         tbb::blocked_range<std::size_t>(0, chunk_count, 1),
         [&](const tbb::blocked_range<std::size_t>& r) {
             Scratch& sc = scratch_.local();
+            std::size_t kept_before = sc.kept.size();
             for (std::size_t c = r.begin(); c < r.end(); ++c) {
                 const std::size_t end = std::min(n, (c + 1) * kParticlesPerChunk);
                 for (std::size_t k = c * kParticlesPerChunk; k < end; k += kBundleWidth) {
@@ -127,12 +128,15 @@ void OpticalDepthPass::run(const SmokeScene& smoke, std::span<const Particle> pa
                         out.status[i] = o.status;
                         out.hit_counts[i] = o.hits;
                         if (o.status != DepthStatus::ok) continue;
-                        if (kept.fetch_add(o.hits, std::memory_order_relaxed) + o.hits > budget)
-                            over_budget(budget);  // TBB cancels the other chunks and rethrows in run()'s caller
                         kept_at_[i] = {&sc, static_cast<std::uint32_t>(sc.kept.size())};
                         sc.kept.insert(sc.kept.end(), hits.begin(), hits.end());
                     }
                 }
+                // The budget, checked once per task: the hits over it are at most one task's.
+                const std::uint64_t task_hits = sc.kept.size() - kept_before;
+                kept_before = sc.kept.size();
+                if (kept.fetch_add(task_hits, std::memory_order_relaxed) + task_hits > budget)
+                    over_budget(budget);  // TBB cancels the other tasks and rethrows in run()'s caller
             }
         },
         tbb::simple_partitioner());
