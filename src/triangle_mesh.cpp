@@ -33,10 +33,12 @@ MeshBlas::MeshBlas(const TriangleMesh& mesh, const BvhBuildSettings& settings) :
     }
     bvh_ = build_bvh(boxes, settings);
     triangles_.resize(bvh_.prim_indices.size());
+    normals_.resize(bvh_.prim_indices.size());
     for (std::size_t k = 0; k < bvh_.prim_indices.size(); ++k) {
         const std::uint32_t id = kept[bvh_.prim_indices[k]];
         const glm::uvec3 t = mesh.triangles[id];
         triangles_[k] = {mesh.vertices[t.x], mesh.vertices[t.y], mesh.vertices[t.z]};
+        normals_[k] = triangle_normal(triangles_[k].v0, triangles_[k].v1, triangles_[k].v2);
         bvh_.prim_indices[k] = id;  // leaf slot k now names the input triangle directly
     }
     // Planes padded to whole blocks plus one, so that a block read starting at any triangle stays inside

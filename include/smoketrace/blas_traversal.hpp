@@ -38,6 +38,7 @@ struct BlasRay {
     Ray ray;
     TriangleRay tri;
     explicit BlasRay(const Ray& r) : ray(r), tri(r) {}
+    BlasRay(const Ray& r, const TriangleRay& t) : ray(r), tri(t) {}  // t: TriangleRay(r), made elsewhere
 };
 
 // What the sphere kernel needs: the ray in double. trace() transforms the world ray into object space
@@ -58,6 +59,7 @@ template <class OnHit>
 inline bool mesh_leaf_hits(const MeshBlas& blas, const BlasRay& r, const float& tmax, std::uint32_t first,
                            std::uint32_t count, TraversalStats& stats, OnHit&& on_hit) {
     const MeshBlas::Triangle* tris = blas.leaf_triangles().data();
+    const glm::dvec3* normals = blas.leaf_normals().data();
     const TrianglePlanes planes = blas.leaf_planes();
     stats.primitives_tested += count;
     for (std::uint32_t k = first, end = first + count; k < end; k += kTriangleBlockLanes) {
@@ -66,9 +68,8 @@ inline bool mesh_leaf_hits(const MeshBlas& blas, const BlasRay& r, const float& 
         while (keep != 0) {
             const unsigned i = unsigned(std::countr_zero(keep));
             keep &= keep - 1;
-            const MeshBlas::Triangle& t = tris[k + i];
             TriangleHit th;
-            if (!finish_triangle_hit(r.tri, block.lane(i), t.v0, t.v1, t.v2, tmax, th)) continue;
+            if (!finish_triangle_hit(r.tri, block.lane(i), tris[k + i].v0, normals[k + i], tmax, th)) continue;
             if (on_hit(BlasHit{th.t, th.barycentrics, blas.primitive_id(k + i), th.front_face})) return true;
         }
     }

@@ -116,9 +116,10 @@ inline bool straddles(const ShearedTriangle& s) {
 }
 
 // The rest of the test for a triangle that does not straddle: degeneracy, the tie-break on edges and
-// vertices, and the distance. Returns true and fills `hit` when t lies in [tmin, tmax].
+// vertices, and the distance. `n` is triangle_normal(v0, v1, v2), which a mesh BLAS keeps per triangle.
+// Returns true and fills `hit` when t lies in [tmin, tmax].
 inline bool finish_triangle_hit(const TriangleRay& r, const ShearedTriangle& s, const glm::vec3& v0,
-                                const glm::vec3& v1, const glm::vec3& v2, float tmax, TriangleHit& hit) {
+                                const glm::dvec3& n, float tmax, TriangleHit& hit) {
     const double det = s.u + s.v + s.w;
     if (det == 0.0) return false;
     const bool ccw = det > 0.0;
@@ -132,7 +133,6 @@ inline bool finish_triangle_hit(const TriangleRay& r, const ShearedTriangle& s, 
     // reject its own triangle's hit. The plane form's error is relative to t itself. It also rejects the
     // triangles the 2D test cannot see as degenerate: exactly collinear vertices (zero normal) whose
     // sheared projection rounded to a sliver, and a ray in the triangle's plane.
-    const glm::dvec3 n = triangle_normal(v0, v1, v2);
     const double n_dot_d = n.x * r.direction.x + n.y * r.direction.y + n.z * r.direction.z;
     if (n_dot_d == 0.0) return false;
     const glm::dvec3 p = glm::dvec3(v0) - glm::dvec3(r.origin);
@@ -153,7 +153,7 @@ inline bool intersect_triangle(const TriangleRay& r, const glm::vec3& v0, const 
                                const glm::vec3& v2, float tmax, TriangleHit& hit) {
     const ShearedTriangle s = shear_triangle(r, v0, v1, v2);
     if (straddles(s)) return false;
-    return finish_triangle_hit(r, s, v0, v1, v2, tmax, hit);
+    return finish_triangle_hit(r, s, v0, triangle_normal(v0, v1, v2), tmax, hit);
 }
 
 }  // namespace smoketrace

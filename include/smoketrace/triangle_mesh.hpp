@@ -49,6 +49,9 @@ public:
     [[nodiscard]] const std::vector<Triangle>& leaf_triangles() const { return triangles_; }
     // The same triangles in plane form (ray_triangle_block.hpp).
     [[nodiscard]] TrianglePlanes leaf_planes() const { return {planes_.data(), plane_stride_}; }
+    // Each triangle's triangle_normal(), in leaf order: the distance of a hit comes from it, and it depends
+    // on the triangle alone.
+    [[nodiscard]] const std::vector<glm::dvec3>& leaf_normals() const { return normals_; }
     [[nodiscard]] std::uint32_t primitive_id(std::uint32_t k) const { return bvh_.prim_indices[k]; }
     [[nodiscard]] std::size_t input_triangle_count() const { return input_count_; }
     [[nodiscard]] std::size_t degenerate_count() const { return input_count_ - triangles_.size(); }
@@ -56,6 +59,7 @@ public:
 private:
     Bvh bvh_;
     std::vector<Triangle> triangles_;
+    std::vector<glm::dvec3> normals_;
     std::vector<float, AlignedAllocator<float, 32>> planes_;
     std::size_t plane_stride_ = 0;
     std::size_t input_count_ = 0;
