@@ -201,6 +201,34 @@ private:
     // there (rule 4 applies to triangles only). Out of line, so that the instance visit, the TLAS walk's
     // leaf callback, stays small enough to be inlined into the walk.
     __attribute__((noinline)) bool visit_object_space(std::uint32_t index, const InstanceRecord& inst, bool opaque) {
+        return visit_in_object_space(index, inst, opaque, object_direction(inst, world_dir_));
+    }
+
+public:
+    // The part of an instance's object-space ray that depends on the ray's direction alone: the same for
+    // every ray of a bundle, which makes it once per instance (trace_bundle.hpp). The object-space ray
+    // keeps t: the direction is transformed without normalising.
+    struct ObjectDirection {
+        glm::dvec3 d;
+        TriangleRay tri;  // triangles: the watertight test's set-up for glm::vec3(d) (origin and tmin: the ray's)
+    };
+    [[nodiscard]] static ObjectDirection object_direction(const InstanceRecord& inst, const glm::dvec3& world_dir) {
+        ObjectDirection od{inst.world_to_object_linear * world_dir, TriangleRay{}};
+        if (inst.blas->kind == GeometryKind::triangles)
+            od.tri = TriangleRay(Ray{glm::vec3(0.0f), 0.0f, glm::vec3(od.d), 0.0f});
+        return od;
+    }
+
+    // The general path with the direction's part made by the caller (object_direction() of this ray's
+    // direction). Returns true when the search has ended.
+    __attribute__((noinline)) bool visit_object_space(std::uint32_t index, const InstanceRecord& inst, bool opaque,
+                                                      const ObjectDirection& od) {
+        return visit_in_object_space(index, inst, opaque, od);
+    }
+
+private:
+    [[gnu::always_inline]] bool visit_in_object_space(std::uint32_t index, const InstanceRecord& inst, bool opaque,
+                                                      const ObjectDirection& od) {
         ++result_.counters.instances_entered;
         const BottomLevel& blas = *inst.blas;
         const bool triangles = blas.kind == GeometryKind::triangles;
@@ -209,9 +237,8 @@ private:
         const bool cull_front = facing_cull && cull_front_facing_;
         const bool flip_facing = triangles && (inst.flags & instance_flag_triangle_front_clockwise);
 
-        // The object-space ray keeps t: direction transformed without normalising.
         const glm::dvec3 o = inst.world_to_object_linear * (world_origin_ - inst.object_to_world_translation);
-        const glm::dvec3 d = inst.world_to_object_linear * world_dir_;
+        const glm::dvec3& d = od.d;
         // Triangles are intersected in float (watertight for the rounded ray: every triangle of the
         // instance sees the same one); spheres take the double ray as it is.
         const Ray obj_ray{glm::vec3(o), ray_.tmin, glm::vec3(d), ray_.tmax};
@@ -241,7 +268,10 @@ private:
             }
         };
         if (triangles) {
-            const BlasRay obj(obj_ray);
+            TriangleRay tri = od.tri;  // = TriangleRay(obj_ray): the set-up depends on the direction only
+            tri.origin = obj_ray.origin;
+            tri.tmin = obj_ray.tmin;
+            const BlasRay obj(obj_ray, tri);
             run(blas.mesh.bvh(), [&](std::uint32_t f, std::uint32_t n) {
                 return mesh_leaf_hits(blas.mesh, obj, tmax_, f, n, blas_stats_, on_hit);
             });

@@ -83,6 +83,13 @@ BundleResults trace_bundle(const Scene& scene, const RayBundle& bundle, std::uin
                                                             static_cast<float>(x.t_exit[i]), sides))
                         lanes &= ~(1u << i);
                 }
+            } else if (inst.path == InstancePath::object_space) {
+                // The direction's part of the object-space ray, once for the bundle.
+                const auto od = RaySearch<detail::LaneAnyHit<Callback>>::object_direction(inst, glm::dvec3(bundle.direction));
+                for (unsigned m = lanes; m != 0; m &= m - 1) {
+                    const unsigned i = unsigned(std::countr_zero(m));
+                    if (searches[i].visit_object_space(index, inst, opaque, od)) lanes &= ~(1u << i);
+                }
             } else {
                 for (unsigned m = lanes; m != 0; m &= m - 1) {
                     const unsigned i = unsigned(std::countr_zero(m));
