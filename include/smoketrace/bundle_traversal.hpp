@@ -35,7 +35,7 @@ struct BundleStats {
 // (their second operand) where a slab distance is NaN, as the scalar test does.
 class BundleBoxTest {
 public:
-    explicit BundleBoxTest(const RayBundle& b) : shared_(Ray{glm::vec3(0.0f), 0.0f, b.direction, 0.0f}) {
+    explicit BundleBoxTest(const RayBundle& b) : shared_(Ray{glm::vec3(0.0f), 0.0f, b.direction, 0.0f}), bundle_(b) {
 #if defined(__AVX2__)
         origin_[0] = _mm256_load_ps(b.x);
         origin_[1] = _mm256_load_ps(b.y);
@@ -45,8 +45,6 @@ public:
             inv_dir_[a] = _mm256_set1_ps(shared_.inv_dir[a]);
             inv_far_[a] = _mm256_set1_ps(shared_.inv_far[a]);
         }
-#else
-        for (unsigned i = 0; i < kBundleWidth; ++i) lane_rays_[i] = BoxRay(b.ray(i));
 #endif
     }
 
@@ -79,7 +77,8 @@ public:
         box.hi = {n.bounds[3][slot], n.bounds[4][slot], n.bounds[5][slot]};
         unsigned hits = 0;
         float t_enter;
-        for (unsigned i = 0; i < kBundleWidth; ++i) hits |= unsigned(intersect(box, lane_rays_[i], tmax[i], t_enter)) << i;
+        for (unsigned i = 0; i < kBundleWidth; ++i)
+            hits |= unsigned(intersect(box, BoxRay(bundle_.ray(i)), tmax[i], t_enter)) << i;
         return hits;
     }
     [[gnu::always_inline]] static FarLimits far_limits(const float* tmax) { return tmax; }
@@ -87,10 +86,9 @@ public:
 
 private:
     BoxRay shared_;  // the direction's part of the slab test
+    const RayBundle& bundle_;
 #if defined(__AVX2__)
     __m256 origin_[3], inv_dir_[3], inv_far_[3], tmin_;
-#else
-    BoxRay lane_rays_[kBundleWidth];
 #endif
 };
 
