@@ -16,6 +16,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <cassert>
 #include <stdexcept>
 #include <string>
@@ -99,16 +100,25 @@ void resolve_optical_path_lengths(HitLists& lists, std::span<const DepthStatus> 
                                     std::to_string(lists.offsets.back()) + " but there are " +
                                     std::to_string(lists.hits.size()) + " hits");
     }
-    // Each particle writes only its own list and length: deterministic for any partitioning.
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, particles), [&](const tbb::blocked_range<std::size_t>& r) {
-        std::vector<SurfaceHit> scratch;  // one per task range, grown to its longest list: never per hit
+    // Each particle writes only its own list and length: deterministic for any partitioning. Tasks of at
+    // least kParticlesPerTask particles: a list takes ~0.1 µs, a task's hand-over several times that.
+    constexpr std::size_t kParticlesPerTask = 64;
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, particles, kParticlesPerTask),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+        // Scratch for the radix sort: on the stack for the usual short lists, else grown once per task.
+        std::array<SurfaceHit, 256> small;
+        std::vector<SurfaceHit> large;
         for (std::size_t i = r.begin(); i < r.end(); ++i) {
             if (status[i] != DepthStatus::ok) {
                 lengths[i] = kFullyDarkPathLength;
                 continue;
             }
             const std::span<SurfaceHit> hits = lists.of(i);
-            if (method == HitSort::radix && hits.size() > scratch.size()) scratch.resize(hits.size());
+            std::span<SurfaceHit> scratch(small);
+            if (method == HitSort::radix && hits.size() > small.size()) {
+                if (hits.size() > large.size()) large.resize(hits.size());
+                scratch = large;
+            }
             sort_by_t(hits, scratch, method);
             lengths[i] = static_cast<float>(optical_path_length(hits));
         }

@@ -47,14 +47,18 @@ std::vector<Keyed> make_keys(std::size_t n, int kind, Pcg32& rng) {
             case 3: k = 0xDEAD'BEEFu; break;                     // all equal: every pass skipped
             case 4: k = 0x3F80'0000u | (rng.next_u32() & 0x0000'0FFFu); break;  // only the low 12 bits vary
             case 5: k = (rng.below(4) << 30) | rng.below(4); break;  // top and bottom vary: middle passes skipped
+            case 6: k = rng.below(3) == 0 ? UINT32_MAX : rng.below(3) == 0 ? 0u : rng.next_u32(); break;  // extremes:
+                    // UINT32_MAX is also the rank sort's padding, which must never count
         }
         v[i] = {k, static_cast<std::uint32_t>(i)};
     }
     return v;
 }
 
-const std::vector<std::size_t> kSortSizes = {0,   1,   2,   3,   kRadixSortMinItems - 1, kRadixSortMinItems,
-                                             kRadixSortMinItems + 1, 100, kRankSortMaxItems, 257, 1000, 4096, 100000};
+// Edges of the rank sort's 16-key blocks (15, 16, 17, …) and of the sort thresholds.
+const std::vector<std::size_t> kSortSizes = {0,  1,  2,  3,  15, 16, 17, 31, 32, 33, 63, 64, 65, 100,
+                                             kRadixSortMinItems - 1, kRadixSortMinItems, kRadixSortMinItems + 1,
+                                             kRankSortMaxItems, 257, 1000, 4096, 100000};
 
 // Reference optical path length, independent of the walk: the measure of the union of the particles'
 // chords clipped to the ray [0, inf), by sorting the intervals and merging them, in double.
@@ -142,7 +146,7 @@ TEST_CASE("radix, rank and insertion sort match std::stable_sort", "[resolver]")
     Pcg32 rng(2);
     auto by_key = [](const Keyed& x) { return x.key; };
     for (const std::size_t n : kSortSizes) {
-        for (int kind = 0; kind < 6; ++kind) {
+        for (int kind = 0; kind < 7; ++kind) {
             INFO("n = " << n << ", key kind " << kind);
             std::vector<Keyed> input = make_keys(n, kind, rng);
             std::vector<Keyed> expected = input;
