@@ -249,7 +249,7 @@ void run_resolver(const BenchOptions& options) {
     for (const Variant& v : variants) std::cout << std::setw(10) << v.name;
     std::cout << "\n";
     const std::vector<std::size_t> sizes =
-        options.quick ? std::vector<std::size_t>{16, 64, 128, 160, 192, 256, 2048}
+        options.quick ? std::vector<std::size_t>{16, 64, 128, 192, 256, 320, 384, 512, 2048}
                       : std::vector<std::size_t>{8, 16, 24, 32, 48, 64, 80, 96, 112, 128, 144, 160, 176, 192, 224, 256,
                                                  512, 2048, 16384, 131072};
     std::size_t radix_first_wins = 0;

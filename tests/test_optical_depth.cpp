@@ -428,11 +428,12 @@ TEST_CASE("optical depth: particle groups update 1/G of the particles, the other
 
 TEST_CASE("optical depth: radix, std::sort and bubble sort give bit-identical lengths on the tube scene",
           "[optical-depth]") {
-    // 750 particles (the thesis's default) and 1500, whose rays along the lower tube (light from +x) meet
-    // enough surfaces for the long-list radix path as well as the short-list rank sort.
+    // 750 particles (the thesis's default), 1500, and 3000, whose rays along the lower tube (light from +x)
+    // meet enough surfaces for the long-list radix path as well as the short-list rank sort.
     std::uint32_t longest = 0;
     for (const auto& [n, shape] : {std::pair{750u, kSphere}, std::pair{750u, kIcosahedron},
-                                   std::pair{1500u, kSphere}, std::pair{1500u, kIcosahedron}}) {
+                                   std::pair{1500u, kSphere}, std::pair{1500u, kIcosahedron},
+                                   std::pair{3000u, kSphere}}) {
         const auto ps = tube_particles(n);
         const SmokeScene scene = make_scene(ps, shape);
         for (std::uint32_t cutoff : {0u, 60u}) {

@@ -36,12 +36,16 @@ namespace smoketrace {
 
 // Lists shorter than this are rank-sorted, longer ones radix-sorted: the measured crossover (bench section
 // "resolver", table "sort crossover": shuffled t values of one ray; 2-core AMD EPYC with AVX-512,
-// -march=native). Rank sort wins clearly below it (128 items: 6.5 vs 9.8 ns/item), the two tie at
-// 160-176, radix wins from 192 (8.4 vs 9.2) and its cost per item keeps falling while rank sort's grows.
-// Without AVX-512 the rank sort compares half as many keys per instruction: re-measure there.
-inline constexpr std::size_t kRadixSortMinItems = 160;
-// rank_sort() keeps the keys of its list on the stack: its longest list.
-inline constexpr std::size_t kRankSortMaxItems = 256;
+// -march=native). With the AVX-512 rank sort (blocks of 16 keys), rank sort wins clearly below it (128
+// items: 5.1 vs 10.0 ns/item, 192: 6.9 vs 8.7), the two tie at 256, radix wins from 320 (7.4 vs 9.7) and
+// its cost per item keeps falling while rank sort's grows. On the optical-depth pass's own lists (any-hit
+// order, lengths varying from list to list) the rank sort's lead is larger (65-128 items, mean 88: 4.1 vs
+// 9.2). Without AVX-512 the rank sort compares fewer keys per instruction: re-measure there (it was
+// 160 with the auto-vectorised loops).
+inline constexpr std::size_t kRadixSortMinItems = 256;
+// rank_sort() keeps the keys of its list on the stack: its longest list (beyond the crossover, so that
+// the benchmark can show where it loses).
+inline constexpr std::size_t kRankSortMaxItems = 512;
 static_assert(kRadixSortMinItems <= kRankSortMaxItems + 1);
 
 // The radix sort's digit width adapts to the list: the widest digit with at most this many histogram
@@ -146,14 +150,27 @@ inline void stable_ranks(const std::uint32_t* keys, std::size_t n, std::uint32_t
     for (std::size_t i = 0; i < n; ++i) {
         std::uint32_t rank = 0;
 #if defined(__AVX512F__)
+        // Blocks before i's count keys <= k, blocks after it keys < k, i's own block both by lane; the
+        // counts accumulate in the lanes of one register and are summed once.
         const __m512i k = _mm512_set1_epi32(int(keys[i]));
-        for (std::size_t b = 0; b < blocks; ++b) {
+        const __m512i one = _mm512_set1_epi32(1);
+        const std::size_t own = i / kRankBlock;
+        __m512i count = _mm512_setzero_si512();
+        for (std::size_t b = 0; b < own; ++b) {
             const __m512i block = _mm512_load_si512(keys + kRankBlock * b);
-            const std::ptrdiff_t before = std::ptrdiff_t(i) - std::ptrdiff_t(kRankBlock * b);  // lanes j < i
-            const __mmask16 earlier = before >= 16 ? __mmask16(0xFFFF) : before <= 0 ? __mmask16(0) : __mmask16((1u << before) - 1u);
-            rank += unsigned(std::popcount(unsigned(_mm512_cmplt_epu32_mask(block, k)))) +
-                    unsigned(std::popcount(unsigned(_mm512_mask_cmpeq_epu32_mask(earlier, block, k))));
+            count = _mm512_mask_add_epi32(count, _mm512_cmple_epu32_mask(block, k), count, one);
         }
+        {
+            const __m512i block = _mm512_load_si512(keys + kRankBlock * own);
+            const __mmask16 earlier = __mmask16((1u << (i % kRankBlock)) - 1u);
+            const __mmask16 before = _mm512_cmplt_epu32_mask(block, k) | _mm512_mask_cmpeq_epu32_mask(earlier, block, k);
+            count = _mm512_mask_add_epi32(count, before, count, one);
+        }
+        for (std::size_t b = own + 1; b < blocks; ++b) {
+            const __m512i block = _mm512_load_si512(keys + kRankBlock * b);
+            count = _mm512_mask_add_epi32(count, _mm512_cmplt_epu32_mask(block, k), count, one);
+        }
+        rank = std::uint32_t(_mm512_reduce_add_epi32(count));
 #else
         const std::uint32_t k = keys[i];
         for (std::size_t j = 0; j < i; ++j) rank += keys[j] <= k;  // equal keys earlier in the input go first
