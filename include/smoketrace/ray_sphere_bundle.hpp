@@ -44,6 +44,7 @@ inline void sphere_crossings_bundle(const RayBundle& b, unsigned lanes, const fl
     if (!(a_scalar > 0.0)) return;
     const __m256d dx = _mm256_set1_pd(d.x), dy = _mm256_set1_pd(d.y), dz = _mm256_set1_pd(d.z);
     const __m256d a = _mm256_set1_pd(a_scalar);
+    const __m256d inv_a = _mm256_set1_pd(1.0 / a_scalar);  // as sphere_roots() divides, once per ray
     const __m256d r2 = _mm256_set1_pd(radius * radius);
     const __m256d sign_bit = _mm256_set1_pd(-0.0);
     const __m256d infinity = _mm256_set1_pd(std::numeric_limits<double>::infinity());
@@ -56,9 +57,9 @@ inline void sphere_crossings_bundle(const RayBundle& b, unsigned lanes, const fl
                                          _mm256_set1_pd(center.y));
         const __m256d fz = _mm256_sub_pd(_mm256_sub_pd(_mm256_cvtps_pd(_mm_load_ps(b.z + half)), _mm256_set1_pd(translation.z)),
                                          _mm256_set1_pd(center.z));
-        // b = f·d, perp = f − (b/a)·d, h² = r² − |perp|²: sphere_roots()'s lines, term by term.
+        // b = f·d, perp = f − (b·(1/a))·d, h² = r² − |perp|²: sphere_roots()'s lines, term by term.
         const __m256d bq = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(fx, dx), _mm256_mul_pd(fy, dy)), _mm256_mul_pd(fz, dz));
-        const __m256d b_over_a = _mm256_div_pd(bq, a);
+        const __m256d b_over_a = _mm256_mul_pd(bq, inv_a);
         const __m256d px = _mm256_sub_pd(fx, _mm256_mul_pd(b_over_a, dx));
         const __m256d py = _mm256_sub_pd(fy, _mm256_mul_pd(b_over_a, dy));
         const __m256d pz = _mm256_sub_pd(fz, _mm256_mul_pd(b_over_a, dz));
@@ -73,7 +74,7 @@ inline void sphere_crossings_bundle(const RayBundle& b, unsigned lanes, const fl
         const __m256d signed_root = _mm256_or_pd(_mm256_andnot_pd(sign_bit, root), _mm256_and_pd(sign_bit, bq));
         const __m256d q = _mm256_xor_pd(_mm256_add_pd(bq, signed_root), sign_bit);
         const __m256d t0 = _mm256_div_pd(c, q);
-        const __m256d t1 = _mm256_div_pd(q, a);
+        const __m256d t1 = _mm256_mul_pd(q, inv_a);
         // std::isfinite of both roots (|t| < ∞, false for NaN), then "swap if t0 > t1".
         const __m256d finite = _mm256_and_pd(_mm256_cmp_pd(_mm256_andnot_pd(sign_bit, t0), infinity, _CMP_LT_OQ),
                                              _mm256_cmp_pd(_mm256_andnot_pd(sign_bit, t1), infinity, _CMP_LT_OQ));
