@@ -64,7 +64,9 @@ BundleResults trace_bundle(const Scene& scene, const RayBundle& bundle, std::uin
 
     const InstanceFilter filter(flags, inclusion_mask);
     const Bvh& tlas = scene.tlas();
-    auto visit_leaf = [&](std::uint32_t first, std::uint32_t count, unsigned lanes) {
+    // Inlined into the walk: a call per leaf (five per ray in the smoke) cost the optical-depth pass 7 %
+    // over spheres and 4 % over icosahedra.
+    auto visit_leaf = [&](std::uint32_t first, std::uint32_t count, unsigned lanes) __attribute__((always_inline)) {
         const unsigned entered = lanes;  // a lane leaves `lanes` when its search ends
         for (std::uint32_t k = first; k < first + count && lanes != 0; ++k) {
             const std::uint32_t index = tlas.prim_indices[k];
