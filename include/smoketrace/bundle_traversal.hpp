@@ -123,7 +123,9 @@ inline void traverse_wide_bvh_bundle(const WideBvh& bvh, const BundleBoxTest& bo
         std::uint32_t node;
         unsigned lanes;
     };
-    Entry stack[(kWideBvhWidth - 1) * kMaxBvhDepth + 1];
+    // Each node pushes at most its width and pops one before the next push; one more slot takes the
+    // write of a child that is not kept (see below).
+    Entry stack[kWideBvhWidth * kMaxBvhDepth + 1];
     int sp = 0;
     Entry e{0, live};
     for (;;) {
@@ -132,40 +134,37 @@ inline void traverse_wide_bvh_bundle(const WideBvh& bvh, const BundleBoxTest& bo
         const unsigned admitted = admitted_children(n, inclusion_mask);
         count_lanes(stats.boxes_tested, e.lanes, unsigned(std::popcount(admitted)));
         const auto far = BundleBoxTest::far_limits(tmax);
-        // Children in the ray's order along the node's axis (as in traverse_wide_bvh), the lanes that
-        // enter each.
-        const unsigned flip = flip_of_axis[n.axis];
-        unsigned enter[kWideBvhWidth] = {};
-        unsigned leaves = 0, inner = 0;  // in ray order: bit j for the j-th child along the ray
-        for (unsigned m = admitted; m != 0; m &= m - 1) {
-            const unsigned slot = unsigned(std::countr_zero(m));
-            enter[slot] = box_test.test(n, slot, far) & e.lanes;
-            if (enter[slot] == 0) continue;
-            ((n.leaves >> slot) & 1u ? leaves : inner) |= 1u << (slot ^ flip);
+        // Every child slot is tested and masked, without a branch on which ones are admitted or entered:
+        // those are data, different from node to node and bundle to bundle, and as branches they were
+        // the walk's main mispredictions. (An unused slot's empty box is never entered.)
+        unsigned enter[kWideBvhWidth];
+        unsigned entered = 0;  // bit per slot
+#pragma GCC unroll 4
+        for (unsigned slot = 0; slot < kWideBvhWidth; ++slot) {
+            enter[slot] = box_test.test(n, slot, far) & e.lanes & (0u - ((admitted >> slot) & 1u));
+            entered |= unsigned(enter[slot] != 0) << slot;
         }
-        for (unsigned m = leaves; m != 0; m &= m - 1) {
+        // The children in the ray's order along the node's axis (as in traverse_wide_bvh): the j-th along
+        // the ray is slot j ^ flip. Leaves first, each visited with the lanes still live.
+        const unsigned flip = flip_of_axis[n.axis];
+        auto in_ray_order = [&](unsigned set) { return flip != 0 ? unsigned(kReversedSlots[set]) : set; };
+        for (unsigned m = in_ray_order(entered & n.leaves); m != 0; m &= m - 1) {
             const unsigned slot = unsigned(std::countr_zero(m)) ^ flip;
             const unsigned lanes = enter[slot] & live;  // a leaf before may have ended lanes
             if (lanes == 0) continue;
             count_lanes(stats.nodes_visited, lanes);
             leaf(n.child[slot], n.count[slot], lanes);
         }
-        // Inner children: the first along the ray next, the others pushed last first.
-        bool next = false;
-        for (unsigned m = inner; m != 0;) {
-            const unsigned j = 31u - unsigned(std::countl_zero(m));
-            m &= ~(1u << j);
-            const unsigned slot = j ^ flip;
-            const unsigned lanes = enter[slot] & live;
-            if (lanes == 0) continue;
-            if (m == 0) {
-                e = Entry{n.child[slot], lanes};
-                next = true;
-            } else {
-                stack[sp++] = Entry{n.child[slot], lanes};
-            }
+        // Inner children pushed last along the ray first, so that the first pops next. Each is written
+        // and kept by advancing the stack pointer only if lanes enter it: no branch.
+        const unsigned inner = entered & ~unsigned(n.leaves);
+#pragma GCC unroll 4
+        for (int j = int(kWideBvhWidth) - 1; j >= 0; --j) {
+            const unsigned slot = unsigned(j) ^ flip;
+            const unsigned lanes = enter[slot] & live & (0u - ((inner >> slot) & 1u));
+            stack[sp] = Entry{n.child[slot], lanes};
+            sp += lanes != 0;
         }
-        if (next) continue;
         // The next entry with a live lane.
         for (;;) {
             if (sp == 0) return;
