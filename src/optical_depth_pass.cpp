@@ -17,12 +17,13 @@
 namespace smoketrace {
 namespace {
 
-// Particles per parallel task: two bundles. The rays come in bundle order, so neighbouring particles
+// Particles per parallel task: one bundle. The rays come in bundle order, so neighbouring particles
 // share a task and tasks differ in work as much as the smoke is uneven (a ray rising through both tubes
 // crosses twice the surfaces of one rising through the upper tube only); small tasks keep the threads
-// balanced. Measured at 750 particles on 2 threads (bench optical_depth): 64 particles per task 0.39 ms,
-// 32 0.33-0.37, 16 0.33. Fixed task boundaries (simple_partitioner) make the bundles, and so every hit,
-// independent of the thread count.
+// balanced. Measured at 750 particles on 2 threads (bench optical_depth), with bundles of 8: 64 particles
+// per task 0.39 ms, 32 0.33-0.37, 16 0.33; with bundles of 16, 16 to 64 within noise (0.33-0.38).
+// Fixed task boundaries (simple_partitioner) make the bundles, and so every hit, independent of the
+// thread count.
 constexpr std::size_t kParticlesPerChunk = 16;
 static_assert(kParticlesPerChunk % kBundleWidth == 0);
 

@@ -481,7 +481,7 @@ TEST_CASE("optical depth: results do not depend on the thread count", "[optical-
 }
 
 TEST_CASE("optical depth: the bundled pass gives every particle what its ray alone finds", "[optical-depth]") {
-    // The pass traces its rays eight at a time (trace_bundle). Against the same pass done one ray at a
+    // The pass traces its rays sixteen at a time (trace_bundle). Against the same pass done one ray at a
     // time with trace(), the status rules of optical_depth_pass.hpp written out again here: the same
     // status and hit count for every particle and, for ok particles, the same hits (t bit for bit, as a
     // multiset: the order any-hit sees them in is not fixed). Spheres and icosahedra, oblique light with

@@ -1,4 +1,4 @@
-// trace_bundle(): rays traced eight at a time must each see exactly what trace() shows them alone.
+// trace_bundle(): rays traced sixteen at a time must each see exactly what trace() shows them alone.
 //
 // The kernels first, lane by lane against the scalar code they stand for (bit for bit, no tolerance: they
 // perform the same operations): the bundle's box test against intersect(), its sphere test against
@@ -71,7 +71,7 @@ TEST_CASE("trace_bundle: the bundle's box test is intersect() lane by lane", "[t
                 node.bounds[a + 3][s] = c[a] + h[a];
             }
         }
-        // Eight parallel rays aimed near one of the boxes, from 10 units back, spread across the direction.
+        // kBundleWidth parallel rays aimed near one of the boxes, from 10 units back, spread across the direction.
         const glm::vec3 d = test_direction(rng, k);
         const glm::vec3 side = glm::normalize(glm::cross(d, glm::vec3(0.36f, 0.48f, 0.8f)));
         const glm::vec3 side2 = glm::cross(d, side);
@@ -84,7 +84,7 @@ TEST_CASE("trace_bundle: the bundle's box test is intersect() lane by lane", "[t
             if (i % 3 == 0) o.y = node.bounds[rng.below(2) ? 1 : 4][rng.below(kWideBvhWidth)];  // on a y slab plane
             b.add(o, rng.below(4) == 0 ? rng.uniform(0, 12) : 0.0f, rng.below(4) == 0 ? rng.uniform(0, 16) : kInf);
         }
-        alignas(32) float tmax[kBundleWidth];
+        alignas(64) float tmax[kBundleWidth];
         std::copy(std::begin(b.tmax), std::end(b.tmax), tmax);
         const BundleBoxTest test(b);
         for (unsigned s = 0; s < kWideBvhWidth; ++s) {
@@ -102,7 +102,7 @@ TEST_CASE("trace_bundle: the bundle's box test is intersect() lane by lane", "[t
             }
         }
     }
-    CHECK(tested == 4000 * 4 * 8);
+    CHECK(tested == 4000 * 4 * int(kBundleWidth));
     CHECK(hits > tested / 20);  // both outcomes well represented
     CHECK(hits < tested * 19 / 20);
 }
@@ -129,7 +129,7 @@ TEST_CASE("trace_bundle: the bundle's sphere test is sphere_roots() lane by lane
             b.add(glm::vec3(o), i % 3 == 0 ? float(away) : 1e-7f, i % 5 == 0 ? float(away) : kInf);
         }
         const unsigned lanes = k % 7 == 0 ? 0x5Au : b.lanes();
-        alignas(32) float tmax[kBundleWidth];
+        alignas(64) float tmax[kBundleWidth];
         std::copy(std::begin(b.tmax), std::end(b.tmax), tmax);
         BundleSphereCrossings x;
         sphere_crossings_bundle(b, lanes, tmax, translation, offset, radius, x);
@@ -204,7 +204,7 @@ Scene mixed_scene(Pcg32& rng) {
     return s;
 }
 
-// Eight (or fewer) parallel rays from origins scattered around a point, toward the scene.
+// kBundleWidth (or fewer) parallel rays from origins scattered around a point, toward the scene.
 RayBundle random_bundle(Pcg32& rng, unsigned count) {
     const glm::vec3 toward(rng.uniform(-10, 10), rng.uniform(-10, 10), rng.uniform(-10, 10));
     const glm::vec3 around(rng.uniform(-45, 45), rng.uniform(-45, 45), rng.uniform(-45, 45));
@@ -352,10 +352,10 @@ TEST_CASE("trace_bundle: a ray that ends its search leaves the others unchanged"
 TEST_CASE("bundle_order: a permutation that keeps neighbours across the direction together", "[trace-bundle]") {
     // A 32 x 32 grid of origins in the plane perpendicular to the direction, each shifted a random
     // distance along the direction (which must not matter), in shuffled input order. The order returned
-    // is a permutation and the same on every call, and runs of eight consecutive rays are compact: where
-    // the grid lines up with the Morton curve's axes (an axis-aligned direction), every run is a 2 x 4
-    // block of cells; for any direction, runs span 5 cells on average (a random order: about 28), the
-    // Z curve's jumps making a few of them wider.
+    // is a permutation and the same on every call, and runs of kBundleWidth (16) consecutive rays are
+    // compact: where the grid lines up with the Morton curve's axes (an axis-aligned direction), every run
+    // is a 4 x 4 block of cells; for any direction, runs span at most 8 cells on average (6.6 measured; a
+    // random order: about 28), the Z curve's jumps making a few of them wider.
     for (const glm::vec3 dir : {glm::vec3(0, 1, 0), glm::vec3(1, 2, -0.5f), glm::vec3(0, 0, -3)}) {
         const glm::vec3 d = glm::normalize(dir);
         const glm::vec3 helper = std::abs(d.x) < 0.9f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0);
@@ -398,7 +398,7 @@ TEST_CASE("bundle_order: a permutation that keeps neighbours across the directio
         CAPTURE(dir.x, dir.y, dir.z);
         const bool aligned = std::abs(d.x) == 1.0f || std::abs(d.y) == 1.0f || std::abs(d.z) == 1.0f;
         if (aligned) CHECK(worst == 3);
-        CHECK(mean <= 5.0);
+        CHECK(mean <= 8.0);
     }
     // Equal origins keep their input order; no origins give an empty order.
     std::vector<std::uint32_t> order;

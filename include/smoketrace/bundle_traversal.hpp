@@ -37,10 +37,12 @@ class BundleBoxTest {
 public:
     explicit BundleBoxTest(const RayBundle& b) : shared_(Ray{glm::vec3(0.0f), 0.0f, b.direction, 0.0f}), bundle_(b) {
 #if defined(__AVX2__)
-        origin_[0] = _mm256_load_ps(b.x);
-        origin_[1] = _mm256_load_ps(b.y);
-        origin_[2] = _mm256_load_ps(b.z);
-        tmin_ = _mm256_load_ps(b.tmin);
+        for (unsigned k = 0; k < kBlocks; ++k) {
+            origin_[0][k] = _mm256_load_ps(b.x + 8 * k);
+            origin_[1][k] = _mm256_load_ps(b.y + 8 * k);
+            origin_[2][k] = _mm256_load_ps(b.z + 8 * k);
+            tmin_[k] = _mm256_load_ps(b.tmin + 8 * k);
+        }
         for (int a = 0; a < 3; ++a) {
             inv_dir_[a] = _mm256_set1_ps(shared_.inv_dir[a]);
             inv_far_[a] = _mm256_set1_ps(shared_.inv_far[a]);
@@ -52,22 +54,37 @@ public:
     [[nodiscard]] int near_plane(int a) const { return shared_.near[a]; }
 
 #if defined(__AVX2__)
-    // `far_tmax`: each lane's tmax · kSlabFarScale (far_limits()).
-    [[gnu::always_inline]] unsigned test(const WideBvhNode& n, unsigned slot, __m256 far_tmax) const {
-        __m256 t0 = tmin_, t1 = far_tmax;
-#pragma GCC unroll 3
+    static constexpr unsigned kBlocks = kBundleWidth / 8;  // lanes in blocks of 8, one AVX2 register each
+    struct FarLimits {
+        __m256 block[kBlocks];
+    };
+    // `far`: each lane's tmax · kSlabFarScale (far_limits()).
+    [[gnu::always_inline]] unsigned test(const WideBvhNode& n, unsigned slot, const FarLimits& far) const {
+        __m256 near_plane[3], far_plane[3];
         for (int a = 0; a < 3; ++a) {
-            const __m256 t_near = _mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(n.bounds[shared_.near[a]][slot]), origin_[a]),
-                                                inv_dir_[a]);
-            const __m256 t_far = _mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(n.bounds[shared_.far[a]][slot]), origin_[a]),
-                                               inv_far_[a]);
-            t0 = _mm256_max_ps(t_near, t0);
-            t1 = _mm256_min_ps(t_far, t1);
+            near_plane[a] = _mm256_set1_ps(n.bounds[shared_.near[a]][slot]);
+            far_plane[a] = _mm256_set1_ps(n.bounds[shared_.far[a]][slot]);
         }
-        return unsigned(_mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ)));
+        unsigned hits = 0;
+#pragma GCC unroll 2
+        for (unsigned k = 0; k < kBlocks; ++k) {
+            __m256 t0 = tmin_[k], t1 = far.block[k];
+#pragma GCC unroll 3
+            for (int a = 0; a < 3; ++a) {
+                const __m256 t_near = _mm256_mul_ps(_mm256_sub_ps(near_plane[a], origin_[a][k]), inv_dir_[a]);
+                const __m256 t_far = _mm256_mul_ps(_mm256_sub_ps(far_plane[a], origin_[a][k]), inv_far_[a]);
+                t0 = _mm256_max_ps(t_near, t0);
+                t1 = _mm256_min_ps(t_far, t1);
+            }
+            hits |= unsigned(_mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ))) << (8 * k);
+        }
+        return hits;
     }
-    [[gnu::always_inline]] static __m256 far_limits(const float* tmax) {
-        return _mm256_mul_ps(_mm256_load_ps(tmax), _mm256_set1_ps(kSlabFarScale));
+    [[gnu::always_inline]] static FarLimits far_limits(const float* tmax) {
+        FarLimits f;
+        for (unsigned k = 0; k < kBlocks; ++k)
+            f.block[k] = _mm256_mul_ps(_mm256_load_ps(tmax + 8 * k), _mm256_set1_ps(kSlabFarScale));
+        return f;
     }
 #else
     using FarLimits = const float*;
@@ -88,7 +105,7 @@ private:
     BoxRay shared_;  // the direction's part of the slab test
     const RayBundle& bundle_;
 #if defined(__AVX2__)
-    __m256 origin_[3], inv_dir_[3], inv_far_[3], tmin_;
+    __m256 origin_[3][kBlocks], inv_dir_[3], inv_far_[3], tmin_[kBlocks];
 #endif
 };
 
@@ -96,10 +113,12 @@ private:
 [[gnu::always_inline]] inline void count_lanes(std::uint32_t* counters, unsigned lanes, unsigned times = 1) {
 #if defined(__AVX2__)
     const __m256i bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-    const __m256i in = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(int(lanes)), bits), bits);
-    const __m256i add = _mm256_and_si256(in, _mm256_set1_epi32(int(times)));
-    _mm256_store_si256(reinterpret_cast<__m256i*>(counters),
-                       _mm256_add_epi32(_mm256_load_si256(reinterpret_cast<const __m256i*>(counters)), add));
+    for (unsigned k = 0; k < kBundleWidth / 8; ++k) {
+        const __m256i in = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(int(lanes >> (8 * k))), bits), bits);
+        const __m256i add = _mm256_and_si256(in, _mm256_set1_epi32(int(times)));
+        __m256i* at = reinterpret_cast<__m256i*>(counters + 8 * k);
+        _mm256_store_si256(at, _mm256_add_epi32(_mm256_load_si256(at), add));
+    }
 #else
     for (unsigned m = lanes; m != 0; m &= m - 1) counters[std::countr_zero(m)] += times;
 #endif

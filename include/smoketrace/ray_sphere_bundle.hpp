@@ -1,6 +1,7 @@
 #pragma once
-// sphere_roots() (ray_sphere.hpp) for the rays of a bundle (ray_bundle.hpp) against one sphere: eight
-// origins, one direction, four lanes of doubles per AVX2 operation; and which of the crossings found lie
+// sphere_roots() (ray_sphere.hpp) for the rays of a bundle (ray_bundle.hpp) against one sphere: sixteen
+// origins, one direction, four lanes of doubles per AVX2 operation (a group of four with no ray entering
+// the sphere's box is skipped); and which of the crossings found lie
 // in each ray's [tmin, tmax], the candidates trace_bundle() hands to the rays' searches.
 //
 // Same answers, bit for bit: each lane performs sphere_roots()'s operations in its order and precision

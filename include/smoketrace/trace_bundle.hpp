@@ -56,7 +56,7 @@ BundleResults trace_bundle(const Scene& scene, const RayBundle& bundle, std::uin
     using Callback = std::remove_reference_t<AnyHit>;
     std::array<detail::LaneAnyHit<Callback>, kBundleWidth> lane_hits;
     for (unsigned i = 0; i < kBundleWidth; ++i) lane_hits[i] = {&any_hit, i};
-    alignas(32) float tmax[kBundleWidth];  // each lane's, written by its search, read by the walk
+    alignas(64) float tmax[kBundleWidth];  // each lane's, written by its search, read by the walk
     auto searches = detail::make_lane_searches(scene, bundle, flags, lane_hits, limits, tmax,
                                                std::make_index_sequence<kBundleWidth>{});
     unsigned live = bundle.lanes();
