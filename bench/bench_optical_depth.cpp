@@ -9,8 +9,11 @@
 //   * flattened: one mesh of every particle's world-space triangles (vertices translate(centre)·
 //     scale(radius) in double, rounded once), a one-level BVH;
 //   * instanced: one icosahedron, one RTC_GEOMETRY_TYPE_INSTANCE per particle, a two-level BVH like ours;
-//   * x1: one ray per rtcOccluded1; x16: packets of sixteen parallel neighbours per rtcOccluded16 with the
-//     coherent context flag, Embree's answer to what our bundles do (ray_bundle.hpp).
+//   * x1: one ray per rtcOccluded1; x8: packets of eight parallel neighbours per rtcOccluded8 with the
+//     coherent context flag, Embree's answer to what our bundles do (ray_bundle.hpp). Not 16 as our
+//     bundles: Debian's Embree 3.13.5 looped forever inside rtcOccluded16 on valid rays of this pass
+//     (instanced layout, robust mode), reproducibly once other sections had run before this one, and
+//     packets of 8 were no faster than single rays anyway (1.2-1.4x slower, measured here).
 // Both tracers take the rays in bundle_order() in tasks of 16. Embree's work per ray is what our pass does:
 // every crossing goes through a filter that records (t, ±1) and rejects it so the traversal goes on;
 // Embree reports a ray through a shared edge or vertex on every triangle there, so the filter drops a
@@ -81,8 +84,8 @@ TriangleMesh quad_mesh(const GroundQuad& g) {
 }
 
 enum class Layout { flattened, instanced };
-// How Embree is asked: one ray per rtcOccluded1, or a packet of sixteen per rtcOccluded16.
-enum class Query { single, packet16 };
+// How Embree is asked: one ray per rtcOccluded1, or a packet of eight per rtcOccluded8.
+enum class Query { single, packet8 };
 const char* name_of(Layout l) { return l == Layout::flattened ? "embree_flattened" : "embree_instanced"; }
 
 // The Embree side: the stand-ins and the ground in one scene, the ground alone in another (for the
@@ -130,7 +133,7 @@ public:
 
     // Fills `out` (statuses, counts, per-particle hit lists) for every particle, like OpticalDepthPass::run:
     // the rays in bundle_order(), tasks of 16 of them, each thread's hits in a scratch of its own, gathered
-    // into particle order at the end. `query`: one ray per rtcOccluded1, or sixteen per rtcOccluded16 (the
+    // into particle order at the end. `query`: one ray per rtcOccluded1, or eight per rtcOccluded8 (the
     // coherent context flag: the rays of a packet are parallel neighbours).
     void run(const std::vector<Particle>& ps, glm::vec3 dir, std::uint32_t cutoff, Query query, OpticalDepthHits& out) {
         const std::size_t n = ps.size();
@@ -172,7 +175,7 @@ public:
     }
 
 private:
-    static constexpr std::size_t kPacket = 16;  // our bundles' width (ray_bundle.hpp)
+    static constexpr std::size_t kPacket = 8;
     static constexpr std::size_t kParticlesPerTask = 16;  // as in our pass (optical_depth_pass.cpp)
 
     // A thread's working memory: the duplicate filter of each lane (seen[lane][particle] = (ray stamp << 2)
@@ -316,8 +319,8 @@ private:
             RTCRay ray = embree_ray(ps[which[0]], dir, kOpticalDepthTmax);
             rtcOccluded1(scene_.handle(), &ctx.base, &ray);
         } else {
-            alignas(64) int valid[kPacket];
-            alignas(64) RTCRay16 rays;
+            alignas(32) int valid[kPacket];
+            alignas(32) RTCRay8 rays;
             for (std::size_t l = 0; l < kPacket; ++l) {
                 const bool used = l < which.size();
                 valid[l] = used ? -1 : 0;
@@ -326,7 +329,7 @@ private:
                 rays.dir_x[l] = r.dir_x, rays.dir_y[l] = r.dir_y, rays.dir_z[l] = r.dir_z, rays.time[l] = r.time;
                 rays.tfar[l] = r.tfar, rays.mask[l] = r.mask, rays.id[l] = std::uint32_t(l), rays.flags[l] = 0;
             }
-            rtcOccluded16(valid, scene_.handle(), &ctx.base, &rays);
+            rtcOccluded8(valid, scene_.handle(), &ctx.base, &rays);
         }
         for (std::size_t l = 0; l < which.size(); ++l) {
             const std::uint32_t i = which[l];
@@ -478,17 +481,17 @@ void run_optical_depth(const BenchOptions& options) {
     std::cout << "Two tubes (TubeSettings defaults), ground, light from above, cutoff " << kCutoff
               << ". ms, medians of " << options.repeats << " interleaved rounds (quick: 1 at 10k, 100k);\n"
               << "Embree (all-hits over icosahedra, robust mode): flattened / instanced layout, one ray per query (x1)\n"
-              << "or packets of sixteen (x16); ratio = ours / the fastest of the four\n";
+              << "or packets of eight (x8); ratio = ours / the fastest of the four\n";
     std::cout << std::setw(7) << "count" << std::setw(4) << "thr" << " |" << std::setw(27)
               << "sphere: pass resolve total"
               << " |" << std::setw(27) << "icosahedron: pass resolve total" << " |" << std::setw(9) << "flat x1"
-              << std::setw(9) << "inst x1" << std::setw(9) << "flat x16" << std::setw(9) << "inst x16" << " |"
+              << std::setw(9) << "inst x1" << std::setw(9) << "flat x8" << std::setw(9) << "inst x8" << " |"
               << std::setw(9) << "ico/emb" << std::setw(9) << "emb/sph" << "\n";
 
     std::vector<double> fit_counts, fit_sphere, fit_icosa, fit_embree;
     double report_ratio = 0, report_speedup = 0, large_ms = 0, report_embree = 0;
     std::size_t total_disagreements = 0;
-    constexpr int kContenders = 6;  // ours: sphere, icosahedron; Embree: flat x1, inst x1, flat x16, inst x16
+    constexpr int kContenders = 6;  // ours: sphere, icosahedron; Embree: flat x1, inst x1, flat x8, inst x8
     for (const std::uint32_t n : counts) {
         TubeSettings settings;
         settings.particles = n;
@@ -516,8 +519,8 @@ void run_optical_depth(const BenchOptions& options) {
             }
             for (int k = 2; k < kContenders; ++k) {
                 const Layout layout = k % 2 == 0 ? Layout::flattened : Layout::instanced;
-                c[k].query = k < 4 ? Query::single : Query::packet16;
-                c[k].tracer = std::string(name_of(layout)) + (k < 4 ? "_x1" : "_x16");
+                c[k].query = k < 4 ? Query::single : Query::packet8;
+                c[k].tracer = std::string(name_of(layout)) + (k < 4 ? "_x1" : "_x8");
                 c[k].build_ms = time_ms(build_repeats, [&] {
                     c[k].embree.reset();
                     c[k].embree = std::make_unique<EmbreePass>(device, ps, layout, true);
@@ -580,14 +583,14 @@ void run_optical_depth(const BenchOptions& options) {
             // Why Embree runs in robust mode here: without it, the flattened layout misses crossings of the
             // shared edges every ray leaves its own particle through (light from above). Its speed is shown
             // beside, with the ratio it would give, but it is not the reference: it does not do the same job.
-            for (const Query q : {Query::single, Query::packet16}) {
+            for (const Query q : {Query::single, Query::packet8}) {
                 EmbreePass fast(device, ps, Layout::flattened, false);
                 OpticalDepthHits hits;
                 double ms = 0;
                 every_thread.execute([&] {
                     ms = time_ms(options.repeats, [&] { fast.run(ps, dir, kCutoff, q, hits); }).median;
                 });
-                std::cout << "        embree flattened " << (q == Query::single ? "x1" : "x16")
+                std::cout << "        embree flattened " << (q == Query::single ? "x1" : "x8")
                           << " without robust mode: " << std::fixed << std::setprecision(3) << ms << " ms ("
                           << std::setprecision(2) << ms / report_embree << "x the robust reference; ours: spheres "
                           << ms / (report_embree / report_speedup) << "x faster), wrong on "
