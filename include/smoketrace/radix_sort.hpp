@@ -149,27 +149,20 @@ inline void stable_ranks(const std::uint32_t* keys, std::size_t n, std::uint32_t
     for (std::size_t i = 0; i < n; ++i) {
         std::uint32_t rank = 0;
 #if defined(__AVX512F__)
-        // Blocks before i's count keys <= k, blocks after it keys < k, i's own block both by lane; the
-        // counts accumulate in the lanes of one register and are summed once.
+        // Blocks before i's count keys <= k, blocks after it keys < k, i's own block both by lane: one
+        // compare and one popcount per block, no branch inside the loops.
         const __m512i k = _mm512_set1_epi32(int(keys[i]));
-        const __m512i one = _mm512_set1_epi32(1);
         const std::size_t own = i / kRankBlock;
-        __m512i count = _mm512_setzero_si512();
-        for (std::size_t b = 0; b < own; ++b) {
-            const __m512i block = _mm512_load_si512(keys + kRankBlock * b);
-            count = _mm512_mask_add_epi32(count, _mm512_cmple_epu32_mask(block, k), count, one);
-        }
+        for (std::size_t b = 0; b < own; ++b)
+            rank += unsigned(std::popcount(unsigned(_mm512_cmple_epu32_mask(_mm512_load_si512(keys + kRankBlock * b), k))));
         {
             const __m512i block = _mm512_load_si512(keys + kRankBlock * own);
             const __mmask16 earlier = __mmask16((1u << (i % kRankBlock)) - 1u);
-            const __mmask16 before = _mm512_cmplt_epu32_mask(block, k) | _mm512_mask_cmpeq_epu32_mask(earlier, block, k);
-            count = _mm512_mask_add_epi32(count, before, count, one);
+            rank += unsigned(std::popcount(unsigned(_mm512_cmplt_epu32_mask(block, k) |
+                                                    _mm512_mask_cmpeq_epu32_mask(earlier, block, k))));
         }
-        for (std::size_t b = own + 1; b < blocks; ++b) {
-            const __m512i block = _mm512_load_si512(keys + kRankBlock * b);
-            count = _mm512_mask_add_epi32(count, _mm512_cmplt_epu32_mask(block, k), count, one);
-        }
-        rank = std::uint32_t(_mm512_reduce_add_epi32(count));
+        for (std::size_t b = own + 1; b < blocks; ++b)
+            rank += unsigned(std::popcount(unsigned(_mm512_cmplt_epu32_mask(_mm512_load_si512(keys + kRankBlock * b), k))));
 #elif defined(__AVX2__)
         // The same in halves of 8 lanes, unsigned order from signed compares after flipping the sign bits.
         // A compare gives −1 per true lane, so subtracting it counts; blocks before i's count keys > k,
