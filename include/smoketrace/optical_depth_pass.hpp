@@ -1,6 +1,8 @@
 #pragma once
 // The optical-depth pass (thesis 4.3.2): for each particle, a ray from its centre toward the light
-// collects the particle surfaces it crosses, through trace() and its any-hit callback.
+// collects the particle surfaces it crosses, through the trace API and its any-hit callback. The rays all
+// go the same way, so they are traced in bundles of sixteen neighbours (trace_bundle(), ray_bundle.hpp),
+// each ray getting what trace() would give it alone; the rare follow-ups below use trace().
 //
 //   ray:    origin = particle centre, direction = toward the light, tmin = 1e-7, tmax = 1e38,
 //           inclusion mask ~2 (everything but billboards), no closest-hit data needed;
@@ -66,7 +68,7 @@ struct OpticalDepthHits {
 class OpticalDepthPass {
 public:
     // Traces the rays of `which` (particle indices) toward `to_light` (need not be unit length) in
-    // parallel over particles (TBB). The result does not depend on the number of threads. Throws
+    // parallel over bundles (TBB). The result does not depend on the number of threads. Throws
     // OpticalDepthBudgetError (leaving `out` unspecified) when the hits exceed settings.max_total_hits.
     void run(const SmokeScene& scene, std::span<const Particle> particles, std::span<const std::uint32_t> which,
              const glm::vec3& to_light, const OpticalDepthSettings& settings, OpticalDepthHits& out);
@@ -88,6 +90,5 @@ private:
     BundleOrderScratch order_scratch_;
     std::vector<KeptAt> kept_at_;           // where particle i's hits are, until gathered
 };
-
 
 }  // namespace smoketrace

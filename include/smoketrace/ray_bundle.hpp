@@ -1,7 +1,7 @@
 #pragma once
-// A ray bundle: up to kBundleWidth rays that share one direction, the rays toward a directional light
-// (the optical-depth rays of thesis 4.3.2, the ground's shadow rays). trace_bundle() traces them
-// together (trace_bundle.hpp); bundle_order() decides which rays go together.
+// A ray bundle: up to kBundleWidth rays that share one direction, such as the rays toward a directional
+// light (the optical-depth rays of thesis 4.3.2). trace_bundle() traces them together (trace_bundle.hpp);
+// bundle_order() decides which rays go together.
 //
 // Why bundles: every optical-depth ray of a frame goes the same way, and rays from neighbouring
 // particles cross the same part of the scene. Traced one by one, each walks nearly the same top-level
@@ -15,6 +15,7 @@
 
 #include <glm/vec3.hpp>
 
+#include <cassert>
 #include <cstdint>
 #include <limits>
 #include <span>
@@ -41,6 +42,7 @@ struct RayBundle {
 
     // Adds a ray (count < kBundleWidth) and returns its lane.
     unsigned add(const glm::vec3& origin, float t_min, float t_max = std::numeric_limits<float>::infinity()) {
+        assert(count < kBundleWidth);
         const unsigned lane = count++;
         // The first ray also fills the unused lanes (see above).
         for (unsigned i = lane; i < (lane == 0 ? kBundleWidth : lane + 1); ++i) {
@@ -61,9 +63,9 @@ struct RayBundle {
 // A permutation of [0, origins.size()) in which rays from `origins` along `direction` (nonzero) that lie
 // close together come close together, so that consecutive groups of kBundleWidth make good bundles: the
 // Morton (Z-order) curve over the origins projected onto the plane perpendicular to `direction`, on a
-// grid of 1024 x 1024 cells over their bounding rectangle. Equal codes keep their input order. Deterministic, and
-// O(n) (radix-sorted codes). `order` and `scratch` are resized; keeping them between frames allocates
-// nothing.
+// grid of 1024 x 1024 cells over their bounding rectangle. Equal codes keep their input order.
+// Deterministic, and O(n) (radix-sorted codes). `order` and `scratch` are resized; keeping them between
+// frames allocates nothing.
 struct BundleOrderScratch {
     struct Entry {
         std::uint32_t code;

@@ -1,14 +1,15 @@
 #pragma once
 // sphere_roots() (ray_sphere.hpp) for the rays of a bundle (ray_bundle.hpp) against one sphere: sixteen
 // origins, one direction, four lanes of doubles per AVX2 operation (a group of four with no ray entering
-// the sphere's box is skipped); and which of the crossings found lie
-// in each ray's [tmin, tmax], the candidates trace_bundle() hands to the rays' searches.
+// the sphere's box is skipped); and which of the crossings found lie in each ray's [tmin, tmax], the
+// candidates trace_bundle() hands to the rays' searches.
 //
 // Same answers, bit for bit: each lane performs sphere_roots()'s operations in its order and precision
 // (the build disables FMA contraction, CMakeLists.txt), copysign and negation are exact bit operations,
-// and "swap if t0 > t1" is a blend on the same comparison, and the conversion to float rounds to nearest like
-// static_cast<float>. So a sphere hit has the same t whether its ray was traced alone or in a bundle; a test (test_trace_bundle.cpp) holds the two against each other.
-// Without AVX2 the lanes run sphere_roots() itself.
+// "swap if t0 > t1" is a blend on the same comparison, and the conversion to float rounds to nearest like
+// static_cast<float>. So a sphere hit has the same t whether its ray was traced alone or in a bundle; a
+// test (test_trace_bundle.cpp) holds the two against each other. Without AVX2 the lanes run
+// sphere_roots() itself.
 #include <smoketrace/ray_bundle.hpp>
 #include <smoketrace/ray_sphere.hpp>
 
@@ -36,8 +37,9 @@ struct BundleSphereCrossings {
 // (center, radius) in that frame; `tmax`: the lanes' current tmax (kBundleWidth floats, 32-byte
 // aligned). A lane for which sphere_roots() returns false has neither bit set; t_enter / t_exit are
 // meaningful only where a bit is set, and then equal sphere_roots()'s roots bit for bit.
-inline void sphere_crossings_bundle(const RayBundle& b, unsigned lanes, const float* tmax, const glm::dvec3& translation,
-                                    const glm::dvec3& center, double radius, BundleSphereCrossings& out) {
+inline void sphere_crossings_bundle(const RayBundle& b, unsigned lanes, const float* tmax,
+                                    const glm::dvec3& translation, const glm::dvec3& center, double radius,
+                                    BundleSphereCrossings& out) {
     const glm::dvec3 d(b.direction);
     out.enter = out.exit = 0;
 #if defined(__AVX2__)

@@ -1,8 +1,10 @@
 #pragma once
 // trace(): DirectX Raytracing's TraceRay() on the CPU, over a two-level Scene. Every ray of smoketrace
-// (optical-depth, view and shadow rays) goes through this one function.
+// (optical-depth, view and shadow rays) goes through this function or through trace_bundle()
+// (trace_bundle.hpp), which traces rays that share a direction together and gives each what this
+// function would. Both run the rules below through RaySearch (ray_search.hpp), where they are implemented.
 //
-// The rules implemented, from the DXR specification (microsoft/DirectX-Specs, d3d/Raytracing.md):
+// The rules, from the DXR specification (microsoft/DirectX-Specs, d3d/Raytracing.md):
 //  1. Instance inclusion: an instance is visible to a ray iff (InstanceMask & InclusionMask) != 0. Each
 //     TLAS node stores, per child, the OR of the masks below it, so a subtree no visible instance lives in is never
 //     entered.
@@ -59,8 +61,9 @@ enum class TlasWalk : std::uint8_t {
     nearest_first,
     // The 4-wide TLAS (wide_bvh.hpp), each node's children in the ray's order along the node's axis,
     // leaves before inner children: half the nodes and a third fewer branch mispredictions, at the cost
-    // of a looser order. For rays that collect every hit (the optical-depth pass): 18 % faster over
-    // icosahedra and 35 % over spheres there, but camera rays over billboards 35 % slower.
+    // of a looser order. For a lone ray that collects every hit: on the optical-depth rays 18 % faster
+    // over icosahedra and 35 % over spheres, but camera rays over billboards 35 % slower. (Rays that share
+    // a direction are faster still traced together: trace_bundle.hpp.)
     all_hits,
 };
 
