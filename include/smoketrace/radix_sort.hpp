@@ -208,10 +208,10 @@ inline void stable_ranks(const std::uint32_t* keys, std::size_t n, std::uint32_t
 
 // Stable rank sort: item i goes to slot #{j : key_j < key_i, or key_j == key_i and j < i}. O(n^2) compares,
 // but branch-free over a contiguous, padded key array, 16 keys per AVX-512 compare, where insertion sort
-// mispredicts its loop exit once per item. Measured on the optical-depth pass's own hit
-// lists (two tubes, any-hit order, lengths varying from list to list), ns per item, one thread: 3.6 against
-// insertion sort's 11.4 at 9-16 items and 4.5 against 11.8 at 17-32; the auto-vectorised loops this
-// replaces took 7.0 and 7.8 (their trip counts change with every list and item).
+// mispredicts its loop exit once per item. Measured on the optical-depth pass's own hit lists (two tubes,
+// any-hit order, lengths varying from list to list), ns per item, one thread: 3.3 against insertion
+// sort's 10.2 at 9-16 items and 2.9 against 12.4 at 17-32; plain loops, which GCC vectorises with a
+// remainder whose trip count changes with every list and item, took 7.0 and 7.8.
 // key(item) -> std::uint32_t; `scratch`: at least items.size() elements. Lists longer than kRankSortMaxItems
 // (whose keys would not fit its stack array) are handed to radix_sort, which gives the same order.
 template <class T, class KeyFn>
