@@ -9,6 +9,7 @@
 #include <smoketrace/png_io.hpp>
 
 #include <atomic>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -103,6 +104,33 @@ TEST_CASE("sRGB: matches round(255 · encode(x)) over a dense sweep and at every
         for (int step = 0; step < 3; ++step) x = std::nextafter(x, 0.0f);
         for (int step = 0; step < 6; ++step, x = std::nextafter(x, 2.0f)) check(x);
     }
+}
+
+TEST_CASE("sRGB: every float from 2^-14 to 2 gets the code of the double-precision thresholds", "[png]") {
+    // Exhaustive over the range where codes change (126M floats, walked in increasing order): the
+    // expected code is the number of thresholds decode((k - 0.5) / 255) at or below double(x), kept
+    // incrementally since it only grows with x. linear_to_srgb8 searches float bit patterns through a
+    // bucket table instead; this holds the two to the same answer for every input, not a sample.
+    std::vector<double> thresholds;
+    for (int k = 1; k <= 255; ++k) {
+        const double s = (k - 0.5) / 255.0;
+        thresholds.push_back(s <= 0.04045 ? s / 12.92 : std::pow((s + 0.055) / 1.055, 2.4));
+    }
+    thresholds.push_back(std::numeric_limits<double>::infinity());
+    const std::uint32_t first = std::bit_cast<std::uint32_t>(0x1p-14f), last = std::bit_cast<std::uint32_t>(2.0f);
+    unsigned expected = 0;
+    std::uint64_t wrong = 0;
+    std::uint32_t first_wrong = 0;
+    for (std::uint32_t bits = first; bits < last; ++bits) {
+        const float x = std::bit_cast<float>(bits);
+        while (double(x) >= thresholds[expected]) ++expected;
+        if (linear_to_srgb8(x) != expected) {
+            if (wrong++ == 0) first_wrong = bits;
+        }
+    }
+    INFO("first wrong input " << std::bit_cast<float>(first_wrong));
+    CHECK(wrong == 0);
+    CHECK(expected == 255);
 }
 
 TEST_CASE("sRGB: decoding then encoding every code gives the code back", "[png]") {
