@@ -4,11 +4,12 @@
 #include <smoketrace/atomic_file.hpp>
 
 #include <stb_image.h>
-#include <stb_image_write.h>
+#include <zlib.h>
 
 #include <array>
 #include <cerrno>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <memory>
 #include <ostream>
@@ -46,33 +47,10 @@ struct FileDescriptor {
     ~FileDescriptor() { ::close(fd); }
 };
 
-// Appends stb_image_write's output to a byte string.
-void append_to_string(void* context, void* data, int size) {
-    static_cast<std::string*>(context)->append(static_cast<const char*>(data), std::size_t(size));
-}
-
 void check_png_size(const fs::path& path, int width, int height) {
     if (width < 1 || height < 1 || width > kMaxImageSide || height > kMaxImageSide)
         write_error(path, "image size " + std::to_string(width) + "x" + std::to_string(height) +
                               " is outside [1, " + std::to_string(kMaxImageSide) + "]");
-}
-
-void write_png(const fs::path& path, int width, int height, int channels, const std::uint8_t* data) {
-    // stb's PNG writer tries all five row filters on every row and keeps the one with the smallest sum;
-    // on our renders it keeps Paeth's size to within 0.1 % (250,142 bytes against 250,321 for a 1024²
-    // full frame) and encodes 25 % faster when told to use Paeth alone (66 ms against 85-95). stb reads
-    // the setting from a global it never writes: set once here, before any write reads it (a function-
-    // local static is initialised once, and every caller waits for that), so concurrent writes need no
-    // lock.
-    static const bool paeth_rows = [] {
-        stbi_write_force_png_filter = 4;
-        return true;
-    }();
-    (void)paeth_rows;
-    std::string encoded;
-    if (stbi_write_png_to_func(append_to_string, &encoded, width, height, channels, data, width * channels) == 0)
-        write_error(path, "PNG encoding failed");
-    write_file_atomically(path, [&](std::ostream& out) { out.write(encoded.data(), std::streamsize(encoded.size())); });
 }
 
 // --- PNG structure check -------------------------------------------------------------------------------
@@ -144,6 +122,87 @@ void check_png_structure(const fs::path& path, const std::vector<std::uint8_t>& 
         at += needed;
         if (name == "IEND") return;
     }
+}
+
+// --- PNG encoding -------------------------------------------------------------------------------------
+// A PNG is the signature, then chunks: IHDR (size and pixel format), one IDAT (the zlib stream of the
+// filtered rows), IEND. Each row is Paeth-filtered (filter type 4: every byte minus the prediction from
+// its left, upper and upper-left neighbours), which on rendered smoke and sky leaves long runs of small
+// values; zlib's run-length strategy compresses those well and fast. Measured on a 1024² `full` frame:
+// 9.4 ms and 195 KB, against 39 ms and 182 KB for zlib's default strategy and 66-95 ms and 250 KB for
+// stb_image_write (all five filters tried per row, its own deflate).
+
+// Paeth's predictor (PNG specification, 9.4): the neighbour closest to left + up − upper-left.
+std::uint8_t paeth(int left, int up, int upper_left) {
+    const int p = left + up - upper_left;
+    const int pl = std::abs(p - left), pu = std::abs(p - up), pul = std::abs(p - upper_left);
+    if (pl <= pu && pl <= pul) return std::uint8_t(left);
+    return std::uint8_t(pu <= pul ? up : upper_left);
+}
+
+void append_be32(std::string& out, std::uint32_t v) {
+    for (int shift = 24; shift >= 0; shift -= 8) out.push_back(char((v >> shift) & 0xFFu));
+}
+
+void append_chunk(std::string& out, const char (&type)[5], const std::uint8_t* data, std::size_t size) {
+    append_be32(out, std::uint32_t(size));
+    const std::size_t type_at = out.size();
+    out.append(type, 4);
+    if (size > 0) out.append(reinterpret_cast<const char*>(data), size);
+    const auto* typed = reinterpret_cast<const std::uint8_t*>(out.data() + type_at);
+    append_be32(out, crc32_update(0xFFFF'FFFFu, typed, 4 + size) ^ 0xFFFF'FFFFu);
+}
+
+// The PNG file of `data` (rows top to bottom, `channels` 8-bit samples per pixel: 1 grey, 2 grey and
+// alpha, 3 RGB, 4 RGBA). The same bytes for the same pixels on every run.
+std::string encode_png(const fs::path& path, int width, int height, int channels, const std::uint8_t* data) {
+    static constexpr std::uint8_t kColourType[5] = {0, 0, 4, 2, 6};  // by channel count
+    const std::size_t stride = std::size_t(width) * std::size_t(channels);
+    std::vector<std::uint8_t> filtered(std::size_t(height) * (stride + 1));
+    for (std::size_t y = 0; y < std::size_t(height); ++y) {
+        const std::uint8_t* row = data + y * stride;
+        const std::uint8_t* above = y > 0 ? row - stride : nullptr;
+        std::uint8_t* out = filtered.data() + y * (stride + 1);
+        out[0] = 4;  // Paeth
+        for (std::size_t i = 0; i < stride; ++i) {
+            const int left = i >= std::size_t(channels) ? row[i - std::size_t(channels)] : 0;
+            const int up = above ? above[i] : 0;
+            const int upper_left = above && i >= std::size_t(channels) ? above[i - std::size_t(channels)] : 0;
+            out[1 + i] = std::uint8_t(row[i] - paeth(left, up, upper_left));
+        }
+    }
+
+    z_stream z{};
+    if (deflateInit2(&z, Z_DEFAULT_COMPRESSION, Z_DEFLATED, 15, 8, Z_RLE) != Z_OK)
+        write_error(path, "PNG encoding failed: zlib could not start");
+    std::vector<std::uint8_t> compressed(deflateBound(&z, uLong(filtered.size())));
+    z.next_in = filtered.data();
+    z.avail_in = uInt(filtered.size());
+    z.next_out = compressed.data();
+    z.avail_out = uInt(compressed.size());
+    const int status = deflate(&z, Z_FINISH);  // one call: the output has deflateBound's room
+    compressed.resize(z.total_out);
+    deflateEnd(&z);
+    if (status != Z_STREAM_END) write_error(path, "PNG encoding failed: zlib status " + std::to_string(status));
+
+    std::string png(reinterpret_cast<const char*>(kPngSignature.data()), kPngSignature.size());
+    std::array<std::uint8_t, 13> header{};
+    for (int k = 0; k < 4; ++k) {
+        header[std::size_t(k)] = std::uint8_t(std::uint32_t(width) >> (24 - 8 * k));
+        header[std::size_t(4 + k)] = std::uint8_t(std::uint32_t(height) >> (24 - 8 * k));
+    }
+    header[8] = 8;  // bits per sample
+    header[9] = kColourType[channels];
+    // [10..12]: compression 0 (zlib), filter method 0 (the five adaptive filters), no interlace
+    append_chunk(png, "IHDR", header.data(), header.size());
+    append_chunk(png, "IDAT", compressed.data(), compressed.size());
+    append_chunk(png, "IEND", nullptr, 0);
+    return png;
+}
+
+void write_png(const fs::path& path, int width, int height, int channels, const std::uint8_t* data) {
+    const std::string encoded = encode_png(path, width, height, channels, data);
+    write_file_atomically(path, [&](std::ostream& out) { out.write(encoded.data(), std::streamsize(encoded.size())); });
 }
 
 std::vector<std::uint8_t> read_whole_file(const fs::path& path) {

@@ -163,6 +163,29 @@ TEST_CASE("PNG: RGBA8 round trip is byte-exact", "[png]") {
     CHECK(dir.entries().size() == 1);  // no temporary file left beside it
 }
 
+TEST_CASE("PNG: our encoder round-trips single rows, single columns, noise and flat runs", "[png]") {
+    // The Paeth filter's edge cases (first row: no row above; first column: no left neighbour), bytes
+    // zlib cannot shorten (noise) and long runs (flat colour), each read back through stb_image.
+    TempDir dir;
+    std::uint32_t state = 12345u;
+    for (const auto& [w, h] : {std::pair{1, 1}, {1, 9}, {11, 1}, {300, 200}}) {
+        for (const bool flat : {false, true}) {
+            Rgba8Image im(w, h);
+            for (std::uint8_t& b : im.pixels) {
+                state = state * 1664525u + 1013904223u;
+                b = flat ? std::uint8_t(200) : std::uint8_t(state >> 24);
+            }
+            const fs::path p = dir.path / (std::to_string(w) + "x" + std::to_string(h) + (flat ? "f.png" : "n.png"));
+            write_png_rgba8(p, im);
+            const Rgba8Image back = read_png_rgba8(p);
+            INFO(w << "x" << h << (flat ? " flat" : " noise"));
+            REQUIRE(back.width == w);
+            REQUIRE(back.height == h);
+            CHECK(back.pixels == im.pixels);
+        }
+    }
+}
+
 TEST_CASE("PNG: sRGB writer encodes RGB and keeps alpha linear", "[png]") {
     TempDir dir;
     ImageRgba im(3, 2);

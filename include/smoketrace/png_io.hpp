@@ -1,5 +1,5 @@
 #pragma once
-// PNG files in and out (stb_image / stb_image_write).
+// PNG files in (stb_image) and out (our encoder over zlib, png_io.cpp).
 //
 // Writing never leaves a half-written file: the PNG is encoded in memory, then handed to
 // write_file_atomically() (atomic_file.hpp: temporary file beside the target, renamed over it). Every
