@@ -104,7 +104,7 @@ Rgba8Image::Rgba8Image(int w, int h) : width(w), height(h) {
 }
 
 std::uint8_t linear_to_srgb8(float value) noexcept {
-    if (!(value >= 0.0f)) return 0;  // also NaN
+    if (!(value > 0.0f)) return 0;  // also NaN and -0, whose sign bit would read as a huge code below
     const std::uint32_t bits = std::bit_cast<std::uint32_t>(value);
     if (bits < kFirstBucketBits) return 0;
     if (bits >= kOneBits) return 255;

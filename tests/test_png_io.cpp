@@ -81,6 +81,11 @@ TEST_CASE("sRGB: known values of the transfer function", "[png]") {
     CHECK(linear_to_srgb8(0.2139f) == 127);  // 255 · encode = 127.461
     CHECK(linear_to_srgb8(0.001f) == 3);     // linear segment: 12.92·0.001·255 = 3.29
     CHECK(linear_to_srgb8(-0.25f) == 0);
+    CHECK(linear_to_srgb8(-0.0f) == 0);  // sign bit set: must not be taken for a large value
+    CHECK(linear_to_srgb8(-std::numeric_limits<float>::denorm_min()) == 0);
+    CHECK(linear_to_srgb8(std::numeric_limits<float>::denorm_min()) == 0);
+    CHECK(linear_to_srgb8(-std::numeric_limits<float>::max()) == 0);
+    CHECK(linear_to_srgb8(std::numeric_limits<float>::max()) == 255);
     CHECK(linear_to_srgb8(7.0f) == 255);
     CHECK(linear_to_srgb8(std::numeric_limits<float>::quiet_NaN()) == 0);
     CHECK(linear_to_srgb8(std::numeric_limits<float>::infinity()) == 255);
