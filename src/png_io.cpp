@@ -180,18 +180,21 @@ std::string encode_png(const fs::path& path, int width, int height, int channels
         }
     }
 
-    z_stream z{};
-    if (deflateInit2(&z, Z_DEFAULT_COMPRESSION, Z_DEFLATED, 15, 8, Z_RLE) != Z_OK)
+    // The stream's state is zlib's allocation: released on every way out, a throwing new[] included.
+    struct Deflater {
+        z_stream z{};
+        ~Deflater() { deflateEnd(&z); }  // safe on a stream whose init failed (Z_STREAM_ERROR, nothing freed)
+    } d;
+    if (deflateInit2(&d.z, Z_DEFAULT_COMPRESSION, Z_DEFLATED, 15, 8, Z_RLE) != Z_OK)
         write_error(path, "PNG encoding failed: zlib could not start");
-    const uLong bound = deflateBound(&z, uLong(filtered_size));
+    const uLong bound = deflateBound(&d.z, uLong(filtered_size));
     const std::unique_ptr<std::uint8_t[]> compressed(new std::uint8_t[bound]);
-    z.next_in = filtered.get();
-    z.avail_in = uInt(filtered_size);
-    z.next_out = compressed.get();
-    z.avail_out = uInt(bound);
-    const int status = deflate(&z, Z_FINISH);  // one call: the output has deflateBound's room
-    const std::size_t compressed_size = z.total_out;
-    deflateEnd(&z);
+    d.z.next_in = filtered.get();
+    d.z.avail_in = uInt(filtered_size);
+    d.z.next_out = compressed.get();
+    d.z.avail_out = uInt(bound);
+    const int status = deflate(&d.z, Z_FINISH);  // one call: the output has deflateBound's room
+    const std::size_t compressed_size = d.z.total_out;
     if (status != Z_STREAM_END) write_error(path, "PNG encoding failed: zlib status " + std::to_string(status));
 
     std::string png(reinterpret_cast<const char*>(kPngSignature.data()), kPngSignature.size());
