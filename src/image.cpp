@@ -125,20 +125,30 @@ double srgb8_to_linear(std::uint8_t code) noexcept {
 }
 
 Rgba8Image to_srgb8(const ImageRgba& image) {
-    Rgba8Image out(image.width, image.height);
+    Rgba8Image out;
+    to_srgb8(image, 4, out.pixels);
+    out.width = image.width;
+    out.height = image.height;
+    return out;
+}
+
+void to_srgb8(const ImageRgba& image, int channels, std::vector<std::uint8_t>& samples) {
+    if (channels != 3 && channels != 4)
+        throw std::invalid_argument("to_srgb8: " + std::to_string(channels) + " channels (3 or 4 expected)");
+    const std::size_t c = std::size_t(channels);
+    samples.resize(image.pixels.size() * c);
     // Each pixel on its own: the same bytes on any number of threads.
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, image.pixels.size(), 1 << 14),
                       [&](const tbb::blocked_range<std::size_t>& r) {
                           for (std::size_t i = r.begin(); i < r.end(); ++i) {
                               const glm::vec4 p = image.pixels[i];
-                              std::uint8_t* o = out.pixels.data() + i * 4;
+                              std::uint8_t* o = samples.data() + i * c;
                               o[0] = linear_to_srgb8(p.x);
                               o[1] = linear_to_srgb8(p.y);
                               o[2] = linear_to_srgb8(p.z);
-                              o[3] = unorm8(p.w);
+                              if (c == 4) o[3] = unorm8(p.w);
                           }
                       });
-    return out;
 }
 
 }  // namespace smoketrace

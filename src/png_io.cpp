@@ -153,20 +153,59 @@ void append_chunk(std::string& out, const char (&type)[5], const std::uint8_t* d
     append_be32(out, crc32_update(0xFFFF'FFFFu, typed, 4 + size) ^ 0xFFFF'FFFFu);
 }
 
-// The PNG file of `data` (rows top to bottom, `channels` 8-bit samples per pixel: 1 grey, 2 grey and
-// alpha, 3 RGB, 4 RGBA). The same bytes for the same pixels on every run.
-std::string encode_png(const fs::path& path, int width, int height, int channels, const std::uint8_t* data) {
+}  // namespace
+
+// The writer's working memory (see PngWriter): reused from one image to the next, grown when an image
+// needs more. The filter and deflate buffers are left uninitialised (plain new[]): zeroing them was a third
+// of the encoding time.
+struct PngWriter::Buffers {
+    struct Bytes {
+        std::unique_ptr<std::uint8_t[]> data;
+        std::size_t capacity = 0;
+        std::uint8_t* reserve(std::size_t n) {
+            if (n > capacity) {
+                data.reset(new std::uint8_t[n]);
+                capacity = n;
+            }
+            return data.get();
+        }
+    };
+    std::vector<std::uint8_t> samples;  // write_srgb's 8-bit samples
+    Bytes filtered, compressed;
+    std::string png;  // the file's bytes
+    // zlib's stream, made at the first image and reset for the next (its state is ~270 KiB of zlib's).
+    // zlib's state points back at `z`, so Buffers never moves: PngWriter holds it by pointer.
+    z_stream z{};
+    bool z_ready = false;
+
+    Buffers() = default;
+    Buffers(const Buffers&) = delete;
+    Buffers& operator=(const Buffers&) = delete;
+    ~Buffers() {
+        if (z_ready) deflateEnd(&z);
+    }
+
+    // The PNG file of `data` (rows top to bottom, `channels` 8-bit samples per pixel: 1 grey, 2 grey and
+    // alpha, 3 RGB, 4 RGBA) into `png`. The same bytes for the same pixels on every run, whatever the
+    // writer encoded before.
+    void encode(const fs::path& path, int width, int height, int channels, const std::uint8_t* data);
+    void write(const fs::path& path, int width, int height, int channels, const std::uint8_t* data) {
+        encode(path, width, height, channels, data);
+        write_file_atomically(path, [&](std::ostream& out) { out.write(png.data(), std::streamsize(png.size())); });
+    }
+};
+
+void PngWriter::Buffers::encode(const fs::path& path, int width, int height, int channels, const std::uint8_t* data) {
     static constexpr std::uint8_t kColourType[5] = {0, 0, 4, 2, 6};  // by channel count
     // zlib counts in 32 bits: the largest image, with its filter bytes, must fit (1 GiB does).
     static_assert(std::uint64_t(kMaxImageSide) * (std::uint64_t(kMaxImageSide) * 4 + 1) < (std::uint64_t(1) << 31));
     const std::size_t stride = std::size_t(width) * std::size_t(channels);
     const std::size_t filtered_size = std::size_t(height) * (stride + 1);
-    // Buffers left uninitialised (new[], not a vector): zeroing them was a third of the encoding time.
-    const std::unique_ptr<std::uint8_t[]> filtered(new std::uint8_t[filtered_size]);
+    std::uint8_t* const rows = filtered.reserve(filtered_size);
     for (std::size_t y = 0; y < std::size_t(height); ++y) {
         const std::uint8_t* row = data + y * stride;
         const std::uint8_t* above = y > 0 ? row - stride : nullptr;
-        std::uint8_t* out = filtered.get() + y * (stride + 1);
+        std::uint8_t* out = rows + y * (stride + 1);
         out[0] = 4;  // Paeth
         // Missing neighbours count as 0 (left of the first pixel, above the first row). The first pixel
         // separately, so that the loop over the rest has no such cases and vectorises.
@@ -180,24 +219,22 @@ std::string encode_png(const fs::path& path, int width, int height, int channels
         }
     }
 
-    // The stream's state is zlib's allocation: released on every way out, a throwing new[] included.
-    struct Deflater {
-        z_stream z{};
-        ~Deflater() { deflateEnd(&z); }  // safe on a stream whose init failed (Z_STREAM_ERROR, nothing freed)
-    } d;
-    if (deflateInit2(&d.z, Z_DEFAULT_COMPRESSION, Z_DEFLATED, 15, 8, Z_RLE) != Z_OK)
-        write_error(path, "PNG encoding failed: zlib could not start");
-    const uLong bound = deflateBound(&d.z, uLong(filtered_size));
-    const std::unique_ptr<std::uint8_t[]> compressed(new std::uint8_t[bound]);
-    d.z.next_in = filtered.get();
-    d.z.avail_in = uInt(filtered_size);
-    d.z.next_out = compressed.get();
-    d.z.avail_out = uInt(bound);
-    const int status = deflate(&d.z, Z_FINISH);  // one call: the output has deflateBound's room
-    const std::size_t compressed_size = d.z.total_out;
+    // deflateReset() starts a stream exactly as a fresh deflateInit2() with the same settings would: the
+    // same bytes as a writer of its own.
+    const int started = z_ready ? deflateReset(&z) : deflateInit2(&z, Z_DEFAULT_COMPRESSION, Z_DEFLATED, 15, 8, Z_RLE);
+    if (started != Z_OK) write_error(path, "PNG encoding failed: zlib could not start");
+    z_ready = true;
+    const uLong bound = deflateBound(&z, uLong(filtered_size));
+    std::uint8_t* const stream = compressed.reserve(bound);
+    z.next_in = rows;
+    z.avail_in = uInt(filtered_size);
+    z.next_out = stream;
+    z.avail_out = uInt(bound);
+    const int status = deflate(&z, Z_FINISH);  // one call: the output has deflateBound's room
+    const std::size_t compressed_size = z.total_out;
     if (status != Z_STREAM_END) write_error(path, "PNG encoding failed: zlib status " + std::to_string(status));
 
-    std::string png(reinterpret_cast<const char*>(kPngSignature.data()), kPngSignature.size());
+    png.assign(reinterpret_cast<const char*>(kPngSignature.data()), kPngSignature.size());
     std::array<std::uint8_t, 13> header{};
     for (int k = 0; k < 4; ++k) {
         header[std::size_t(k)] = std::uint8_t(std::uint32_t(width) >> (24 - 8 * k));
@@ -207,15 +244,11 @@ std::string encode_png(const fs::path& path, int width, int height, int channels
     header[9] = kColourType[channels];
     // [10..12]: compression 0 (zlib), filter method 0 (the five adaptive filters), no interlace
     append_chunk(png, "IHDR", header.data(), header.size());
-    append_chunk(png, "IDAT", compressed.get(), compressed_size);
+    append_chunk(png, "IDAT", stream, compressed_size);
     append_chunk(png, "IEND", nullptr, 0);
-    return png;
 }
 
-void write_png(const fs::path& path, int width, int height, int channels, const std::uint8_t* data) {
-    const std::string encoded = encode_png(path, width, height, channels, data);
-    write_file_atomically(path, [&](std::ostream& out) { out.write(encoded.data(), std::streamsize(encoded.size())); });
-}
+namespace {
 
 std::vector<std::uint8_t> read_whole_file(const fs::path& path) {
     const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
@@ -244,21 +277,31 @@ std::vector<std::uint8_t> read_whole_file(const fs::path& path) {
 
 }  // namespace
 
-void write_png_rgba8(const fs::path& path, int width, int height, const std::uint8_t* rgba) {
-    check_png_size(path, width, height);
-    if (rgba == nullptr) write_error(path, "no pixel data");
-    write_png(path, width, height, 4, rgba);
+PngWriter::PngWriter() : buffers_(std::make_unique<Buffers>()) {}
+PngWriter::~PngWriter() = default;
+PngWriter::PngWriter(PngWriter&&) noexcept = default;
+PngWriter& PngWriter::operator=(PngWriter&&) noexcept = default;
+
+PngWriter::Buffers& PngWriter::buffers() {
+    if (!buffers_) buffers_ = std::make_unique<Buffers>();  // moved from: starts over
+    return *buffers_;
 }
 
-void write_png_rgba8(const fs::path& path, const Rgba8Image& image) {
+void PngWriter::write_rgba8(const fs::path& path, int width, int height, const std::uint8_t* rgba) {
+    check_png_size(path, width, height);
+    if (rgba == nullptr) write_error(path, "no pixel data");
+    buffers().write(path, width, height, 4, rgba);
+}
+
+void PngWriter::write_rgba8(const fs::path& path, const Rgba8Image& image) {
     check_png_size(path, image.width, image.height);
     if (image.pixels.size() != std::size_t(image.width) * std::size_t(image.height) * 4)
         write_error(path, "pixel buffer size does not match " + std::to_string(image.width) + "x" +
                               std::to_string(image.height) + " RGBA");
-    write_png(path, image.width, image.height, 4, image.pixels.data());
+    buffers().write(path, image.width, image.height, 4, image.pixels.data());
 }
 
-void write_png_srgb(const fs::path& path, const ImageRgba& image, PngChannels channels) {
+void PngWriter::write_srgb(const fs::path& path, const ImageRgba& image, PngChannels channels) {
     check_png_size(path, image.width, image.height);
     if (image.pixels.size() != std::size_t(image.width) * std::size_t(image.height))
         write_error(path, "pixel buffer size does not match " + std::to_string(image.width) + "x" +
@@ -269,12 +312,19 @@ void write_png_srgb(const fs::path& path, const ImageRgba& image, PngChannels ch
             write_error(path, "pixel (" + std::to_string(i % std::size_t(image.width)) + ", " +
                                   std::to_string(i / std::size_t(image.width)) + ") is not finite");
     }
-    Rgba8Image encoded = to_srgb8(image);
-    if (channels == PngChannels::rgb) {  // drop alpha in place: RGBA -> RGB, front to back
-        for (std::size_t i = 0; i < image.pixels.size(); ++i)
-            for (std::size_t c = 0; c < 3; ++c) encoded.pixels[i * 3 + c] = encoded.pixels[i * 4 + c];
-    }
-    write_png(path, image.width, image.height, int(channels), encoded.pixels.data());
+    Buffers& b = buffers();
+    to_srgb8(image, int(channels), b.samples);
+    b.write(path, image.width, image.height, int(channels), b.samples.data());
+}
+
+void write_png_rgba8(const fs::path& path, int width, int height, const std::uint8_t* rgba) {
+    PngWriter().write_rgba8(path, width, height, rgba);
+}
+
+void write_png_rgba8(const fs::path& path, const Rgba8Image& image) { PngWriter().write_rgba8(path, image); }
+
+void write_png_srgb(const fs::path& path, const ImageRgba& image, PngChannels channels) {
+    PngWriter().write_srgb(path, image, channels);
 }
 
 Rgba8Image read_png_rgba8(const fs::path& path) {

@@ -214,6 +214,70 @@ TEST_CASE("PNG: sRGB writer encodes RGB and keeps alpha linear", "[png]") {
     }
 }
 
+TEST_CASE("PNG: a reused PngWriter writes the bytes of a fresh one, whatever it wrote before", "[png]") {
+    // The writer keeps its buffers and zlib's stream (deflateReset) from image to image: a smaller image
+    // after a larger one must not pick up the larger one's leftovers, a larger one must grow the buffers,
+    // and RGB, RGBA and sRGB images must interleave freely. Each file is compared byte for byte with the
+    // file a fresh writer (the free functions) makes of the same image, and read back.
+    TempDir dir;
+    std::uint32_t state = 777u;
+    auto linear = [&](int w, int h) {
+        ImageRgba im(w, h);
+        for (glm::vec4& p : im.pixels) {
+            auto next = [&] {
+                state = state * 1664525u + 1013904223u;
+                return float(state >> 8) / float(1u << 24);
+            };
+            p = {next(), next(), next(), next()};
+        }
+        return im;
+    };
+    PngWriter writer;
+    int k = 0;
+    for (const auto& [w, h] : {std::pair{64, 48}, {3, 5}, {200, 7}, {1, 1}, {64, 48}, {129, 130}}) {
+        const Rgba8Image bytes = pattern(w, h);
+        const ImageRgba light = linear(w, h);
+        INFO(w << "x" << h);
+        const fs::path reused = dir.path / ("reused" + std::to_string(k) + ".png");
+        const fs::path fresh = dir.path / ("fresh" + std::to_string(k++) + ".png");
+        writer.write_rgba8(reused, bytes);
+        write_png_rgba8(fresh, bytes);
+        CHECK(read_bytes(reused) == read_bytes(fresh));
+        CHECK(read_png_rgba8(reused, w, h).pixels == bytes.pixels);
+        for (const PngChannels channels : {PngChannels::rgb, PngChannels::rgba}) {
+            writer.write_srgb(reused, light, channels);
+            write_png_srgb(fresh, light, channels);
+            CHECK(read_bytes(reused) == read_bytes(fresh));
+        }
+    }
+    // A moved-from writer starts over and still writes the same bytes.
+    PngWriter moved = std::move(writer);
+    const Rgba8Image small = pattern(9, 4);
+    writer.write_rgba8(dir.path / "after_move.png", small);  // NOLINT(bugprone-use-after-move): tested on purpose
+    moved.write_rgba8(dir.path / "moved.png", small);
+    write_png_rgba8(dir.path / "fresh_small.png", small);
+    CHECK(read_bytes(dir.path / "after_move.png") == read_bytes(dir.path / "fresh_small.png"));
+    CHECK(read_bytes(dir.path / "moved.png") == read_bytes(dir.path / "fresh_small.png"));
+}
+
+TEST_CASE("PNG: to_srgb8 into a buffer gives RGBA as to_srgb8() and RGB without alpha", "[png]") {
+    ImageRgba im(5, 3);
+    float v = -0.1f;
+    for (glm::vec4& p : im.pixels) {
+        p = {v, v * 0.5f, 1.0f - v, v * 0.25f};
+        v += 0.07f;
+    }
+    const Rgba8Image rgba = to_srgb8(im);
+    std::vector<std::uint8_t> samples(3, 99);  // stale contents and size: replaced
+    to_srgb8(im, 4, samples);
+    CHECK(samples == rgba.pixels);
+    to_srgb8(im, 3, samples);
+    REQUIRE(samples.size() == im.pixels.size() * 3);
+    for (std::size_t i = 0; i < im.pixels.size(); ++i)
+        for (std::size_t c = 0; c < 3; ++c) CHECK(samples[3 * i + c] == rgba.pixels[4 * i + c]);
+    CHECK_THROWS_AS(to_srgb8(im, 2, samples), std::invalid_argument);
+}
+
 TEST_CASE("PNG: a non-finite pixel is refused and nothing is written", "[png]") {
     TempDir dir;
     ImageRgba im(4, 4, glm::vec4(0.5f));

@@ -123,4 +123,10 @@ struct Rgba8Image {
 // not light). Non-finite values must have been rejected by the caller (see write_png_srgb).
 [[nodiscard]] Rgba8Image to_srgb8(const ImageRgba& image);
 
+// The same into `samples`, resized to width·height·channels: `channels` 4 gives RGBA as above, 3 drops
+// alpha (RGB). Parallel over pixels, the same bytes on any number of threads. A caller that keeps
+// `samples` from frame to frame (PngWriter) reuses its memory: fresh pages cost a fault each on first
+// touch, about as much as the encoding itself for a 1024² frame.
+void to_srgb8(const ImageRgba& image, int channels, std::vector<std::uint8_t>& samples);
+
 }  // namespace smoketrace

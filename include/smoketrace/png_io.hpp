@@ -8,10 +8,34 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <memory>
 
 namespace smoketrace {
 
 enum class PngChannels { rgb = 3, rgba = 4 };
+
+// Writes PNG files (the functions below), keeping its working memory from one image to the next: the
+// 8-bit samples, the filtered rows, zlib's stream and the file's bytes, ~2.5x the image in 8-bit. Fresh
+// memory costs a page fault per 4 KiB on first touch, which on this machine took as long as the encoding
+// itself (1024² frame, bench section "output"); a frame sequence written through one writer pays that
+// once. The free functions use a writer of their own. One writer per thread; a moved-from writer
+// starts over with fresh memory.
+class PngWriter {
+public:
+    PngWriter();
+    ~PngWriter();
+    PngWriter(PngWriter&&) noexcept;
+    PngWriter& operator=(PngWriter&&) noexcept;
+
+    void write_srgb(const std::filesystem::path& path, const ImageRgba& image, PngChannels channels = PngChannels::rgb);
+    void write_rgba8(const std::filesystem::path& path, int width, int height, const std::uint8_t* rgba);
+    void write_rgba8(const std::filesystem::path& path, const Rgba8Image& image);
+
+private:
+    struct Buffers;
+    Buffers& buffers();
+    std::unique_ptr<Buffers> buffers_;
+};
 
 // Linear image -> 8-bit sRGB PNG (RGB through the sRGB transfer function, alpha stored linearly when
 // kept). Throws, naming the path and the first offending pixel, if any pixel is NaN or infinite: a

@@ -93,9 +93,10 @@ int run_render(const Args& args) {
     ProgressBar progress(options.render.frames);
     std::vector<FrameTimings> all;
     ImageRgba image;
+    PngWriter png;  // one for the sequence: its memory is reused by every frame
     for (std::uint32_t f = 0; f < options.render.frames; ++f) {
         const FrameReport r = renderer.render(f, image);
-        write_png_srgb(frame_path(out, f, options.render.frames), image);
+        png.write_srgb(frame_path(out, f, options.render.frames), image);
         all.push_back(r.timings);
         if (timings) {
             std::cout << "frame=" << f << " tlas=" << to_string(r.tlas) << "\n" << format_timings(r.timings, true);
