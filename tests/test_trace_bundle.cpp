@@ -316,6 +316,50 @@ TEST_CASE("trace_bundle: commits, first-hit ends, skipped closest hits and cutof
     CHECK(cut > 100);
 }
 
+TEST_CASE("trace_bundle: a committed sphere entry drops that sphere's exit, as in trace()", "[trace-bundle]") {
+    // A bundle hands each ray its world-sphere entries first and the exits after (trace_bundle.hpp), the
+    // exits found in range before the entries were reported: an entry that commits (accepted, or an opaque
+    // sphere) lowers tmax below its exit, which must then be dropped. Rays along +z through a row of spheres
+    // (non-opaque and opaque), every candidate accepted: per ray the committed hit (the first entry) and
+    // the counts of accepted hits and any-hit calls equal trace()'s. (The random scenes above rarely make a
+    // ray's first candidate a sphere whose exit is also in range.)
+    Scene s;
+    const std::uint32_t glassy = s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 1.0f}}, false));
+    const std::uint32_t solid = s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 1.0f}}, true));
+    for (int k = 0; k < 4; ++k)
+        s.add_instance(Instance{k % 2 == 0 ? glassy : solid,
+                                AffineTransform::translate_scale(glm::dvec3(0.0, 0.0, 5.0 + 3.0 * k), 1.0 + 0.1 * k), 1,
+                                std::uint32_t(k), instance_flag_none});
+    s.commit();
+    REQUIRE(s.record(0).path == InstancePath::world_sphere);
+    Pcg32 rng(47);
+    int checked = 0;
+    for (int k = 0; k < 50; ++k) {
+        RayBundle b(glm::vec3(0.0f, 0.0f, 1.0f));
+        for (unsigned i = 0; i < kBundleWidth; ++i)
+            b.add(glm::vec3(rng.uniform(-0.9f, 0.9f), rng.uniform(-0.9f, 0.9f), rng.uniform(-2.0f, 12.0f)), 0.0f, kInf);
+        for (const std::uint32_t flags : {std::uint32_t(ray_flag_none), std::uint32_t(ray_flag_force_non_opaque)}) {
+            const BundleResults got = trace_bundle(s, b, flags, 0xFF, [](unsigned, const TraceHit&) {
+                return AnyHitDecision::accept;
+            });
+            for (unsigned i = 0; i < b.count; ++i) {
+                const TraceResult alone = trace(s, b.ray(i), flags, 0xFF, [](const TraceHit&) {
+                    return AnyHitDecision::accept;
+                });
+                CAPTURE(k, i, flags);
+                REQUIRE(got[i].hit == alone.hit);
+                CHECK(got[i].committed.t == alone.committed.t);
+                CHECK(got[i].committed.kind == alone.committed.kind);
+                CHECK(got[i].committed.instance_index == alone.committed.instance_index);
+                CHECK(got[i].counters.hits_accepted == alone.counters.hits_accepted);
+                CHECK(got[i].counters.any_hit_invocations == alone.counters.any_hit_invocations);
+                checked += alone.hit;
+            }
+        }
+    }
+    CHECK(checked > 1000);
+}
+
 TEST_CASE("trace_bundle: a ray that ends its search leaves the others unchanged", "[trace-bundle]") {
     // Lane 0 accepts its first candidate and ends (AcceptHitAndEndSearch), the others ignore everything:
     // they must meet exactly the candidates they meet in a bundle where nobody ends, and lane 0 must have

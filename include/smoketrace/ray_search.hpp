@@ -87,32 +87,32 @@ public:
 
     // The crossings of a world sphere's surface by this ray, its entry (front face) at t_enter and then its
     // exit (back face) at t_exit, each reported if it lies in [tmin, tmax] when its turn comes, as in
-    // sphere_leaf_hits. `sides` selects which to consider (bit 0 the entry, bit 1 the exit): a bundle, which
-    // tests a sphere for all its rays at once (ray_sphere_bundle.hpp), passes only those in range. Returns
-    // true when the search has ended.
+    // sphere_leaf_hits. Returns true when the search has ended.
     [[gnu::always_inline]] bool report_sphere_crossings(std::uint32_t index, const InstanceRecord& inst, bool opaque,
-                                                        float t_enter, float t_exit, unsigned sides = 3u) {
-        // A loop, so that report() has one call site here and is inlined once; unrolled.
+                                                        float t_enter, float t_exit) {
+        // A loop, so that the report has one call site here and is inlined once; unrolled.
 #pragma GCC unroll 2
         for (unsigned side = 0; side < 2; ++side) {
             const float t = side == 0 ? t_enter : t_exit;
-            if (!((sides >> side) & 1u) || !(t >= ray_.tmin && t <= tmax_)) continue;
-            const bool end = report(opaque, [&] {
-                TraceHit h;
-                h.t = t;
-                // In object space: W·(o − T + t·d), the general path's o + t·d.
-                const glm::dvec3 rel_point = (world_origin_ - inst.object_to_world_translation) + double(t) * world_dir_;
-                h.object_point = glm::vec3(inst.world_to_object_linear * rel_point);
-                h.instance_index = index;
-                h.instance_id = inst.user_id;
-                h.primitive_index = 0;  // the BLAS's only sphere
-                h.kind = side == 0 ? HitKind::front_face : HitKind::back_face;
-                h.geometry = GeometryKind::spheres;
-                return h;
-            });
-            if (end) return true;
+            if (!(t >= ray_.tmin && t <= tmax_)) continue;
+            if (report_sphere_side(index, inst, opaque, t, side)) return true;
         }
         return false;
+    }
+
+    // The same for a bundle, which tests a sphere for all its rays at once (ray_sphere_bundle.hpp) and hands
+    // each ray the entries found in [tmin, tmax] first, then the exits: one crossing, known to be in range
+    // when the sphere was tested. An exit is checked again against tmax, which its entry may have lowered
+    // by a commit (the ray's only change between the test and the exit). Returns true when the search has
+    // ended. Two passes over the lanes, rather than both sides lane by lane, leave no branch on which
+    // sides a lane crosses: as data that branch was the pass's most mispredicted after the walk's.
+    [[gnu::always_inline]] bool report_sphere_entry(std::uint32_t index, const InstanceRecord& inst, bool opaque,
+                                                    float t_enter) {
+        return report_sphere_side(index, inst, opaque, t_enter, 0);
+    }
+    [[gnu::always_inline]] bool report_sphere_exit(std::uint32_t index, const InstanceRecord& inst, bool opaque,
+                                                   float t_exit) {
+        return t_exit <= tmax_ && report_sphere_side(index, inst, opaque, t_exit, 1);
     }
 
     // World spheres tested for this ray outside visit(), by a bundle: counted as visit() counts its own.
@@ -130,6 +130,24 @@ public:
     }
 
 private:
+    // A world sphere's entry (side 0, front face) or exit (side 1, back face) at t, in range: rules 5-8.
+    [[gnu::always_inline]] bool report_sphere_side(std::uint32_t index, const InstanceRecord& inst, bool opaque, float t,
+                                                   unsigned side) {
+        return report(opaque, [&] {
+            TraceHit h;
+            h.t = t;
+            // In object space: W·(o − T + t·d), the general path's o + t·d.
+            const glm::dvec3 rel_point = (world_origin_ - inst.object_to_world_translation) + double(t) * world_dir_;
+            h.object_point = glm::vec3(inst.world_to_object_linear * rel_point);
+            h.instance_index = index;
+            h.instance_id = inst.user_id;
+            h.primitive_index = 0;  // the BLAS's only sphere
+            h.kind = side == 0 ? HitKind::front_face : HitKind::back_face;
+            h.geometry = GeometryKind::spheres;
+            return h;
+        });
+    }
+
     // Rules 5-8 and the cutoff, for a candidate that passed rules 1-4. make_hit() supplies its TraceHit
     // and is called only where the hit is used, so that what nobody reads is never computed: inlined,
     // a world-sphere candidate that the any-hit callback only counts costs no object_point. Returns

@@ -79,11 +79,15 @@ BundleResults trace_bundle(const Scene& scene, const RayBundle& bundle, std::uin
                 sphere_crossings_bundle(bundle, lanes, tmax, inst.object_to_world_translation, inst.sphere_offset,
                                         inst.sphere_radius, x);
                 count_lanes(sphere_tests, lanes);
-                for (unsigned m = x.enter | x.exit; m != 0; m &= m - 1) {
+                // Each ray's entry before its exit, as trace() reports them; rays are independent.
+                for (unsigned m = x.enter; m != 0; m &= m - 1) {
                     const unsigned i = unsigned(std::countr_zero(m));
-                    const unsigned sides = ((x.enter >> i) & 1u) | (((x.exit >> i) & 1u) << 1);
-                    if (searches[i].report_sphere_crossings(index, inst, opaque, static_cast<float>(x.t_enter[i]),
-                                                            static_cast<float>(x.t_exit[i]), sides))
+                    if (searches[i].report_sphere_entry(index, inst, opaque, static_cast<float>(x.t_enter[i])))
+                        lanes &= ~(1u << i);
+                }
+                for (unsigned m = x.exit & lanes; m != 0; m &= m - 1) {
+                    const unsigned i = unsigned(std::countr_zero(m));
+                    if (searches[i].report_sphere_exit(index, inst, opaque, static_cast<float>(x.t_exit[i])))
                         lanes &= ~(1u << i);
                 }
             } else if (inst.path == InstancePath::object_space) {
