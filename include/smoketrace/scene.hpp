@@ -14,6 +14,7 @@
 #include <smoketrace/triangle_mesh.hpp>
 #include <smoketrace/wide_bvh.hpp>
 
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -58,33 +59,36 @@ enum class InstancePaths : std::uint8_t { fastest, object_space_only };
 // ray the object-space ray and its triangle set-up, about as much work as the two triangle tests.
 inline constexpr std::uint32_t kMaxWorldTriangles = 4;
 
-// What trace() reads per instance, kept together in instance order. The fields up to and including
-// sphere_radius (the first 72 bytes) are all that a visit to a world sphere or world triangles reads
-// until it reports a hit; world_to_object_linear comes last, needed by the general path and for a sphere
-// hit's object_point.
-struct InstanceRecord {
+// What trace() reads per instance, kept together in instance order. A visit to a world sphere reads the
+// first cache line only (up to sphere_radius, kept on one line by alignas) until it reports a hit; a world-
+// triangles visit reads the first bytes and the triangle fields of the second line; world_to_object_linear
+// comes last, needed by the general path and for a sphere hit's object_point. A bundle's walk meets the
+// records in leaf order, scattered over memory: with a sphere's fields spread over two or three lines (152-
+// byte records), the first read of a record was the optical-depth pass's costliest line.
+struct alignas(64) InstanceRecord {
     std::uint8_t mask;
-    std::uint8_t flags;
     // Rule 2 as far as the instance decides it: the geometry's opacity after the instance's FORCE_OPAQUE /
     // FORCE_NON_OPAQUE, so that trace() need not chase `blas` to decide it.
     bool opaque;
     InstancePath path;
-    // world_triangles only: how many (in the BLAS's leaf order, from Scene::world_triangles()[first_world_
-    // triangle]), and whether a world-space front face is an object-space back face (a mirroring transform)
-    // — XOR TRIANGLE_FRONT_CLOCKWISE, so that rule 4 sees the facing the general path would.
-    std::uint8_t world_triangle_count;
-    bool world_facing_flipped;
+    std::uint8_t flags;
     std::uint32_t user_id;
-    std::uint32_t first_world_triangle;
-    const BottomLevel* blas;
     glm::dvec3 object_to_world_translation;  // subtracted first, then the linear inverse applied
     // world_sphere only. The centre relative to the translation (linear · centre), not the world centre:
     // trace() subtracts the translation from the ray origin first, exactly as the general path does, so
     // a small sphere far from the world origin is as precise as there.
     glm::dvec3 sphere_offset;
     double sphere_radius;  // scale · radius
+    // world_triangles only: how many (in the BLAS's leaf order, from Scene::world_triangles()[first_world_
+    // triangle]), and whether a world-space front face is an object-space back face (a mirroring transform)
+    // — XOR TRIANGLE_FRONT_CLOCKWISE, so that rule 4 sees the facing the general path would.
+    std::uint8_t world_triangle_count;
+    bool world_facing_flipped;
+    std::uint32_t first_world_triangle;
+    const BottomLevel* blas;
     glm::dmat3 world_to_object_linear;
 };
+static_assert(offsetof(InstanceRecord, sphere_radius) + sizeof(double) <= 64, "a world sphere's fields on one line");
 
 class Scene {
 public:
