@@ -83,14 +83,14 @@ void OpticalDepthPass::run(const SmokeScene& smoke, std::span<const Particle> pa
     const glm::vec3 dir = glm::normalize(to_light);
     const std::size_t n = which.size();
     out.particles.assign(which.begin(), which.end());
-    out.status.assign(n, DepthStatus::ok);
-    out.hit_counts.assign(n, 0);
+    out.status.resize(n);
+    out.hit_counts.resize(n);
     // The rays in bundles of neighbours (ray_bundle.hpp): ray_order_[k] is the k-th ray traced, an index
     // into `which`.
     origins_.resize(n);
     for (std::size_t i = 0; i < n; ++i) origins_[i] = particles[which[i]].center;
     bundle_order(origins_, dir, ray_order_, order_scratch_);
-    kept_at_.resize(n);
+    rays_.resize(n);
 
     const std::size_t chunk_count = (n + kParticlesPerChunk - 1) / kParticlesPerChunk;
     // Hits kept so far, over all chunks; the budget also keeps the 32-bit offsets below from wrapping.
@@ -123,14 +123,10 @@ void OpticalDepthPass::run(const SmokeScene& smoke, std::span<const Particle> pa
                     };
                     const BundleResults results = trace_bundle(scene, bundle, ray_flag_none, kLightRayMask, collect, limits);
                     for (unsigned lane = 0; lane < bundle.count; ++lane) {
-                        const std::size_t i = ray_order_[k + lane];
                         const std::vector<SurfaceHit>& hits = sc.lane_hits[lane];
                         const RayOutcome o = outcome_of(scene, bundle.ray(lane), results[lane], hits, settings.cutoff);
-                        out.status[i] = o.status;
-                        out.hit_counts[i] = o.hits;
-                        if (o.status != DepthStatus::ok) continue;
-                        kept_at_[i] = {&sc, static_cast<std::uint32_t>(sc.kept.size())};
-                        sc.kept.insert(sc.kept.end(), hits.begin(), hits.end());
+                        rays_[k + lane] = {&sc, static_cast<std::uint32_t>(sc.kept.size()), o.hits, o.status};
+                        if (o.status == DepthStatus::ok) sc.kept.insert(sc.kept.end(), hits.begin(), hits.end());
                     }
                 }
                 // The budget, checked once per task: the hits over it are at most one task's.
@@ -142,7 +138,13 @@ void OpticalDepthPass::run(const SmokeScene& smoke, std::span<const Particle> pa
         },
         tbb::simple_partitioner());
 
-    // Gather the kept hits into one flat buffer in particle order: the same buffer whichever thread kept them.
+    // Statuses and counts to particle order; the kept hits gathered into one flat buffer in particle
+    // order: the same buffer whichever thread kept them.
+    for (std::size_t k = 0; k < n; ++k) {
+        const std::size_t i = ray_order_[k];
+        out.status[i] = rays_[k].status;
+        out.hit_counts[i] = rays_[k].hits;
+    }
     HitLists& lists = out.lists;
     lists.offsets.resize(n + 1);
     lists.offsets[0] = 0;
@@ -150,10 +152,11 @@ void OpticalDepthPass::run(const SmokeScene& smoke, std::span<const Particle> pa
         lists.offsets[i + 1] = lists.offsets[i] + (out.status[i] == DepthStatus::ok ? out.hit_counts[i] : 0);
     lists.hits.resize(lists.offsets[n]);
     tbb::parallel_for(std::size_t(0), chunk_count, [&](std::size_t c) {
-        for (std::size_t i = c * kParticlesPerChunk; i < std::min(n, (c + 1) * kParticlesPerChunk); ++i) {
-            if (out.status[i] != DepthStatus::ok) continue;
-            const SurfaceHit* from = kept_at_[i].scratch->kept.data() + kept_at_[i].offset;
-            std::copy(from, from + out.hit_counts[i], lists.hits.begin() + lists.offsets[i]);
+        for (std::size_t k = c * kParticlesPerChunk; k < std::min(n, (c + 1) * kParticlesPerChunk); ++k) {
+            const RayRecord& r = rays_[k];
+            if (r.status != DepthStatus::ok) continue;
+            const SurfaceHit* from = r.scratch->kept.data() + r.offset;
+            std::copy(from, from + r.hits, lists.hits.begin() + lists.offsets[ray_order_[k]]);
         }
     });
 }

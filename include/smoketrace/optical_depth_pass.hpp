@@ -80,15 +80,21 @@ private:
         std::array<std::vector<SurfaceHit>, kBundleWidth> lane_hits;  // the bundle in flight's, per ray
         std::vector<SurfaceHit> kept;  // the hits of this thread's ok rays, ray after ray
     };
-    struct KeptAt {
-        const Scratch* scratch;
+    // A ray's outcome, stored in trace order (index k of ray_order_) so that each task writes a
+    // contiguous stretch: in particle order the rays of a task land all over the output arrays, and the
+    // threads' writes shared cache lines (the pass scaled 1.5x on two threads). Scattered to particle
+    // order after the parallel part.
+    struct RayRecord {
+        const Scratch* scratch;  // where the ray's hits are kept (ok rays), until gathered
         std::uint32_t offset;
+        std::uint32_t hits;
+        DepthStatus status;
     };
     tbb::enumerable_thread_specific<Scratch> scratch_;
     std::vector<glm::vec3> origins_;        // the rays' origins, in the order of `which`
     std::vector<std::uint32_t> ray_order_;  // bundle_order() of origins_
     BundleOrderScratch order_scratch_;
-    std::vector<KeptAt> kept_at_;           // where particle i's hits are, until gathered
+    std::vector<RayRecord> rays_;           // [k]: the k-th ray traced
 };
 
 }  // namespace smoketrace
