@@ -116,7 +116,10 @@ void run_output(const BenchOptions& options) {
     std::vector<std::uint8_t> a, b, c;  // kept from round to round, as a frame sequence would
     PngWriter writer, sequence;
     std::vector<double> srgb_one, srgb_all, textbook_one, png_ours, png_stb, seq_frame, single_frame;
-    const int rounds = options.repeats + 1;
+    // At least 9 counted rounds, quick mode too: a round takes ~0.2 s, and with 3 the medians of these
+    // short steps were at the mercy of the shared machine.
+    const int counted = std::max(options.repeats, 9);
+    const int rounds = counted + 1;
     for (int r = 0; r < rounds; ++r) {
         const double t_one = time_once([&] { one_thread.execute([&] { to_srgb8(frame, 4, a); }); });
         const double t_all = time_once([&] { every_thread.execute([&] { to_srgb8(frame, 4, b); }); });
@@ -152,7 +155,7 @@ void run_output(const BenchOptions& options) {
     const auto ours_bytes = double(fs::file_size(ours_file)), stb_bytes = double(fs::file_size(stb_file));
 
     std::printf("output: one %d×%d full frame (750 particles), medians of %d interleaved rounds\n", kSize, kSize,
-                options.repeats);
+                counted);
     std::printf("  sRGB encoding   to_srgb8 %7.2f ms (1 thread) %7.2f ms (%d threads) | textbook powf %7.2f ms (1 thread): "
                 "%.1fx; the formula differs on %zu of %zu channel values\n",
                 srgb1, srgbN, all_threads, text1, text1 / srgb1, differing, pixels.pixels.size());
