@@ -411,10 +411,6 @@ double fit_exponent(const std::vector<double>& counts, const std::vector<double>
     return sxx > 0 ? sxy / sxx : 0.0;
 }
 
-double elapsed_ms(std::chrono::steady_clock::time_point since) {
-    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since).count();
-}
-
 // How many particles two answers disagree on: status, hit count, or length beyond kAgreementTolerance.
 std::size_t disagreements(const OpticalDepths& ours, OpticalDepthHits& embree) {
     std::vector<float> lengths(embree.status.size());

@@ -27,7 +27,6 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -61,17 +60,6 @@ void textbook_to_srgb8(const ImageRgba& image, std::vector<std::uint8_t>& out) {
         o[2] = textbook_srgb8(p.z);
         o[3] = unorm8(p.w);
     }
-}
-
-double ms_since(std::chrono::steady_clock::time_point t0) {
-    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
-template <class Fn>
-double time_once(Fn&& fn) {
-    const auto t0 = std::chrono::steady_clock::now();
-    fn();
-    return ms_since(t0);
 }
 
 // A scratch folder for the files, removed at the end.
@@ -121,16 +109,16 @@ void run_output(const BenchOptions& options) {
     const int counted = std::max(options.repeats, 9);
     const int rounds = counted + 1;
     for (int r = 0; r < rounds; ++r) {
-        const double t_one = time_once([&] { one_thread.execute([&] { to_srgb8(frame, 4, a); }); });
-        const double t_all = time_once([&] { every_thread.execute([&] { to_srgb8(frame, 4, b); }); });
-        const double t_text = time_once([&] { textbook_to_srgb8(frame, c); });
-        const double t_ours = time_once([&] { writer.write_rgba8(ours_file, pixels); });
-        const double t_stb = time_once([&] {
+        const double t_one = time_once_ms([&] { one_thread.execute([&] { to_srgb8(frame, 4, a); }); });
+        const double t_all = time_once_ms([&] { every_thread.execute([&] { to_srgb8(frame, 4, b); }); });
+        const double t_text = time_once_ms([&] { textbook_to_srgb8(frame, c); });
+        const double t_ours = time_once_ms([&] { writer.write_rgba8(ours_file, pixels); });
+        const double t_stb = time_once_ms([&] {
             if (stbi_write_png(stb_file.c_str(), pixels.width, pixels.height, 4, pixels.pixels.data(), pixels.width * 4) == 0)
                 throw std::runtime_error("bench output: stbi_write_png failed on " + stb_file.string());
         });
-        const double t_seq = time_once([&] { every_thread.execute([&] { sequence.write_srgb(cli_file, frame); }); });
-        const double t_single = time_once([&] { every_thread.execute([&] { write_png_srgb(cli_file, frame); }); });
+        const double t_seq = time_once_ms([&] { every_thread.execute([&] { sequence.write_srgb(cli_file, frame); }); });
+        const double t_single = time_once_ms([&] { every_thread.execute([&] { write_png_srgb(cli_file, frame); }); });
         if (a != pixels.pixels || b != pixels.pixels)
             throw std::runtime_error("bench output: to_srgb8 differs between thread counts");
         if (r == 0) continue;  // the first round pays the kept buffers' first touch

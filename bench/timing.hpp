@@ -18,6 +18,19 @@ inline Stats stats_of(std::vector<double> v) {
     return {med, v.front(), v.back()};
 }
 
+// Milliseconds of wall time since `since`.
+inline double elapsed_ms(std::chrono::steady_clock::time_point since) {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since).count();
+}
+
+// Runs fn() once and returns its wall time in milliseconds: for contenders timed in interleaved rounds.
+template <class Fn>
+double time_once_ms(Fn&& fn) {
+    const auto t0 = std::chrono::steady_clock::now();
+    fn();
+    return elapsed_ms(t0);
+}
+
 // Runs fn() `repeats` times and returns the statistics of its wall time in milliseconds.
 template <class Fn>
 Stats time_ms(int repeats, Fn&& fn) {
