@@ -82,8 +82,8 @@ private:
     };
     // A ray's outcome, stored in trace order (index k of ray_order_) so that each task writes a
     // contiguous stretch: in particle order the rays of a task land all over the output arrays, and the
-    // threads' writes shared cache lines (the pass scaled 1.5x on two threads). Scattered to particle
-    // order after the parallel part.
+    // two threads' writes shared cache lines (storing in trace order: pass 0.200 -> 0.192 ms on two
+    // threads). Scattered to particle order after the parallel part.
     struct RayRecord {
         const Scratch* scratch;  // where the ray's hits are kept (ok rays), until gathered
         std::uint32_t offset;
