@@ -21,10 +21,11 @@ namespace {
 // share a task and tasks differ in work as much as the smoke is uneven (a ray rising through both tubes
 // crosses twice the surfaces of one rising through the upper tube only); small tasks keep the threads
 // balanced. Measured at 750 particles on 2 threads (bench optical_depth), with bundles of 8: 64 particles
-// per task 0.39 ms, 32 0.33-0.37, 16 0.33; with bundles of 16, 16 to 64 within noise (0.33-0.38).
+// per task 0.39 ms, 32 0.33-0.37, 16 0.33; with bundles of 16, 16 to 64 within noise (0.33-0.38); with
+// bundles of 32, one bundle per task (24 tasks for two threads).
 // Fixed task boundaries (simple_partitioner) make the bundles, and so every hit, independent of the
 // thread count.
-constexpr std::size_t kParticlesPerChunk = 16;
+constexpr std::size_t kParticlesPerChunk = 32;
 static_assert(kParticlesPerChunk % kBundleWidth == 0);
 
 struct RayOutcome {

@@ -534,7 +534,7 @@ TEST_CASE("stability: grazing rays (tangent spheres, parallel to triangles, in t
             const std::vector<Particle> ps{particle({0, 0, 0}, r), particle({4.0f, edge_above - top, 0.0f}, r)};
             const Traced got = trace_all(ps, kIcosahedron, {1.0f, 0.0f, 0.0f});
             const glm::dvec3 o(0.0), d(1.0, 0.0, 0.0);
-            double own_in, own_out, in, out;
+            double own_in = 0.0, own_out = 0.0, in = 0.0, out = 0.0;  // convex_chord() sets them (GCC 12 warns)
             REQUIRE(convex_chord(planes_of(ico, ps[0]), o, d, own_in, own_out));
             const bool crossed = convex_chord(planes_of(ico, ps[1]), o, d, in, out);
             const double chord = crossed ? out - in : 0.0;

@@ -396,10 +396,13 @@ TEST_CASE("trace_bundle: a ray that ends its search leaves the others unchanged"
 TEST_CASE("bundle_order: a permutation that keeps neighbours across the direction together", "[trace-bundle]") {
     // A 32 x 32 grid of origins in the plane perpendicular to the direction, each shifted a random
     // distance along the direction (which must not matter), in shuffled input order. The order returned
-    // is a permutation and the same on every call, and runs of kBundleWidth (16) consecutive rays are
-    // compact: where the grid lines up with the Morton curve's axes (an axis-aligned direction), every run
-    // is a 4 x 4 block of cells; for any direction, runs span at most 8 cells on average (6.6 measured; a
-    // random order: about 28), the Z curve's jumps making a few of them wider.
+    // is a permutation and the same on every call, and runs of kBundleWidth consecutive rays are compact:
+    // where the grid lines up with the Morton curve's axes (an axis-aligned direction), every run is one
+    // aligned block of the curve, `side` cells on its longer side (4 x 4 for 16 rays, 8 x 4 for 32); for
+    // any direction, runs span at most 2 * side cells on average (measured 6.6 for 16 rays and 9.6 for
+    // 32; a random order: about 28 and 30), the Z curve's jumps making a few of them wider.
+    static_assert(std::has_single_bit(kBundleWidth));
+    const int side = 1 << ((std::bit_width(kBundleWidth) - 1 + 1) / 2);  // 2^ceil(log2(width) / 2)
     for (const glm::vec3 dir : {glm::vec3(0, 1, 0), glm::vec3(1, 2, -0.5f), glm::vec3(0, 0, -3)}) {
         const glm::vec3 d = glm::normalize(dir);
         const glm::vec3 helper = std::abs(d.x) < 0.9f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0);
@@ -441,8 +444,8 @@ TEST_CASE("bundle_order: a permutation that keeps neighbours across the directio
         mean /= double(order.size() / kBundleWidth);
         CAPTURE(dir.x, dir.y, dir.z);
         const bool aligned = std::abs(d.x) == 1.0f || std::abs(d.y) == 1.0f || std::abs(d.z) == 1.0f;
-        if (aligned) CHECK(worst == 3);
-        CHECK(mean <= 8.0);
+        if (aligned) CHECK(worst == side - 1);
+        CHECK(mean <= 2.0 * side);
     }
     // Equal origins keep their input order; no origins give an empty order.
     std::vector<std::uint32_t> order;

@@ -25,18 +25,30 @@ namespace smoketrace {
 
 // Per-lane walk counters (TraversalStats for each ray of the bundle).
 struct BundleStats {
-    alignas(32) std::uint32_t nodes_visited[kBundleWidth] = {};
-    alignas(32) std::uint32_t boxes_tested[kBundleWidth] = {};
+    alignas(64) std::uint32_t nodes_visited[kBundleWidth] = {};
+    alignas(64) std::uint32_t boxes_tested[kBundleWidth] = {};
 };
 
 // One child box of a wide node against every ray of a bundle: bit i of the result set when lane i's ray
 // meets the box in [tmin_i, tmax_i]. Lane by lane exactly intersect() of aabb.hpp: the shared direction
 // gives every lane the same reciprocal and near / far planes, and maxps / minps keep the accumulator
-// (their second operand) where a slab distance is NaN, as the scalar test does.
+// (their second operand) where a slab distance is NaN, as the scalar test does. Sixteen lanes per
+// AVX-512 operation, eight per AVX2 one, one at a time without.
 class BundleBoxTest {
 public:
     explicit BundleBoxTest(const RayBundle& b) : shared_(Ray{glm::vec3(0.0f), 0.0f, b.direction, 0.0f}), bundle_(b) {
-#if defined(__AVX2__)
+#if defined(__AVX512F__)
+        for (unsigned k = 0; k < kBlocks; ++k) {
+            origin_[0][k] = _mm512_load_ps(b.x + 16 * k);
+            origin_[1][k] = _mm512_load_ps(b.y + 16 * k);
+            origin_[2][k] = _mm512_load_ps(b.z + 16 * k);
+            tmin_[k] = _mm512_load_ps(b.tmin + 16 * k);
+        }
+        for (int a = 0; a < 3; ++a) {
+            inv_dir_[a] = _mm512_set1_ps(shared_.inv_dir[a]);
+            inv_far_[a] = _mm512_set1_ps(shared_.inv_far[a]);
+        }
+#elif defined(__AVX2__)
         for (unsigned k = 0; k < kBlocks; ++k) {
             origin_[0][k] = _mm256_load_ps(b.x + 8 * k);
             origin_[1][k] = _mm256_load_ps(b.y + 8 * k);
@@ -53,7 +65,41 @@ public:
     // The plane index entered first on axis a, shared by every lane (BoxRay::near).
     [[nodiscard]] int near_plane(int a) const { return shared_.near[a]; }
 
-#if defined(__AVX2__)
+#if defined(__AVX512F__)
+    static constexpr unsigned kBlocks = kBundleWidth / 16;  // lanes in blocks of 16, one AVX-512 register each
+    struct FarLimits {
+        __m512 block[kBlocks];
+    };
+    // `far`: each lane's tmax · kSlabFarScale (far_limits()).
+    [[gnu::always_inline]] unsigned test(const WideBvhNode& n, unsigned slot, const FarLimits& far) const {
+        __m512 near_plane[3], far_plane[3];
+        for (int a = 0; a < 3; ++a) {
+            near_plane[a] = _mm512_set1_ps(n.bounds[shared_.near[a]][slot]);
+            far_plane[a] = _mm512_set1_ps(n.bounds[shared_.far[a]][slot]);
+        }
+        unsigned hits = 0;
+        for (unsigned k = 0; k < kBlocks; ++k) {
+            __m512 t0 = tmin_[k], t1 = far.block[k];
+#pragma GCC unroll 3
+            for (int a = 0; a < 3; ++a) {
+                const __m512 t_near = _mm512_mul_ps(_mm512_sub_ps(near_plane[a], origin_[a][k]), inv_dir_[a]);
+                const __m512 t_far = _mm512_mul_ps(_mm512_sub_ps(far_plane[a], origin_[a][k]), inv_far_[a]);
+                // maskz forms with every lane set: the plain ones trip GCC 12's false -Wmaybe-uninitialized
+                // on their undefined pass-through operand (GCC bug 105593); the same instructions.
+                t0 = _mm512_maskz_max_ps(__mmask16(0xFFFF), t_near, t0);
+                t1 = _mm512_maskz_min_ps(__mmask16(0xFFFF), t_far, t1);
+            }
+            hits |= unsigned(_mm512_cmp_ps_mask(t0, t1, _CMP_LE_OQ)) << (16 * k);
+        }
+        return hits;
+    }
+    [[gnu::always_inline]] static FarLimits far_limits(const float* tmax) {
+        FarLimits f;
+        for (unsigned k = 0; k < kBlocks; ++k)
+            f.block[k] = _mm512_mul_ps(_mm512_load_ps(tmax + 16 * k), _mm512_set1_ps(kSlabFarScale));
+        return f;
+    }
+#elif defined(__AVX2__)
     static constexpr unsigned kBlocks = kBundleWidth / 8;  // lanes in blocks of 8, one AVX2 register each
     struct FarLimits {
         __m256 block[kBlocks];
@@ -104,14 +150,22 @@ public:
 private:
     BoxRay shared_;  // the direction's part of the slab test
     const RayBundle& bundle_;
-#if defined(__AVX2__)
+#if defined(__AVX512F__)
+    __m512 origin_[3][kBlocks], inv_dir_[3], inv_far_[3], tmin_[kBlocks];
+#elif defined(__AVX2__)
     __m256 origin_[3][kBlocks], inv_dir_[3], inv_far_[3], tmin_[kBlocks];
 #endif
 };
 
 // Adds 1 to the counter of every lane in `lanes`.
 [[gnu::always_inline]] inline void count_lanes(std::uint32_t* counters, unsigned lanes, unsigned times = 1) {
-#if defined(__AVX2__)
+#if defined(__AVX512F__)
+    for (unsigned k = 0; k < kBundleWidth / 16; ++k) {  // the lane bits are the add's write mask
+        __m512i* at = reinterpret_cast<__m512i*>(counters + 16 * k);
+        const __m512i v = _mm512_load_si512(at);
+        _mm512_store_si512(at, _mm512_mask_add_epi32(v, __mmask16(lanes >> (16 * k)), v, _mm512_set1_epi32(int(times))));
+    }
+#elif defined(__AVX2__)
     const __m256i bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
     for (unsigned k = 0; k < kBundleWidth / 8; ++k) {
         const __m256i in = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(int(lanes >> (8 * k))), bits), bits);
@@ -126,7 +180,7 @@ private:
 
 // Calls leaf(first, count, lanes) for every leaf whose mask meets `inclusion_mask` and whose box the
 // rays of `lanes` (a nonzero subset of `live`) enter before their tmax. `tmax` (kBundleWidth floats,
-// 32-byte aligned) and `live` (the lanes still searching) are read at every step, so a leaf callback
+// 64-byte aligned) and `live` (the lanes still searching) are read at every step, so a leaf callback
 // that commits a hit or ends a lane's search narrows the walk at once. The walk ends when no lane is
 // live or every node has been visited.
 template <class LeafFn>

@@ -1,7 +1,7 @@
 #pragma once
 // The optical-depth pass (thesis 4.3.2): for each particle, a ray from its centre toward the light
 // collects the particle surfaces it crosses, through the trace API and its any-hit callback. The rays all
-// go the same way, so they are traced in bundles of sixteen neighbours (trace_bundle(), ray_bundle.hpp),
+// go the same way, so they are traced in bundles of thirty-two neighbours (trace_bundle(), ray_bundle.hpp),
 // each ray getting what trace() would give it alone; the rare follow-ups below use trace().
 //
 //   ray:    origin = particle centre, direction = toward the light, tmin = 1e-7, tmax = 1e38,

@@ -5,12 +5,13 @@
 //
 // Why bundles: every optical-depth ray of a frame goes the same way, and rays from neighbouring
 // particles cross the same part of the scene. Traced one by one, each walks nearly the same top-level
-// nodes again; traced sixteen together, a node is fetched and decided once for all of them and its boxes
-// tested for the sixteen in two AVX2 operations per step. On the 750-particle two-tube scene lit from
-// above, the nodes and instances a bundle's walk visits, per ray: 18.4 wide nodes and 13.6 instance
-// visits for a ray alone, 4.9 and 4.9 in bundles of 8, 3.1 and 3.5 in bundles of 16 (taken in
-// bundle_order()). The decisions at a node or an instance are the walk's mispredicted branches, paid
-// once per bundle: going from 8 to 16 rays took 10 % off the pass over spheres, 3.5 % over icosahedra.
+// nodes again; traced thirty-two together, a node is fetched and decided once for all of them and its
+// boxes tested for the thirty-two in two AVX-512 operations per step. On the 750-particle two-tube scene
+// lit from above, the nodes and instances a bundle's walk visits, per ray: 18.4 wide nodes and 13.6
+// instance visits for a ray alone, 4.9 and 4.9 in bundles of 8, 3.3 and 3.7 in bundles of 16, 2.3 and
+// 2.7 in bundles of 32 (taken in bundle_order()). The decisions at a node or an instance are the walk's
+// mispredicted branches, paid once per bundle: going from 8 to 16 rays took 10 % off the pass over
+// spheres, 3.5 % over icosahedra; from 16 to 32, 9 % and 3 % (two threads, alternating runs).
 #include <smoketrace/ray.hpp>
 
 #include <glm/vec3.hpp>
@@ -23,7 +24,9 @@
 
 namespace smoketrace {
 
-inline constexpr unsigned kBundleWidth = 16;  // a multiple of 8 (AVX2 registers of floats)
+// A multiple of 16 (AVX-512 registers of floats), and at most 32: a set of lanes is an unsigned.
+inline constexpr unsigned kBundleWidth = 32;
+static_assert(kBundleWidth % 16 == 0 && kBundleWidth <= 32);
 
 // The rays, structure of arrays: lane i is origin (x[i], y[i], z[i]), [tmin[i], tmax[i]], and the shared
 // direction. Lanes [count, kBundleWidth) are unused; they hold lane 0's ray so that every lane is a
@@ -55,7 +58,8 @@ struct RayBundle {
         return lane;
     }
     [[nodiscard]] bool full() const { return count == kBundleWidth; }
-    [[nodiscard]] unsigned lanes() const { return (1u << count) - 1u; }  // the bit of every lane in use
+    // The bit of every lane in use (a shift by 32 would be undefined).
+    [[nodiscard]] unsigned lanes() const { return count == 32 ? ~0u : (1u << count) - 1u; }
     [[nodiscard]] glm::vec3 origin(unsigned lane) const { return {x[lane], y[lane], z[lane]}; }
     [[nodiscard]] Ray ray(unsigned lane) const { return Ray{origin(lane), tmin[lane], direction, tmax[lane]}; }
 };

@@ -61,7 +61,7 @@ BundleResults trace_bundle(const Scene& scene, const RayBundle& bundle, std::uin
     auto searches = detail::make_lane_searches(scene, bundle, flags, lane_hits, limits, tmax,
                                                std::make_index_sequence<kBundleWidth>{});
     unsigned live = bundle.lanes();
-    alignas(32) std::uint32_t sphere_tests[kBundleWidth] = {};  // world spheres tested per lane, here
+    alignas(64) std::uint32_t sphere_tests[kBundleWidth] = {};  // world spheres tested per lane, here
 
     const InstanceFilter filter(flags, inclusion_mask);
     const Bvh& tlas = scene.tlas();
