@@ -103,11 +103,21 @@ void OpticalDepthPass::run(const SmokeScene& smoke, std::span<const Particle> pa
     if (settings.cutoff > 0) limits.max_any_hit_invocations = settings.cutoff;  // a (K+1)-th surface cuts off
 
     for (Scratch& sc : scratch_) sc.kept.clear();
+    const std::uint64_t run_id = ++runs_;
 
     tbb::parallel_for(
         tbb::blocked_range<std::size_t>(0, chunk_count, 1),
         [&](const tbb::blocked_range<std::size_t>& r) {
             Scratch& sc = scratch_.local();
+            // The rays of one pass reach every particle: each thread first asks its caches for the whole
+            // top level at once (Scene::prefetch_top_level), once per pass. Between two passes a frame's
+            // other work evicts it, and walked from L3, pointer chase by pointer chase, the pass took
+            // ~18 % longer: two threads, an icosahedron pass between two passes over spheres,
+            // 0.212-0.216 -> 0.179-0.182 ms with the sweep; nothing in between, 0.177 -> 0.172-0.175.
+            if (sc.warmed_in_run != run_id) {
+                sc.warmed_in_run = run_id;
+                scene.prefetch_top_level();
+            }
             std::size_t kept_before = sc.kept.size();
             for (std::size_t c = r.begin(); c < r.end(); ++c) {
                 const std::size_t end = std::min(n, (c + 1) * kParticlesPerChunk);

@@ -243,4 +243,18 @@ TlasUpdate Scene::commit() {
     return TlasUpdate::refit;
 }
 
+void Scene::prefetch_top_level() const {
+    constexpr std::size_t kLine = 64;
+    const std::size_t node_bytes = wide_tlas_.node_count() * sizeof(WideBvhNode);
+    const std::size_t index_bytes = tlas_.prim_indices.size() * sizeof(std::uint32_t);
+    if (node_bytes + index_bytes + records_.size() * kLine > kPrefetchTopLevelMaxBytes) return;
+    auto sweep = [](const void* data, std::size_t bytes) {
+        const char* p = static_cast<const char*>(data);
+        for (std::size_t b = 0; b < bytes; b += kLine) __builtin_prefetch(p + b);
+    };
+    sweep(wide_tlas_.nodes(), node_bytes);
+    sweep(tlas_.prim_indices.data(), index_bytes);
+    for (const InstanceRecord& r : records_) __builtin_prefetch(&r);  // 64-byte aligned: its first line
+}
+
 }  // namespace smoketrace

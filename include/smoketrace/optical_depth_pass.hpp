@@ -79,6 +79,7 @@ private:
     struct Scratch {
         std::array<std::vector<SurfaceHit>, kBundleWidth> lane_hits;  // the bundle in flight's, per ray
         std::vector<SurfaceHit> kept;  // the hits of this thread's ok rays, ray after ray
+        std::uint64_t warmed_in_run = 0;  // the last run() in which this thread prefetched the top level
     };
     // A ray's outcome, stored in trace order (index k of ray_order_) so that each task writes a
     // contiguous stretch: in particle order the rays of a task land all over the output arrays, and the
@@ -95,6 +96,7 @@ private:
     std::vector<std::uint32_t> ray_order_;  // bundle_order() of origins_
     BundleOrderScratch order_scratch_;
     std::vector<RayRecord> rays_;           // [k]: the k-th ray traced
+    std::uint64_t runs_ = 0;                // run() calls so far
 };
 
 }  // namespace smoketrace
