@@ -11,6 +11,7 @@
 #include <smoketrace/aabb.hpp>
 #include <smoketrace/bvh_traversal.hpp>
 #include <smoketrace/ray_bundle.hpp>
+#include <smoketrace/simd_lanes.hpp>
 #include <smoketrace/wide_bvh.hpp>
 #include <smoketrace/wide_bvh_traversal.hpp>
 
@@ -32,32 +33,21 @@ struct BundleStats {
 // One child box of a wide node against every ray of a bundle: bit i of the result set when lane i's ray
 // meets the box in [tmin_i, tmax_i]. Lane by lane exactly intersect() of aabb.hpp: the shared direction
 // gives every lane the same reciprocal and near / far planes, and maxps / minps keep the accumulator
-// (their second operand) where a slab distance is NaN, as the scalar test does. Sixteen lanes per
-// AVX-512 operation, eight per AVX2 one, one at a time without.
+// (their second operand) where a slab distance is NaN, as the scalar test does. In lanes of floats
+// (simd_lanes.hpp): sixteen per AVX-512 operation, eight per AVX2 one; one at a time without.
 class BundleBoxTest {
 public:
     explicit BundleBoxTest(const RayBundle& b) : shared_(Ray{glm::vec3(0.0f), 0.0f, b.direction, 0.0f}), bundle_(b) {
-#if defined(__AVX512F__)
+#if defined(SMOKETRACE_SIMD_LANES)
         for (unsigned k = 0; k < kBlocks; ++k) {
-            origin_[0][k] = _mm512_load_ps(b.x + 16 * k);
-            origin_[1][k] = _mm512_load_ps(b.y + 16 * k);
-            origin_[2][k] = _mm512_load_ps(b.z + 16 * k);
-            tmin_[k] = _mm512_load_ps(b.tmin + 16 * k);
+            origin_[0][k] = simd::load(b.x + simd::kFloatLanes * k);
+            origin_[1][k] = simd::load(b.y + simd::kFloatLanes * k);
+            origin_[2][k] = simd::load(b.z + simd::kFloatLanes * k);
+            tmin_[k] = simd::load(b.tmin + simd::kFloatLanes * k);
         }
         for (int a = 0; a < 3; ++a) {
-            inv_dir_[a] = _mm512_set1_ps(shared_.inv_dir[a]);
-            inv_far_[a] = _mm512_set1_ps(shared_.inv_far[a]);
-        }
-#elif defined(__AVX2__)
-        for (unsigned k = 0; k < kBlocks; ++k) {
-            origin_[0][k] = _mm256_load_ps(b.x + 8 * k);
-            origin_[1][k] = _mm256_load_ps(b.y + 8 * k);
-            origin_[2][k] = _mm256_load_ps(b.z + 8 * k);
-            tmin_[k] = _mm256_load_ps(b.tmin + 8 * k);
-        }
-        for (int a = 0; a < 3; ++a) {
-            inv_dir_[a] = _mm256_set1_ps(shared_.inv_dir[a]);
-            inv_far_[a] = _mm256_set1_ps(shared_.inv_far[a]);
+            inv_dir_[a] = simd::broadcast(shared_.inv_dir[a]);
+            inv_far_[a] = simd::broadcast(shared_.inv_far[a]);
         }
 #endif
     }
@@ -65,71 +55,36 @@ public:
     // The plane index entered first on axis a, shared by every lane (BoxRay::near).
     [[nodiscard]] int near_plane(int a) const { return shared_.near[a]; }
 
-#if defined(__AVX512F__)
-    static constexpr unsigned kBlocks = kBundleWidth / 16;  // lanes in blocks of 16, one AVX-512 register each
+#if defined(SMOKETRACE_SIMD_LANES)
+    static constexpr unsigned kBlocks = kBundleWidth / simd::kFloatLanes;  // one register of lanes each
     struct FarLimits {
-        __m512 block[kBlocks];
+        simd::Floats block[kBlocks];
     };
     // `far`: each lane's tmax · kSlabFarScale (far_limits()).
     [[gnu::always_inline]] unsigned test(const WideBvhNode& n, unsigned slot, const FarLimits& far) const {
-        __m512 near_plane[3], far_plane[3];
+        using namespace simd;
+        Floats near_plane[3], far_plane[3];
         for (int a = 0; a < 3; ++a) {
-            near_plane[a] = _mm512_set1_ps(n.bounds[shared_.near[a]][slot]);
-            far_plane[a] = _mm512_set1_ps(n.bounds[shared_.far[a]][slot]);
+            near_plane[a] = broadcast(n.bounds[shared_.near[a]][slot]);
+            far_plane[a] = broadcast(n.bounds[shared_.far[a]][slot]);
         }
         unsigned hits = 0;
+#pragma GCC unroll 4
         for (unsigned k = 0; k < kBlocks; ++k) {
-            __m512 t0 = tmin_[k], t1 = far.block[k];
+            Floats t0 = tmin_[k], t1 = far.block[k];
 #pragma GCC unroll 3
             for (int a = 0; a < 3; ++a) {
-                const __m512 t_near = _mm512_mul_ps(_mm512_sub_ps(near_plane[a], origin_[a][k]), inv_dir_[a]);
-                const __m512 t_far = _mm512_mul_ps(_mm512_sub_ps(far_plane[a], origin_[a][k]), inv_far_[a]);
-                // maskz forms with every lane set: the plain ones trip GCC 12's false -Wmaybe-uninitialized
-                // on their undefined pass-through operand (GCC bug 105593); the same instructions.
-                t0 = _mm512_maskz_max_ps(__mmask16(0xFFFF), t_near, t0);
-                t1 = _mm512_maskz_min_ps(__mmask16(0xFFFF), t_far, t1);
+                t0 = max((near_plane[a] - origin_[a][k]) * inv_dir_[a], t0);
+                t1 = min((far_plane[a] - origin_[a][k]) * inv_far_[a], t1);
             }
-            hits |= unsigned(_mm512_cmp_ps_mask(t0, t1, _CMP_LE_OQ)) << (16 * k);
+            hits |= less_equal_bits(t0, t1) << (kFloatLanes * k);
         }
         return hits;
     }
     [[gnu::always_inline]] static FarLimits far_limits(const float* tmax) {
         FarLimits f;
         for (unsigned k = 0; k < kBlocks; ++k)
-            f.block[k] = _mm512_mul_ps(_mm512_load_ps(tmax + 16 * k), _mm512_set1_ps(kSlabFarScale));
-        return f;
-    }
-#elif defined(__AVX2__)
-    static constexpr unsigned kBlocks = kBundleWidth / 8;  // lanes in blocks of 8, one AVX2 register each
-    struct FarLimits {
-        __m256 block[kBlocks];
-    };
-    // `far`: each lane's tmax · kSlabFarScale (far_limits()).
-    [[gnu::always_inline]] unsigned test(const WideBvhNode& n, unsigned slot, const FarLimits& far) const {
-        __m256 near_plane[3], far_plane[3];
-        for (int a = 0; a < 3; ++a) {
-            near_plane[a] = _mm256_set1_ps(n.bounds[shared_.near[a]][slot]);
-            far_plane[a] = _mm256_set1_ps(n.bounds[shared_.far[a]][slot]);
-        }
-        unsigned hits = 0;
-#pragma GCC unroll 2
-        for (unsigned k = 0; k < kBlocks; ++k) {
-            __m256 t0 = tmin_[k], t1 = far.block[k];
-#pragma GCC unroll 3
-            for (int a = 0; a < 3; ++a) {
-                const __m256 t_near = _mm256_mul_ps(_mm256_sub_ps(near_plane[a], origin_[a][k]), inv_dir_[a]);
-                const __m256 t_far = _mm256_mul_ps(_mm256_sub_ps(far_plane[a], origin_[a][k]), inv_far_[a]);
-                t0 = _mm256_max_ps(t_near, t0);
-                t1 = _mm256_min_ps(t_far, t1);
-            }
-            hits |= unsigned(_mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ))) << (8 * k);
-        }
-        return hits;
-    }
-    [[gnu::always_inline]] static FarLimits far_limits(const float* tmax) {
-        FarLimits f;
-        for (unsigned k = 0; k < kBlocks; ++k)
-            f.block[k] = _mm256_mul_ps(_mm256_load_ps(tmax + 8 * k), _mm256_set1_ps(kSlabFarScale));
+            f.block[k] = simd::load(tmax + simd::kFloatLanes * k) * simd::broadcast(kSlabFarScale);
         return f;
     }
 #else
@@ -150,10 +105,8 @@ public:
 private:
     BoxRay shared_;  // the direction's part of the slab test
     const RayBundle& bundle_;
-#if defined(__AVX512F__)
-    __m512 origin_[3][kBlocks], inv_dir_[3], inv_far_[3], tmin_[kBlocks];
-#elif defined(__AVX2__)
-    __m256 origin_[3][kBlocks], inv_dir_[3], inv_far_[3], tmin_[kBlocks];
+#if defined(SMOKETRACE_SIMD_LANES)
+    simd::Floats origin_[3][kBlocks], inv_dir_[3], inv_far_[3], tmin_[kBlocks];
 #endif
 };
 
