@@ -116,7 +116,8 @@ private:
     for (unsigned k = 0; k < kBundleWidth / 16; ++k) {  // the lane bits are the add's write mask
         __m512i* at = reinterpret_cast<__m512i*>(counters + 16 * k);
         const __m512i v = _mm512_load_si512(at);
-        _mm512_store_si512(at, _mm512_mask_add_epi32(v, __mmask16(lanes >> (16 * k)), v, _mm512_set1_epi32(int(times))));
+        const __m512i times_v = _mm512_set1_epi32(int(times));
+        _mm512_store_si512(at, _mm512_mask_add_epi32(v, __mmask16(lanes >> (16 * k)), v, times_v));
     }
 #elif defined(__AVX2__)
     const __m256i bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);

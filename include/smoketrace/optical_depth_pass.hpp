@@ -1,8 +1,9 @@
 #pragma once
 // The optical-depth pass (thesis 4.3.2): for each particle, a ray from its centre toward the light
 // collects the particle surfaces it crosses, through the trace API and its any-hit callback. The rays all
-// go the same way, so they are traced in bundles of thirty-two neighbours (trace_bundle(), ray_bundle.hpp),
-// each ray getting what trace() would give it alone; the rare follow-ups below use trace().
+// go the same way, so they are traced in bundles of thirty-two neighbours (trace_bundle(),
+// ray_bundle.hpp), each ray getting what trace() would give it alone; the rare follow-ups below use
+// trace().
 //
 //   ray:    origin = particle centre, direction = toward the light, tmin = 1e-7, tmax = 1e38,
 //           inclusion mask ~2 (everything but billboards), no closest-hit data needed;

@@ -40,8 +40,12 @@ struct DoubleMask {  // a comparison's result, lane by lane
 [[gnu::always_inline]] inline Floats broadcast(float x) { return {_mm512_set1_ps(x)}; }
 [[gnu::always_inline]] inline Floats operator-(Floats a, Floats b) { return {_mm512_sub_ps(a.v, b.v)}; }
 [[gnu::always_inline]] inline Floats operator*(Floats a, Floats b) { return {_mm512_mul_ps(a.v, b.v)}; }
-[[gnu::always_inline]] inline Floats max(Floats a, Floats b) { return {_mm512_maskz_max_ps(__mmask16(0xFFFF), a.v, b.v)}; }
-[[gnu::always_inline]] inline Floats min(Floats a, Floats b) { return {_mm512_maskz_min_ps(__mmask16(0xFFFF), a.v, b.v)}; }
+[[gnu::always_inline]] inline Floats max(Floats a, Floats b) {
+    return {_mm512_maskz_max_ps(__mmask16(0xFFFF), a.v, b.v)};
+}
+[[gnu::always_inline]] inline Floats min(Floats a, Floats b) {
+    return {_mm512_maskz_min_ps(__mmask16(0xFFFF), a.v, b.v)};
+}
 // Bit i set where a_i <= b_i (false for NaN).
 [[gnu::always_inline]] inline unsigned less_equal_bits(Floats a, Floats b) {
     return unsigned(_mm512_cmp_ps_mask(a.v, b.v, _CMP_LE_OQ));
@@ -64,8 +68,12 @@ struct DoubleMask {  // a comparison's result, lane by lane
     const __m512d s = _mm512_set1_pd(-0.0);
     return {_mm512_or_pd(_mm512_andnot_pd(s, magnitude.v), _mm512_and_pd(s, sign.v))};
 }
-[[gnu::always_inline]] inline DoubleMask operator>(Doubles a, Doubles b) { return {_mm512_cmp_pd_mask(a.v, b.v, _CMP_GT_OQ)}; }
-[[gnu::always_inline]] inline DoubleMask operator<(Doubles a, Doubles b) { return {_mm512_cmp_pd_mask(a.v, b.v, _CMP_LT_OQ)}; }
+[[gnu::always_inline]] inline DoubleMask operator>(Doubles a, Doubles b) {
+    return {_mm512_cmp_pd_mask(a.v, b.v, _CMP_GT_OQ)};
+}
+[[gnu::always_inline]] inline DoubleMask operator<(Doubles a, Doubles b) {
+    return {_mm512_cmp_pd_mask(a.v, b.v, _CMP_LT_OQ)};
+}
 [[gnu::always_inline]] inline DoubleMask operator&(DoubleMask a, DoubleMask b) { return {__mmask8(a.k & b.k)}; }
 [[gnu::always_inline]] inline unsigned bits(DoubleMask m) { return m.k; }
 // Lane by lane: `if_set` where m is set, else `if_clear`.
@@ -116,8 +124,12 @@ struct DoubleMask {  // all ones in a lane where the comparison holds
     const __m256d s = _mm256_set1_pd(-0.0);
     return {_mm256_or_pd(_mm256_andnot_pd(s, magnitude.v), _mm256_and_pd(s, sign.v))};
 }
-[[gnu::always_inline]] inline DoubleMask operator>(Doubles a, Doubles b) { return {_mm256_cmp_pd(a.v, b.v, _CMP_GT_OQ)}; }
-[[gnu::always_inline]] inline DoubleMask operator<(Doubles a, Doubles b) { return {_mm256_cmp_pd(a.v, b.v, _CMP_LT_OQ)}; }
+[[gnu::always_inline]] inline DoubleMask operator>(Doubles a, Doubles b) {
+    return {_mm256_cmp_pd(a.v, b.v, _CMP_GT_OQ)};
+}
+[[gnu::always_inline]] inline DoubleMask operator<(Doubles a, Doubles b) {
+    return {_mm256_cmp_pd(a.v, b.v, _CMP_LT_OQ)};
+}
 [[gnu::always_inline]] inline DoubleMask operator&(DoubleMask a, DoubleMask b) { return {_mm256_and_pd(a.m, b.m)}; }
 [[gnu::always_inline]] inline unsigned bits(DoubleMask m) { return unsigned(_mm256_movemask_pd(m.m)); }
 [[gnu::always_inline]] inline Doubles select(DoubleMask m, Doubles if_set, Doubles if_clear) {
