@@ -6,8 +6,9 @@
 #     BVH and TLAS builds, six-way bake, the stress suite) in build-tsan/.
 # Both trees: no -march=native, no benchmark, -O1 -g with assertions on. They also cover the SIMD paths the
 # native build (AVX-512 here) does not take: the ASan tree is built for x86-64-v3 (AVX2, no AVX-512: the
-# AVX2 rank sort, radix_sort.hpp, and the bundles' AVX2 box and sphere kernels), the TSan tree for plain x86-64 (the scalar fallbacks of every kernel),
-# and TSan also runs the kernel tests of the bundles and the sorts for that reason.
+# AVX2 rank sort, radix_sort.hpp, and simd_lanes.hpp's AVX2 lanes in the bundles' box and sphere kernels),
+# the TSan tree for plain x86-64 (the scalar fallbacks of every kernel), and TSan also runs the kernel
+# tests of the bundles and the sorts for that reason.
 # Any sanitizer report fails the run: UBSan and TSan halt on the first error, ASan always does.
 # Usage: scripts/sanitize.sh [asan|tsan]   (default: both)
 set -euo pipefail

@@ -402,7 +402,8 @@ TEST_CASE("bundle_order: a permutation that keeps neighbours across the directio
     // any direction, runs span at most 2 * side cells on average (measured 6.6 for 16 rays and 9.6 for
     // 32; a random order: about 28 and 30), the Z curve's jumps making a few of them wider.
     static_assert(std::has_single_bit(kBundleWidth));
-    const int side = 1 << ((std::bit_width(kBundleWidth) - 1 + 1) / 2);  // 2^ceil(log2(width) / 2)
+    const int log2_width = std::bit_width(kBundleWidth) - 1;
+    const int side = 1 << ((log2_width + 1) / 2);  // 2^ceil(log2(width) / 2)
     for (const glm::vec3 dir : {glm::vec3(0, 1, 0), glm::vec3(1, 2, -0.5f), glm::vec3(0, 0, -3)}) {
         const glm::vec3 d = glm::normalize(dir);
         const glm::vec3 helper = std::abs(d.x) < 0.9f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0);
