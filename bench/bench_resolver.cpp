@@ -228,7 +228,8 @@ void run_resolver(const BenchOptions& options) {
 
     // Sort alone, by list length, on the t values of one ray (~96k items per run): insertion sort, rank sort,
     // the radix sort with its automatic digit width (the library's kRadixBucketsPerItem and alternatives),
-    // fixed 8- and 11-bit digits, std::sort. Justifies kRadixSortMinItems and kRadixBucketsPerItem.
+    // fixed 8- and 11-bit digits, std::sort, and what the resolver runs (HitSort::radix: with AVX-512 the
+    // sorting network up to 64 items). Justifies kRadixSortMinItems, kRadixBucketsPerItem and the network.
     struct Variant {
         std::string name;
         unsigned fixed_bits;           // radix variants: fixed digit width, 0 = automatic
@@ -241,10 +242,11 @@ void run_resolver(const BenchOptions& options) {
     variants.push_back({"fixed8", 8, 0});
     variants.push_back({"fixed11", 11, 0});
     variants.push_back({"std_sort", 0, 0});
-    const std::size_t kInsertion = 0, kRank = 1, kStdSort = variants.size() - 1;
+    variants.push_back({"resolver", 0, 0});  // sort_hits_by_t(HitSort::radix): the network up to 64 items (AVX-512)
+    const std::size_t kInsertion = 0, kRank = 1, kStdSort = variants.size() - 2, kResolver = variants.size() - 1;
     const std::size_t library_radix = 2 + static_cast<std::size_t>(std::countr_zero(kRadixBucketsPerItem));
     std::cout << "Sort crossover: ns per item, sort only, 1 thread CPU time (auto/B: radix sort, digits with at most "
-                 "B buckets per item; * = the library's)\n";
+                 "B buckets per item; * = the library's; resolver: sort_hits_by_t, HitSort::radix)\n";
     std::cout << std::setw(8) << "items";
     for (const Variant& v : variants) std::cout << std::setw(10) << v.name;
     std::cout << "\n";
@@ -282,6 +284,8 @@ void run_resolver(const BenchOptions& options) {
                         insertion_sort(list, key);
                     } else if (v == kRank) {
                         rank_sort(list, std::span{scratch}, key);
+                    } else if (v == kResolver) {
+                        sort_hits_by_t(list, std::span{scratch}, HitSort::radix);
                     } else if (v == kStdSort) {
                         std::sort(list.begin(), list.end(),
                                   [](const SurfaceHit& a, const SurfaceHit& b) { return a.t < b.t; });

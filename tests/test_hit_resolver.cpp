@@ -4,6 +4,7 @@
 #include <smoketrace/prng.hpp>
 #include <smoketrace/hit_resolver.hpp>
 #include <smoketrace/radix_sort.hpp>
+#include <smoketrace/sorting_network.hpp>
 
 #include <catch2/catch.hpp>
 #include <tbb/task_arena.h>
@@ -220,6 +221,93 @@ TEST_CASE("sort_by_float_key sorts floats stably on both sides of the threshold"
             std::vector<Layer> scratch(n);
             sort_by_float_key(std::span{items}, std::span{scratch}, [](const Layer& l) { return l.depth; });
             CHECK(items == expected);
+        }
+    }
+}
+
+#if defined(SMOKETRACE_SORTING_NETWORK)
+// The network on its own, for each register count, against std::sort: random keys, few distinct keys,
+// all equal, and the extremes (UINT64_MAX is also the resolver's padding).
+template <unsigned R>
+void check_bitonic_sort(Pcg32& rng) {
+    constexpr std::size_t n = kNetworkSortLanes * R;
+    for (int kind = 0; kind < 4; ++kind) {
+        for (int round = 0; round < 50; ++round) {
+            INFO(R << " registers, key kind " << kind);
+            alignas(64) std::uint64_t keys[n];
+            for (std::uint64_t& k : keys) {
+                const std::uint64_t random = (std::uint64_t(rng.next_u32()) << 32) | rng.next_u32();
+                switch (kind) {
+                    case 0: k = random; break;
+                    case 1: k = rng.below(3) * 0x0123'4567'89AB'CDEFu; break;
+                    case 2: k = 42; break;
+                    case 3: k = rng.below(3) == 0 ? UINT64_MAX : rng.below(2) == 0 ? 0u : random; break;
+                }
+            }
+            std::vector<std::uint64_t> expected(keys, keys + n);
+            std::sort(expected.begin(), expected.end());
+            __m512i v[R];
+            for (unsigned r = 0; r < R; ++r) v[r] = _mm512_load_si512(keys + kNetworkSortLanes * r);
+            bitonic_sort<R>(v);
+            for (unsigned r = 0; r < R; ++r) _mm512_store_si512(keys + kNetworkSortLanes * r, v[r]);
+            CHECK(std::vector<std::uint64_t>(keys, keys + n) == expected);
+        }
+    }
+}
+
+TEST_CASE("the bitonic sorting network sorts 8 to 128 keys like std::sort", "[resolver]") {
+    Pcg32 rng(11);
+    check_bitonic_sort<1>(rng);
+    check_bitonic_sort<2>(rng);
+    check_bitonic_sort<4>(rng);
+    check_bitonic_sort<8>(rng);
+    check_bitonic_sort<16>(rng);
+}
+#endif
+
+// Every length around the network's register sizes and past them, for the three methods: the hits come
+// out in float_sort_key() order of t, and they are the hits that went in.
+TEST_CASE("sort_hits_by_t orders any list by t and keeps its hits", "[resolver]") {
+    Pcg32 rng(12);
+    auto key_then_value = [](const SurfaceHit& a, const SurfaceHit& b) {
+        return float_sort_key(a.t) != float_sort_key(b.t) ? float_sort_key(a.t) < float_sort_key(b.t)
+                                                          : a.value < b.value;
+    };
+    std::vector<std::size_t> sizes;
+    for (std::size_t n = 0; n <= 140; ++n) sizes.push_back(n);
+    for (const std::size_t n : {255u, 256u, 300u}) sizes.push_back(n);
+    for (const std::size_t n : sizes) {
+        for (int kind = 0; kind < 3; ++kind) {
+            std::vector<SurfaceHit> input(n);
+            for (SurfaceHit& h : input) {
+                if (kind == 0) {  // any non-NaN float: negatives, denormals, infinities, both zeros
+                    do h.t = std::bit_cast<float>(rng.next_u32());
+                    while (std::isnan(h.t));
+                } else if (kind == 1) {  // distances on a grid: ties everywhere
+                    h.t = static_cast<float>(rng.below(8)) * 0.5f;
+                } else {  // signed zeros: -0 sorts before +0
+                    h.t = rng.below(2) ? 0.0f : -0.0f;
+                }
+                h.value = rng.below(2) ? +1 : -1;
+            }
+            std::vector<SurfaceHit> expected = input;
+            std::sort(expected.begin(), expected.end(), key_then_value);
+            for (const HitSort method : {HitSort::radix, HitSort::std_sort, HitSort::bubble}) {
+                INFO(n << " hits, kind " << kind << ", method " << int(method));
+                std::vector<SurfaceHit> hits = input, scratch(n);
+                sort_hits_by_t(hits, scratch, method);
+                // Ascending t; the radix method also puts -0 before +0 (equal as floats).
+                const bool ordered = std::is_sorted(hits.begin(), hits.end(), [&](const SurfaceHit& a, const SurfaceHit& b) {
+                    return method == HitSort::radix ? float_sort_key(a.t) < float_sort_key(b.t) : a.t < b.t;
+                });
+                CHECK(ordered);
+                std::sort(hits.begin(), hits.end(), key_then_value);  // the same hits, in any tie order
+                const bool same = std::equal(hits.begin(), hits.end(), expected.begin(), expected.end(),
+                                             [](const SurfaceHit& a, const SurfaceHit& b) {
+                                                 return same_bits(a.t, b.t) && a.value == b.value;
+                                             });
+                CHECK(same);
+            }
         }
     }
 }

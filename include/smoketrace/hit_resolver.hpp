@@ -53,11 +53,19 @@ struct HitLists {
 
 // How resolve_optical_path_lengths() sorts each list by t. All three give bit-identical lengths.
 enum class HitSort : std::uint8_t {
-    radix,     // sort_by_float_key (radix_sort.hpp): rank sort for short lists, LSD radix sort for long ones;
-               // the cost per hit stays flat as the cutoff grows (method.md, thesis 6.2)
+    radix,     // the fast path: with AVX-512 a sorting network for lists of up to 64 hits
+               // (sorting_network.hpp); else sort_by_float_key (radix_sort.hpp), a rank sort for short
+               // lists and an LSD radix sort for long ones. The cost per hit stays flat as the cutoff grows
+               // (method.md, thesis 6.2)
     std_sort,  // std::sort, the baseline
     bubble,    // the thesis's bubble sort, O(k^2), kept to reproduce table B.4
 };
+
+// Sorts one particle's hits by t with `method`: ascending t, and for HitSort::radix float_sort_key()
+// order (-0 before +0). Hits of equal t come in an order that depends on the method, which
+// optical_path_length() ignores. `scratch`: at least hits.size() elements for HitSort::radix, unused by
+// the others.
+void sort_hits_by_t(std::span<SurfaceHit> hits, std::span<SurfaceHit> scratch, HitSort method);
 
 // Eq. 3.1 and the walk: the summed length of the stretches of the ray (from t = 0) that are inside smoke,
 // given one particle's hits sorted by t. The counter starts at -sum(values) (eq. 3.1: the number of
