@@ -114,41 +114,111 @@ void sort_hits_by_t(std::span<SurfaceHit> hits, std::span<SurfaceHit> scratch, H
     }
 }
 
-// The result is double: a stretch t_exit - t_enter of two floats is exact in double (unless their magnitudes
-// differ by more than 2^29), so the rounding is in the running sum (relative error <= stretches * 2^-53), far
-// below the float the caller stores; a float accumulator would lose ~2^-24 per stretch. Cost: one double add
-// per stretch.
+// The walk, as a sum over the gaps between consecutive hits: the gap (t_i, t_{i+1}) is in smoke when the
+// counter after hit i is > 0, and the in-smoke gaps add up to the in-smoke stretches. Inside a group of
+// equal-t hits the gaps are 0, so whichever order a sort leaves a tie in, only the counter after the
+// whole group weighs a nonzero gap: any sort that orders t gives bit-identical lengths. The stretch open
+// at the origin (counter_start > 0) adds the gap (0, t_0).
+//
+// The sum is in double: a gap t_{i+1} - t_i between two floats is exact in double (unless their
+// magnitudes differ by more than 2^29), so the only rounding is in the additions, far below the float the
+// caller stores (a float accumulator would lose ~2^-24 per gap). The gaps are summed in kWalkLanes
+// running sums, gap i into sum i mod kWalkLanes, then added pairwise: the order of the AVX-512 walk
+// below, which the scalar one repeats so that both give the same bits.
+namespace {
+
+constexpr std::size_t kWalkLanes = 8;
+
+// (s0 + s4, s1 + s5, s2 + s6, s3 + s7), then (those 0 + 2, 1 + 3), then the two: pairwise, in the order
+// of the AVX-512 reduction below.
+double sum_lanes(const double (&s)[kWalkLanes]) {
+    const double q0 = s[0] + s[4], q1 = s[1] + s[5], q2 = s[2] + s[6], q3 = s[3] + s[7];
+    return (q0 + q2) + (q1 + q3);
+}
+
+}  // namespace
+
+namespace detail {
+double optical_path_length_scalar(std::span<const SurfaceHit> sorted_hits) {
+    const std::size_t n = sorted_hits.size();
+    if (n == 0) return 0.0;
+    std::int64_t counter = 0;  // eq. 3.1: counter_start = -sum of hit values = particles covering the origin
+    for (const SurfaceHit& hit : sorted_hits) counter -= hit.value;
+    double sums[kWalkLanes] = {};
+    if (counter > 0) sums[0] = static_cast<double>(sorted_hits[0].t);  // in smoke from the origin
+    for (std::size_t i = 0; i + 1 < n; ++i) {
+        counter += sorted_hits[i].value;
+        const double gap = static_cast<double>(sorted_hits[i + 1].t) - static_cast<double>(sorted_hits[i].t);
+        sums[i % kWalkLanes] += counter > 0 ? gap : 0.0;  // + 0.0 leaves a sum >= +0 unchanged
+    }
+    // After the last hit the counter is counter_start + sum = 0: the last gap is closed.
+    return sum_lanes(sums);
+}
+}  // namespace detail
+
+#if defined(__AVX512F__)
+namespace {
+
+// The walk eight hits at a time: each lane i of a register holds hit 8c + i as loaded (t in the low half,
+// the value in the high half), the counters come from a prefix sum of the values across the lanes, and
+// lane i adds gap 8c + i to its running sum where its counter is > 0. No branch on the hits.
+double optical_path_length_avx512(std::span<const SurfaceHit> sorted_hits) {
+    constexpr __mmask8 kEveryLane = 0xFF;
+    const std::size_t n = sorted_hits.size();
+    if (n == 0) return 0.0;
+    const SurfaceHit* hits = sorted_hits.data();
+    auto lanes_below = [](std::size_t count) {  // the first min(count, 8) lanes
+        return __mmask8(count >= kWalkLanes ? 0xFFu : (1u << count) - 1u);
+    };
+    const __m512i zero = _mm512_setzero_si512();
+    auto values_of = [&](__m512i h) { return _mm512_maskz_srai_epi64(kEveryLane, h, 32); };
+    auto t_of = [&](__m512i h) {  // the low halves, as floats widened to double
+        return _mm512_maskz_cvtps_pd(kEveryLane, _mm256_castsi256_ps(_mm512_maskz_cvtepi64_epi32(kEveryLane, h)));
+    };
+
+    __m512i total = zero;  // eq. 3.1: counter_start = -sum of hit values
+    for (std::size_t c = 0; c < n; c += kWalkLanes)
+        total = _mm512_add_epi64(total, values_of(_mm512_maskz_loadu_epi64(lanes_below(n - c), hits + c)));
+    alignas(64) std::int64_t lane_totals[kWalkLanes];
+    _mm512_store_si512(lane_totals, total);
+    std::int64_t counter_start = 0;
+    for (const std::int64_t t : lane_totals) counter_start -= t;
+
+    __m512d sums = _mm512_setzero_pd();
+    if (counter_start > 0) sums = _mm512_mask_mov_pd(sums, 1, _mm512_set1_pd(static_cast<double>(hits[0].t)));
+    __m512i counter = _mm512_set1_epi64(counter_start);  // before the register's first hit
+    const __m512i last_lane = _mm512_set1_epi64(kWalkLanes - 1);
+    for (std::size_t c = 0; c < n; c += kWalkLanes) {
+        const __m512i h = _mm512_maskz_loadu_epi64(lanes_below(n - c), hits + c);
+        const __m512i next = _mm512_maskz_loadu_epi64(lanes_below(n - c - 1), hits + c + 1);
+        __m512i v = values_of(h);  // inclusive prefix sum over the lanes: shifted by 1, 2 and 4
+        v = _mm512_add_epi64(v, _mm512_maskz_alignr_epi64(kEveryLane, v, zero, kWalkLanes - 1));
+        v = _mm512_add_epi64(v, _mm512_maskz_alignr_epi64(kEveryLane, v, zero, kWalkLanes - 2));
+        v = _mm512_add_epi64(v, _mm512_maskz_alignr_epi64(kEveryLane, v, zero, kWalkLanes - 4));
+        const __m512i after = _mm512_add_epi64(counter, v);  // the counter after each lane's hit
+        counter = _mm512_maskz_permutexvar_epi64(kEveryLane, last_lane, after);
+        // Gaps exist up to hit n - 2.
+        const __mmask8 in_smoke = _mm512_mask_cmpgt_epi64_mask(lanes_below(n - c - 1), after, zero);
+        sums = _mm512_mask_add_pd(sums, in_smoke, sums, _mm512_sub_pd(t_of(next), t_of(h)));
+    }
+    // sum_lanes(): the halves, then the quarters, then the two left.
+    const __m256d q = _mm256_add_pd(_mm512_maskz_extractf64x4_pd(0xF, sums, 0), _mm512_maskz_extractf64x4_pd(0xF, sums, 1));
+    const __m128d p = _mm_add_pd(_mm256_castpd256_pd128(q), _mm256_extractf128_pd(q, 1));
+    return _mm_cvtsd_f64(_mm_add_sd(p, _mm_unpackhi_pd(p, p)));
+}
+
+}  // namespace
+#endif
+
 double optical_path_length(std::span<const SurfaceHit> sorted_hits) {
     assert(std::is_sorted(sorted_hits.begin(), sorted_hits.end(),
                           [](const SurfaceHit& a, const SurfaceHit& b) { return a.t < b.t; }));
     assert(sorted_hits.empty() || sorted_hits.front().t >= 0.0f);  // hits lie ahead of the origin (TMin > 0)
-    std::int32_t counter = 0;  // eq. 3.1: counter_start = -sum of hit values = particles covering the origin
-    for (const SurfaceHit& hit : sorted_hits) counter -= hit.value;
-
-    // The counter is applied a whole group of equal-t hits at a time, and a stretch opens or closes only
-    // between groups: which of two coincident surfaces (a particle ending exactly where another begins)
-    // comes first then changes nothing, so any sort that orders t gives bit-identical lengths.
-    double length = 0.0;
-    float enter = 0.0f;  // the ray origin: a stretch that is open at t = 0 starts there
-    const std::size_t n = sorted_hits.size();
-    std::size_t i = 0;
-    while (i < n) {
-        const float t = sorted_hits[i].t;
-        const bool was_in_smoke = counter > 0;
-        do {
-            counter += sorted_hits[i].value;
-            ++i;
-        } while (i < n && sorted_hits[i].t == t);  // -0 == +0: one group
-        const bool in_smoke = counter > 0;
-        if (in_smoke == was_in_smoke) continue;
-        if (in_smoke) {
-            enter = t;
-        } else {
-            length += static_cast<double>(t) - static_cast<double>(enter);
-        }
-    }
-    // After the last hit the counter is counter_start + sum = 0: every stretch has closed.
-    return length;
+#if defined(__AVX512F__)
+    return optical_path_length_avx512(sorted_hits);
+#else
+    return detail::optical_path_length_scalar(sorted_hits);
+#endif
 }
 
 void resolve_optical_path_lengths(HitLists& lists, std::span<const DepthStatus> status, std::span<float> lengths,

@@ -71,7 +71,14 @@ void sort_hits_by_t(std::span<SurfaceHit> hits, std::span<SurfaceHit> scratch, H
 // given one particle's hits sorted by t. The counter starts at -sum(values) (eq. 3.1: the number of
 // particles covering the ray origin); the ray is in smoke while the counter is > 0; gaps between separate
 // clouds are not counted. Hits with equal t act together, so their order within a tie does not matter.
+// With AVX-512 the walk runs eight hits per instruction, without a branch on the hits, and gives the bits
+// of detail::optical_path_length_scalar().
 [[nodiscard]] double optical_path_length(std::span<const SurfaceHit> sorted_hits);
+
+namespace detail {
+// optical_path_length() one hit at a time: the definition the AVX-512 walk is tested against.
+[[nodiscard]] double optical_path_length_scalar(std::span<const SurfaceHit> sorted_hits);
+}  // namespace detail
 
 // For each particle with status ok: sorts its hits by t with `method` (in place) and writes its optical
 // path length; occluded / cutoff -> kFullyDarkPathLength ("fully dark", thesis 4.3.3). Parallel over
