@@ -239,24 +239,20 @@ void resolve_optical_path_lengths(HitLists& lists, std::span<const DepthStatus> 
     constexpr std::size_t kParticlesPerTask = 64;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, particles, kParticlesPerTask),
                       [&](const tbb::blocked_range<std::size_t>& r) {
-        // Scratch for the radix sort: on the stack for the usual short lists, else grown once per task.
-        std::array<SurfaceHit, 256> small;
-        std::vector<SurfaceHit> large;
-        for (std::size_t i = r.begin(); i < r.end(); ++i) {
-            if (status[i] != DepthStatus::ok) {
-                lengths[i] = kFullyDarkPathLength;
-                continue;
-            }
-            const std::span<SurfaceHit> hits = lists.of(i);
-            std::span<SurfaceHit> scratch(small);
-            if (method == HitSort::radix && hits.size() > small.size()) {
-                if (hits.size() > large.size()) large.resize(hits.size());
-                scratch = large;
-            }
-            sort_hits_by_t(hits, scratch, method);
-            lengths[i] = static_cast<float>(optical_path_length(hits));
-        }
+        ListResolver resolve;
+        for (std::size_t i = r.begin(); i < r.end(); ++i)
+            lengths[i] = status[i] == DepthStatus::ok ? resolve(lists.of(i), method) : kFullyDarkPathLength;
     });
+}
+
+float ListResolver::operator()(std::span<SurfaceHit> hits, HitSort method) {
+    std::span<SurfaceHit> scratch(small_);
+    if (method == HitSort::radix && hits.size() > small_.size()) {
+        if (hits.size() > large_.size()) large_.resize(hits.size());
+        scratch = large_;
+    }
+    sort_hits_by_t(hits, scratch, method);
+    return static_cast<float>(optical_path_length(hits));
 }
 
 }  // namespace smoketrace

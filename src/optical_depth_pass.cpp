@@ -80,12 +80,19 @@ std::uint64_t default_max_total_hits() {
 void OpticalDepthPass::run(const SmokeScene& smoke, std::span<const Particle> particles,
                            std::span<const std::uint32_t> which, const glm::vec3& to_light,
                            const OpticalDepthSettings& settings, OpticalDepthHits& out) {
+    trace(smoke, particles, which, to_light, settings);
+    gather(out);
+}
+
+void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> particles,
+                             std::span<const std::uint32_t> which, const glm::vec3& to_light,
+                             const OpticalDepthSettings& settings) {
     const Scene& scene = smoke.scene();
     const glm::vec3 dir = glm::normalize(to_light);
     const std::size_t n = which.size();
-    out.particles.assign(which.begin(), which.end());
-    out.status.resize(n);
-    out.hit_counts.resize(n);
+    which_.assign(which.begin(), which.end());
+    status_.resize(n);
+    hit_counts_.resize(n);
     // The rays in bundles of neighbours (ray_bundle.hpp): ray_order_[k] is the k-th ray traced, an index
     // into `which`.
     origins_.resize(n);
@@ -149,25 +156,55 @@ void OpticalDepthPass::run(const SmokeScene& smoke, std::span<const Particle> pa
         },
         tbb::simple_partitioner());
 
-    // Statuses and counts to particle order; the kept hits gathered into one flat buffer in particle
-    // order: the same buffer whichever thread kept them.
+    // Statuses and counts to the order of `which`.
     for (std::size_t k = 0; k < n; ++k) {
         const std::size_t i = ray_order_[k];
-        out.status[i] = rays_[k].status;
-        out.hit_counts[i] = rays_[k].hits;
+        status_[i] = rays_[k].status;
+        hit_counts_[i] = rays_[k].hits;
     }
+}
+
+void OpticalDepthPass::gather(OpticalDepthHits& out) const {
+    // The kept hits gathered into one flat buffer in the order of `which`: the same buffer whichever
+    // thread kept them.
+    const std::size_t n = which_.size();
+    out.particles = which_;
+    out.status = status_;
+    out.hit_counts = hit_counts_;
     HitLists& lists = out.lists;
     lists.offsets.resize(n + 1);
     lists.offsets[0] = 0;
     for (std::size_t i = 0; i < n; ++i)
-        lists.offsets[i + 1] = lists.offsets[i] + (out.status[i] == DepthStatus::ok ? out.hit_counts[i] : 0);
+        lists.offsets[i + 1] = lists.offsets[i] + (status_[i] == DepthStatus::ok ? hit_counts_[i] : 0);
     lists.hits.resize(lists.offsets[n]);
+    const std::size_t chunk_count = (n + kParticlesPerChunk - 1) / kParticlesPerChunk;
     tbb::parallel_for(std::size_t(0), chunk_count, [&](std::size_t c) {
         for (std::size_t k = c * kParticlesPerChunk; k < std::min(n, (c + 1) * kParticlesPerChunk); ++k) {
             const RayRecord& r = rays_[k];
             if (r.status != DepthStatus::ok) continue;
             const SurfaceHit* from = r.scratch->kept.data() + r.offset;
             std::copy(from, from + r.hits, lists.hits.begin() + lists.offsets[ray_order_[k]]);
+        }
+    });
+}
+
+void OpticalDepthPass::resolve(HitSort method, std::span<float> lengths) {
+    const std::size_t n = which_.size();
+    if (lengths.size() != n) {
+        throw std::invalid_argument("OpticalDepthPass::resolve: " + std::to_string(n) + " particles traced but " +
+                                    std::to_string(lengths.size()) + " lengths");
+    }
+    // Ray by ray in trace order, chunk by chunk as they were traced: each task reads the stretch of a
+    // thread's kept hits that one trace task wrote. Each ray sorts only its own hits: deterministic.
+    const std::size_t chunk_count = (n + kParticlesPerChunk - 1) / kParticlesPerChunk;
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunk_count, 1), [&](const tbb::blocked_range<std::size_t>& r) {
+        ListResolver resolve_list;
+        for (std::size_t k = r.begin() * kParticlesPerChunk; k < std::min(n, r.end() * kParticlesPerChunk); ++k) {
+            const RayRecord& ray = rays_[k];
+            // The kept hits are the pass's own scratch: sorting them in place leaves nothing else stale.
+            SurfaceHit* hits = ray.scratch->kept.data() + ray.offset;
+            lengths[ray_order_[k]] = ray.status == DepthStatus::ok ? resolve_list({hits, ray.hits}, method)
+                                                                   : kFullyDarkPathLength;
         }
     });
 }

@@ -456,6 +456,50 @@ TEST_CASE("optical depth: radix, std::sort and bubble sort give bit-identical le
     CHECK(longest >= kRadixSortMinItems);
 }
 
+TEST_CASE("optical depth: resolving the kept hits in place gives the bits of gathering them first",
+          "[optical-depth]") {
+    // OpticalDepths resolves the hits where the pass kept them (OpticalDepthPass::resolve); run() gathers
+    // them into one buffer for resolve_optical_path_lengths(). Both, for every sort, with a cutoff that
+    // cuts some rays off and a quad over part of the smoke that occludes others, for all particles and
+    // for a group (every third particle, in reverse order).
+    const auto ps = tube_particles(1500);
+    const GroundQuad quad{{glm::vec3(-4.0f, 1.5f, 4.0f), glm::vec3(0.0f, 1.5f, 4.0f), glm::vec3(0.0f, 1.5f, -4.0f),
+                           glm::vec3(-4.0f, 1.5f, -4.0f)}};
+    const std::vector<std::uint32_t> all = all_of(ps.size());
+    const std::vector<std::uint32_t> group = [&] {
+        std::vector<std::uint32_t> g;
+        for (std::size_t i = ps.size(); i-- > 0;)
+            if (i % 3 == 0) g.push_back(static_cast<std::uint32_t>(i));
+        return g;
+    }();
+    for (StandInShape shape : {kSphere, kIcosahedron}) {
+        const SmokeScene scene = make_scene(ps, shape, quad);
+        for (const std::uint32_t cutoff : {0u, 40u}) {
+            for (const HitSort sort : {HitSort::radix, HitSort::std_sort, HitSort::bubble}) {
+                for (const std::vector<std::uint32_t>* which : {&all, &group}) {
+                    INFO("shape " << shape.name() << ", cutoff " << cutoff << ", sort " << int(sort) << ", "
+                                  << which->size() << " particles");
+                    OpticalDepthPass pass;
+                    OpticalDepthHits gathered;
+                    pass.trace(scene, ps, *which, {0.25f, 1.0f, 0.1f}, OpticalDepthSettings{cutoff});
+                    pass.gather(gathered);  // before resolve(), which sorts the kept hits in place
+                    std::vector<float> in_place(which->size()), from_gathered(which->size());
+                    pass.resolve(sort, in_place);
+                    resolve_optical_path_lengths(gathered.lists, gathered.status, from_gathered, sort);
+                    CHECK(same_bits(in_place, from_gathered));
+                    CHECK(std::equal(pass.status().begin(), pass.status().end(), gathered.status.begin(),
+                                     gathered.status.end()));
+                    CHECK(std::count(gathered.status.begin(), gathered.status.end(), DepthStatus::occluded) > 0);
+                    if (cutoff > 0)
+                        CHECK(std::count(gathered.status.begin(), gathered.status.end(), DepthStatus::cutoff) > 0);
+                    std::vector<float> wrong(which->size() + 1);
+                    CHECK_THROWS_AS(pass.resolve(sort, wrong), std::invalid_argument);
+                }
+            }
+        }
+    }
+}
+
 TEST_CASE("optical depth: results do not depend on the thread count", "[optical-depth]") {
     // 1500 particles: more than one 64-particle chunk per thread, and chunks of uneven work.
     const auto ps = tube_particles(1500);

@@ -2,6 +2,7 @@
 // The hit resolver: thesis 4.3.3 "compute pass". Turns each particle's optical-depth ray hits (collected in
 // any order by the any-hit callback, thesis 4.3.2) into the optical path length through smoke toward the
 // light (thesis 3.1, eq. 3.1).
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <limits>
@@ -79,6 +80,18 @@ namespace detail {
 // optical_path_length() one hit at a time: the definition the AVX-512 walk is tested against.
 [[nodiscard]] double optical_path_length_scalar(std::span<const SurfaceHit> sorted_hits);
 }  // namespace detail
+
+// One particle's optical path length: its hits sorted by t with `method` (in place), then
+// optical_path_length(). The body of resolve_optical_path_lengths(), for hit lists kept elsewhere
+// (OpticalDepthPass::resolve). Holds the sorts' working memory; one per thread.
+class ListResolver {
+public:
+    [[nodiscard]] float operator()(std::span<SurfaceHit> hits, HitSort method);
+
+private:
+    std::array<SurfaceHit, 256> small_;  // scratch for the usual short lists, no allocation
+    std::vector<SurfaceHit> large_;      // grown once for longer ones
+};
 
 // For each particle with status ok: sorts its hits by t with `method` (in place) and writes its optical
 // path length; occluded / cutoff -> kFullyDarkPathLength ("fully dark", thesis 4.3.3). Parallel over

@@ -26,7 +26,6 @@ public:
 
 private:
     OpticalDepthPass pass_;
-    OpticalDepthHits hits_;
     std::vector<float> group_lengths_;
     std::vector<float> lengths_;
     std::vector<DepthStatus> status_;
