@@ -90,9 +90,10 @@ void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> 
     const Scene& scene = smoke.scene();
     const glm::vec3 dir = glm::normalize(to_light);
     const std::size_t n = which.size();
-    which_.assign(which.begin(), which.end());
-    status_.resize(n);
-    hit_counts_.resize(n);
+    // Set once every ray is traced: after a throw the pass holds no rays.
+    which_.clear();
+    status_.clear();
+    hit_counts_.clear();
     // The rays in bundles of neighbours (ray_bundle.hpp): ray_order_[k] is the k-th ray traced, an index
     // into `which`.
     origins_.resize(n);
@@ -110,7 +111,7 @@ void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> 
     if (settings.cutoff > 0) limits.max_any_hit_invocations = settings.cutoff;  // a (K+1)-th surface cuts off
 
     for (Scratch& sc : scratch_) sc.kept.clear();
-    const std::uint64_t run_id = ++runs_;
+    const std::uint64_t trace_id = ++traces_;
 
     tbb::parallel_for(
         tbb::blocked_range<std::size_t>(0, chunk_count, 1),
@@ -121,8 +122,8 @@ void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> 
             // other work evicts it, and walked from L3, pointer chase by pointer chase, the pass took
             // ~18 % longer: two threads, an icosahedron pass between two passes over spheres,
             // 0.212-0.216 -> 0.179-0.182 ms with the sweep; nothing in between, 0.177 -> 0.172-0.175.
-            if (sc.warmed_in_run != run_id) {
-                sc.warmed_in_run = run_id;
+            if (sc.warmed_in_trace != trace_id) {
+                sc.warmed_in_trace = trace_id;
                 scene.prefetch_top_level();
             }
             std::size_t kept_before = sc.kept.size();
@@ -151,12 +152,15 @@ void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> 
                 const std::uint64_t task_hits = sc.kept.size() - kept_before;
                 kept_before = sc.kept.size();
                 if (kept.fetch_add(task_hits, std::memory_order_relaxed) + task_hits > budget)
-                    over_budget(budget);  // TBB cancels the other tasks and rethrows in run()'s caller
+                    over_budget(budget);  // TBB cancels the other tasks and rethrows in trace()'s caller
             }
         },
         tbb::simple_partitioner());
 
     // Statuses and counts to the order of `which`.
+    which_.assign(which.begin(), which.end());
+    status_.resize(n);
+    hit_counts_.resize(n);
     for (std::size_t k = 0; k < n; ++k) {
         const std::size_t i = ray_order_[k];
         status_[i] = rays_[k].status;

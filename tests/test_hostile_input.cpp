@@ -230,6 +230,14 @@ TEST_CASE("hostile scene: a dense scene without a cutoff is refused by the hit b
         CHECK(m.find("more than " + std::to_string(need / 2) + " particle surfaces") != std::string::npos);
         CHECK(m.find("cutoff") != std::string::npos);
     }
+    // The failed pass holds no rays: nothing stale to gather or resolve.
+    CHECK(pass.status().empty());
+    std::vector<float> none, all_lengths(ps.size());
+    CHECK_NOTHROW(pass.resolve(HitSort::radix, none));
+    CHECK_THROWS_AS(pass.resolve(HitSort::radix, all_lengths), std::invalid_argument);
+    OpticalDepthHits empty;
+    pass.gather(empty);
+    CHECK(empty.lists.particle_count() == 0);
     // Exactly enough: the same result as without a budget; a cutoff keeps any density within budget.
     OpticalDepthSettings exact;
     exact.max_total_hits = need;

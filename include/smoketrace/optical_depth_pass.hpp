@@ -43,7 +43,7 @@ inline constexpr float kOpticalDepthTmax = 1e38f;
 
 struct OpticalDepthSettings {
     std::uint32_t cutoff = 0;  // K: more than K surfaces → cutoff (0 = no cutoff)
-    // Most hits one run() may keep, over all its particles; 0 = default_max_total_hits(). Without a cutoff
+    // Most hits one trace() (or run()) may keep, over all its particles; 0 = default_max_total_hits(). Without a cutoff
     // the hits grow with the square of the particle density (n particles in a fixed volume: each ray
     // crosses ~n of them), so a dense scene can ask for more memory than the machine has.
     std::uint64_t max_total_hits = 0;
@@ -79,7 +79,8 @@ public:
 
     // The two halves of run(). trace() traces the rays and keeps each ok ray's hits where the thread
     // that traced it stored them, until the next trace(); gather() copies them into out, one flat buffer
-    // in the order of `which`, with the statuses and counts.
+    // in the order of `which`, with the statuses and counts. A trace() that throws leaves no rays: then
+    // gather() gives an empty output and resolve() wants no lengths.
     void trace(const SmokeScene& scene, std::span<const Particle> particles, std::span<const std::uint32_t> which,
                const glm::vec3& to_light, const OpticalDepthSettings& settings);
     void gather(OpticalDepthHits& out) const;
@@ -100,7 +101,7 @@ private:
     struct Scratch {
         std::array<std::vector<SurfaceHit>, kBundleWidth> lane_hits;  // the bundle in flight's, per ray
         std::vector<SurfaceHit> kept;  // the hits of this thread's ok rays, ray after ray
-        std::uint64_t warmed_in_run = 0;  // the last run() in which this thread prefetched the top level
+        std::uint64_t warmed_in_trace = 0;  // the last trace() in which this thread prefetched the top level
     };
     // A ray's outcome, stored in trace order (index k of ray_order_) so that each task writes a
     // contiguous stretch: in particle order the rays of a task land all over the output arrays, and the
@@ -120,7 +121,7 @@ private:
     std::vector<std::uint32_t> which_;      // the particles of the last trace()
     std::vector<DepthStatus> status_;       // [i]: the ray of which_[i]
     std::vector<std::uint32_t> hit_counts_;
-    std::uint64_t runs_ = 0;                // run() calls so far
+    std::uint64_t traces_ = 0;              // trace() calls so far
 };
 
 }  // namespace smoketrace
