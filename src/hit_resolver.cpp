@@ -7,12 +7,16 @@
 //   (b) one small sort per particle (a sorting network up to 128 hits with AVX-512, a rank sort below
 //       kRadixSortMinItems, radix above), each list staying in L1 (or registers) until the walk that follows.
 // Measured in bench section "resolver" (table "segmented vs per-particle", one thread, 750 particles):
-// (b) is 1.25-1.55x faster at every list length from 20 to 300 hits (120 hits: 7.9 vs 11.5 ns per hit,
-// sort and walk), and it parallelises over particles with no shared histogram, so HitSort::radix is (b).
+// (b) is 1.25-1.55x faster at every list length from 20 to 300 hits with the rank sort (120 hits: 7.9 vs
+// 11.5 ns per hit, sort and walk), 3.2x at 20 hits to 6.4x at 120 with the network and the gap walk, and
+// it parallelises over particles with no shared histogram, so HitSort::radix is (b).
 #include <smoketrace/hit_resolver.hpp>
 #include <smoketrace/radix_sort.hpp>
 #include <smoketrace/sorting_network.hpp>
 
+#if defined(__AVX512F__)
+#include <immintrin.h>
+#endif
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 

@@ -1,7 +1,8 @@
 #pragma once
 // A bitonic sorting network over 64-bit keys held in AVX-512 registers: eight keys per register, up to
 // kNetworkSortMaxRegisters registers. The optical-depth resolver's lists are short (with the thesis's
-// cutoff of 60 every list has at most 60 hits) and a network sorts them with no branch, no memory
+// default cutoff of 60 no list has more than 60 hits, with its largest, 120, no more than 120: hence 128
+// keys) and a network sorts them with no branch, no memory
 // traffic and a fixed number of compare-exchange steps, where rank_sort() (radix_sort.hpp) compares every
 // key with every other and scatters through memory. Measured in bench section "resolver" (table "sort
 // crossover", column "resolver", one thread): 0.8-1.4 ns per hit from 8 to 128 hits, the rank sort
