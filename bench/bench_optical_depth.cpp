@@ -476,8 +476,8 @@ void run_optical_depth(const BenchOptions& options) {
     const std::streamsize cout_precision = std::cout.precision();
 
     std::cout << "Two tubes (TubeSettings defaults), ground, light from above, cutoff " << kCutoff
-              << ". ms, medians of " << std::max(options.repeats, kSmallCountRounds) << " interleaved rounds up to 1500 particles, "
-              << options.repeats << " at 10k and 100k (quick: 1);\n"
+              << ". ms, medians of " << std::max(options.repeats, kSmallCountRounds)
+              << " interleaved rounds up to 1500 particles, " << options.repeats << " at 10k and 100k (quick: 1);\n"
               << "Embree (all-hits over icosahedra, robust mode): flattened / instanced layout, one ray per query (x1)\n"
               << "or packets of eight (x8); ratio = ours / the fastest of the four\n";
     std::cout << std::setw(7) << "count" << std::setw(4) << "thr" << " |" << std::setw(27)
@@ -534,7 +534,8 @@ void run_optical_depth(const BenchOptions& options) {
             // Up to 1500 particles a round of all six takes a few ms, so it runs at least kSmallCountRounds
             // rounds: with five, the 750-particle ratio spread over 2.5-3.3x in three runs of the same binary
             // on this shared machine.
-            const int rounds = large ? (options.quick ? 1 : options.repeats) : std::max(options.repeats, kSmallCountRounds);
+            const int rounds =
+                large ? (options.quick ? 1 : options.repeats) : std::max(options.repeats, kSmallCountRounds);
             arena.execute([&] {
                 if (!large) {
                     for (Contender& k : c) k.run_once(ps, all, dir);

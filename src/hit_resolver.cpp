@@ -206,7 +206,8 @@ double optical_path_length_avx512(std::span<const SurfaceHit> sorted_hits) {
         sums = _mm512_mask_add_pd(sums, in_smoke, sums, _mm512_sub_pd(t_of(next), t_of(h)));
     }
     // sum_lanes(): the halves, then the quarters, then the two left.
-    const __m256d q = _mm256_add_pd(_mm512_maskz_extractf64x4_pd(0xF, sums, 0), _mm512_maskz_extractf64x4_pd(0xF, sums, 1));
+    const __m256d q =
+        _mm256_add_pd(_mm512_maskz_extractf64x4_pd(0xF, sums, 0), _mm512_maskz_extractf64x4_pd(0xF, sums, 1));
     const __m128d p = _mm_add_pd(_mm256_castpd256_pd128(q), _mm256_extractf128_pd(q, 1));
     return _mm_cvtsd_f64(_mm_add_sd(p, _mm_unpackhi_pd(p, p)));
 }

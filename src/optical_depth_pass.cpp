@@ -201,7 +201,8 @@ void OpticalDepthPass::resolve(HitSort method, std::span<float> lengths) {
     // Ray by ray in trace order, chunk by chunk as they were traced: each task reads the stretch of a
     // thread's kept hits that one trace task wrote. Each ray sorts only its own hits: deterministic.
     const std::size_t chunk_count = (n + kParticlesPerChunk - 1) / kParticlesPerChunk;
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunk_count, 1), [&](const tbb::blocked_range<std::size_t>& r) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunk_count, 1),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
         ListResolver resolve_list;
         for (std::size_t k = r.begin() * kParticlesPerChunk; k < std::min(n, r.end() * kParticlesPerChunk); ++k) {
             const RayRecord& ray = rays_[k];

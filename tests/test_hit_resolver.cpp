@@ -297,9 +297,10 @@ TEST_CASE("sort_hits_by_t orders any list by t and keeps its hits", "[resolver]"
                 std::vector<SurfaceHit> hits = input, scratch(n);
                 sort_hits_by_t(hits, scratch, method);
                 // Ascending t; the radix method also puts -0 before +0 (equal as floats).
-                const bool ordered = std::is_sorted(hits.begin(), hits.end(), [&](const SurfaceHit& a, const SurfaceHit& b) {
+                auto before = [&](const SurfaceHit& a, const SurfaceHit& b) {
                     return method == HitSort::radix ? float_sort_key(a.t) < float_sort_key(b.t) : a.t < b.t;
-                });
+                };
+                const bool ordered = std::is_sorted(hits.begin(), hits.end(), before);
                 CHECK(ordered);
                 std::sort(hits.begin(), hits.end(), key_then_value);  // the same hits, in any tie order
                 const bool same = std::equal(hits.begin(), hits.end(), expected.begin(), expected.end(),

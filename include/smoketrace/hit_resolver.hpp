@@ -54,7 +54,7 @@ struct HitLists {
 
 // How resolve_optical_path_lengths() sorts each list by t. All three give bit-identical lengths.
 enum class HitSort : std::uint8_t {
-    radix,     // the fast path: with AVX-512 a sorting network for lists of up to 64 hits
+    radix,     // the fast path: with AVX-512 a sorting network for lists of up to 128 hits
                // (sorting_network.hpp); else sort_by_float_key (radix_sort.hpp), a rank sort for short
                // lists and an LSD radix sort for long ones. The cost per hit stays flat as the cutoff grows
                // (method.md, thesis 6.2)
