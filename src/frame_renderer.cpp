@@ -45,26 +45,33 @@ FrameReport FrameRenderer::render(std::uint64_t frame, ImageRgba& image) {
     last_frame_ = std::int64_t(frame);
     last_light_ = light;
 
-    // Nothing moved and the light stands still: the previous frame's image is this frame's.
-    if (!first && !moved && !light_turned && image.width == options_.width && image.height == options_.height) {
+    // Work is skipped only where its inputs did not change. Still particles and a still light leave the
+    // TLAS and the optical depths as they were; the view is redrawn unless its flipbook frame is also the
+    // one already in `image` (the billboards animate even when nothing moves).
+    const int flipbook_frame = int(frame % std::uint64_t(texture_.frame_count()));
+    const bool still = !first && !moved && !light_turned;
+    if (still && flipbook_frame == last_flipbook_frame_ && image.width == options_.width &&
+        image.height == options_.height) {
         report.reused_previous = true;
         t.total = total.lap_ms();
         return report;
     }
 
-    report.tlas = smoke_.update(particles_.particles(), camera_.position());
-    t.tlas_update = clock.lap_ms();
+    if (!still) {
+        report.tlas = smoke_.update(particles_.particles(), camera_.position());
+        t.tlas_update = clock.lap_ms();
 
-    const bool optical_depth = options_.render.mode != RenderMode::basic;
-    if (optical_depth) {
-        // The first frame traces every particle so that none starts without a value; after that, one
-        // group per frame (thesis 4.4.2).
-        const std::uint32_t groups = first ? 1 : options_.render.groups;
-        const auto which = particle_group(particles_.size(), groups, frame);
-        OpticalDepthSettings ods;
-        ods.cutoff = options_.render.cutoff;
-        depths_.update(smoke_, particles_.particles(), which, light, ods, options_.sort, t);
-        report.depths_updated = which.size();
+        const bool optical_depth = options_.render.mode != RenderMode::basic;
+        if (optical_depth) {
+            // The first frame traces every particle so that none starts without a value; after that, one
+            // group per frame (thesis 4.4.2).
+            const std::uint32_t groups = first ? 1 : options_.render.groups;
+            const auto which = particle_group(particles_.size(), groups, frame);
+            OpticalDepthSettings ods;
+            ods.cutoff = options_.render.cutoff;
+            depths_.update(smoke_, particles_.particles(), which, light, ods, options_.sort, t);
+            report.depths_updated = which.size();
+        }
     }
     clock.lap_ms();
 
@@ -81,9 +88,10 @@ FrameReport FrameRenderer::render(std::uint64_t frame, ImageRgba& image) {
     v.ambient = desc_.ambient;
     v.background = desc_.background;
     if (desc_.ground) v.ground_color = desc_.ground->color;
-    v.flipbook_frame = int(frame % std::uint64_t(texture_.frame_count()));
+    v.flipbook_frame = flipbook_frame;
     render_view(smoke_, particles_.particles(), depths_.lengths(), texture_, camera_, v, image);
     t.view = clock.lap_ms();
+    last_flipbook_frame_ = flipbook_frame;
     t.total = total.lap_ms();
     return report;
 }

@@ -7,6 +7,7 @@
 
 #include <tbb/global_control.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 
@@ -129,7 +130,7 @@ TEST_CASE("view: the one-traversal compositor matches the thesis's re-trace loop
     }
 }
 
-TEST_CASE("view: basic mode runs no optical-depth pass, a still frame does no work", "[view]") {
+TEST_CASE("view: basic mode runs no optical-depth pass", "[view]") {
     SceneDescription scene = tubes_scene();
     RenderOptions o = RenderOptions::from_scene(scene);
     o.width = o.height = 32;
@@ -140,11 +141,66 @@ TEST_CASE("view: basic mode runs no optical-depth pass, a still frame does no wo
     REQUIRE(f0.depths_updated == 0);
     REQUIRE(f0.timings.od_pass == 0.0);
     REQUIRE(f0.tlas == TlasUpdate::rebuild);
+}
+
+TEST_CASE("view: a still frame skips the TLAS and the optical depths, yet its flipbook animates", "[view]") {
+    // Nothing moves and the light stands still (two_tubes_above.json), so the TLAS and the optical
+    // depths keep their inputs; the billboards' flipbook frame changes every frame, so the image must too.
+    const SceneDescription scene = tubes_scene();
+    REQUIRE(texture().frame_count() > 1);
+    RenderOptions o = RenderOptions::from_scene(scene);
+    o.width = o.height = 32;
+    o.render.mode = RenderMode::full;
+    FrameRenderer r(scene, o, texture());
+    const int period = texture().frame_count();
+    std::vector<ImageRgba> images(std::size_t(period) + 2);
+    ImageRgba img;
+    for (int f = 0; f <= period + 1; ++f) {
+        const FrameReport rep = r.render(std::uint64_t(f), img);
+        images[std::size_t(f)] = img;
+        if (f == 0) continue;
+        CAPTURE(f);
+        REQUIRE(rep.tlas == TlasUpdate::none);
+        REQUIRE(rep.timings.tlas_update == 0.0);
+        REQUIRE(rep.depths_updated == 0);
+        REQUIRE(rep.timings.od_pass == 0.0);
+        REQUIRE_FALSE(rep.reused_previous);
+        REQUIRE(rep.timings.view > 0.0);
+    }
+    CHECK(images[1].pixels != images[0].pixels);  // the flipbook moved on
+    // One flipbook period later the view's every input is the same again: the same image, bit for bit.
+    CHECK(images[std::size_t(period)].pixels == images[0].pixels);
+    CHECK(images[std::size_t(period) + 1].pixels == images[1].pixels);
+}
+
+TEST_CASE("view: with a one-frame flipbook a still frame keeps the previous image", "[view]") {
+    // Every input of the view is unchanged, so the image already drawn is this frame's.
+    const SixwayAtlasGrid grid = texture().grid();
+    // Frame 0 of the shipped flipbook, copied texel for texel into one-frame atlases.
+    Rgba8Image pos(texture().tile_width(), texture().tile_height());
+    Rgba8Image neg(pos.width, pos.height);
+    const auto code = [](float v) { return std::uint8_t(std::lround(v * 255.0f)); };
+    for (int y = 0; y < pos.height; ++y)
+        for (int x = 0; x < pos.width; ++x) {
+            const SixwaySample s = texture().texel(x, y, 0);
+            const std::uint8_t p[4] = {code(s.pos.x), code(s.pos.y), code(s.pos.z), code(s.alpha)};
+            const std::uint8_t n[4] = {code(s.neg.x), code(s.neg.y), code(s.neg.z), code(s.alpha)};
+            std::copy(p, p + 4, pos.texel(x, y));
+            std::copy(n, n + 4, neg.texel(x, y));
+        }
+    REQUIRE(grid.frames > 1);
+    const SixwayTexture one_frame(pos, neg, SixwayAtlasGrid{1, 1, 1});
+    const SceneDescription scene = tubes_scene();
+    RenderOptions o = RenderOptions::from_scene(scene);
+    o.width = o.height = 32;
+    FrameRenderer r(scene, o, one_frame);
+    ImageRgba img;
+    (void)r.render(0, img);
     const ImageRgba first = img;
-    const FrameReport f1 = r.render(1, img);  // nothing moves, the light stands still
+    const FrameReport f1 = r.render(1, img);
     REQUIRE(f1.reused_previous);
     REQUIRE(f1.tlas == TlasUpdate::none);
-    REQUIRE(f1.timings.tlas_update == 0.0);
+    REQUIRE(f1.timings.view == 0.0);
     REQUIRE(img.pixels == first.pixels);
 }
 

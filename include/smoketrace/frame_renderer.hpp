@@ -3,8 +3,9 @@
 //   advance particles → TLAS update (none / refit / rebuild) → optical-depth pass and resolve for this
 //   frame's particle group (skipped in basic mode) → view pass → image.
 // Work a frame does not need is skipped: basic mode never runs the optical-depth pass; a frame in which
-// no particle moved and the light did not turn does no TLAS work, no optical-depth work, and reuses the
-// previous image.
+// no particle moved and the light did not turn does no TLAS work and no optical-depth work, and redraws
+// only the view (the billboards' flipbook advances every frame). The previous image is kept as it is only
+// when the flipbook frame is also the same (a one-frame flipbook).
 #include <smoketrace/camera.hpp>
 #include <smoketrace/frame_timings.hpp>
 #include <smoketrace/image.hpp>
@@ -34,7 +35,7 @@ struct FrameReport {
     FrameTimings timings;
     TlasUpdate tlas = TlasUpdate::none;
     std::size_t depths_updated = 0;  // particles traced this frame
-    bool reused_previous = false;    // nothing changed: the previous image was kept
+    bool reused_previous = false;    // nothing changed, the flipbook frame neither: the previous image was kept
 };
 
 class FrameRenderer {
@@ -58,6 +59,7 @@ private:
     OpticalDepths depths_;
     std::int64_t last_frame_ = -1;
     glm::vec3 last_light_{0.0f};
+    int last_flipbook_frame_ = -1;  // the flipbook frame of the image last drawn
 };
 
 }  // namespace smoketrace
