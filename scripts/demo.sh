@@ -15,7 +15,7 @@ for scene in two_tubes_above two_tubes_right; do
   done
   "$bin" depths "$root/assets/scenes/$scene.json" -o "$out/${scene}_depths.csv"
 done
-# A short sequence (thesis 5.2.2): the light turns 4° per frame, particles drift and spin, 4 groups.
+# A short sequence (thesis 5.2.2): the light turns 3.5° per frame from the right up to above, particles drift and spin, 4 groups.
 mkdir -p "$out/sequence"
 "$bin" render "$root/assets/scenes/two_tubes_sequence.json" -o "$out/sequence/frame.png" --size 512x512 --frames 24 --timings \
   | sed -n '/^median/,$p' | sed -n 's/^total=/  sequence median total ms=/p'
