@@ -213,7 +213,7 @@ const SixwayTexture& textures() {
 }
 
 void write_float_map(const std::filesystem::path& path, const std::vector<float>& map) {
-    write_file_atomically(path, [&](std::ostream& out) {
+    write_output(path, [&](std::ostream& out) {
         out.write(reinterpret_cast<const char*>(map.data()), std::streamsize(map.size() * sizeof(float)));
     });
 }
@@ -366,7 +366,7 @@ void run_error(const BenchOptions& options) {
     write_float_map(images / "heat_best.f32", heat_best);
     const float heat_max = std::max(*std::max_element(heat_thesis.begin(), heat_thesis.end()),
                                     *std::max_element(heat_best.begin(), heat_best.end()));
-    write_file_atomically(images / "grid.txt", [&](std::ostream& out) {
+    write_output(images / "grid.txt", [&](std::ostream& out) {
         out << "size " << size << "\n"
             << "frame " << kEvalFrame << "\n"
             << "reference " << ref.config.id() << "\n"

@@ -1,7 +1,7 @@
 // smoketrace_bench: [--quick] [--section NAME]... [--repeats N] [--results DIR]
 #include "bench_registry.hpp"
 
-#include <smoketrace/atomic_file.hpp>
+#include <smoketrace/output_path.hpp>
 
 #include <chrono>
 #include <cstdlib>
@@ -87,7 +87,7 @@ int main(int argc, char** argv) {
     std::ostringstream text;
     for (const auto& [name, value] : summary()) text << summary_line(name, value) << "\n";
     std::cout << "== summary\n" << text.str() << std::flush;
-    smoketrace::write_file_atomically(std::filesystem::path(options.results_dir) / "summary.txt", [&](std::ostream& out) {
+    smoketrace::write_output(std::filesystem::path(options.results_dir) / "summary.txt", [&](std::ostream& out) {
         out << text.str() << durations.str() << "bench_seconds=" << seconds_since(start) << "\n"
             << "quick=" << (options.quick ? 1 : 0) << "\n";
     });

@@ -1,7 +1,7 @@
 #pragma once
 // Small helpers shared by the bench sections: CSV files written whole or not at all, the log-log growth
 // exponent, the scene and textures every frame-level section starts from.
-#include <smoketrace/atomic_file.hpp>
+#include <smoketrace/output_path.hpp>
 #include <smoketrace/scene_file.hpp>
 #include <smoketrace/tube_generator.hpp>
 
@@ -30,7 +30,7 @@ public:
     }
     void write(const std::filesystem::path& path) const {
         const std::string text = rows_.str();
-        write_file_atomically(path, [&](std::ostream& out) { out << text; });
+        write_output(path, [&](std::ostream& out) { out << text; });
     }
 
 private:

@@ -1,7 +1,7 @@
 // PNG reading and writing, and all-or-nothing file writes (see png_io.hpp).
 #include <smoketrace/png_io.hpp>
 
-#include <smoketrace/atomic_file.hpp>
+#include <smoketrace/output_path.hpp>
 
 #include <stb_image.h>
 #include <zlib.h>
@@ -191,7 +191,7 @@ struct PngWriter::Buffers {
     void encode(const fs::path& path, int width, int height, int channels, const std::uint8_t* data);
     void write(const fs::path& path, int width, int height, int channels, const std::uint8_t* data) {
         encode(path, width, height, channels, data);
-        write_file_atomically(path, [&](std::ostream& out) { out.write(png.data(), std::streamsize(png.size())); });
+        write_output(path, [&](std::ostream& out) { out.write(png.data(), std::streamsize(png.size())); });
     }
 };
 

@@ -1,7 +1,7 @@
 // The six-way flipbook baker (see sixway_baker.hpp for the model).
 #include <smoketrace/sixway_baker.hpp>
 
-#include <smoketrace/atomic_file.hpp>
+#include <smoketrace/output_path.hpp>
 #include <smoketrace/png_io.hpp>
 
 #include <nlohmann/json.hpp>
@@ -344,7 +344,7 @@ void write_sixway_bake(const std::filesystem::path& folder, const SixwayBake& ba
                    {"scattering_octaves", s.scattering_octaves},
                    {"scattering_octave_weight", shortest_decimal(s.scattering_octave_weight)}};
     const std::string text = doc.dump(2) + "\n";
-    write_file_atomically(folder / kSixwayLayoutFile, [&](std::ostream& out) { out << text; });
+    write_output(folder / kSixwayLayoutFile, [&](std::ostream& out) { out << text; });
 }
 
 }  // namespace smoketrace

@@ -114,7 +114,7 @@ SixwayTexture SixwayTexture::load(const fs::path& positive_png, const fs::path& 
     return SixwayTexture(positive, negative, grid);
 }
 
-SixwayTexture SixwayTexture::load(const fs::path& layout_json) {
+SixwayLayout read_sixway_layout(const fs::path& layout_json) {
     std::ifstream in(layout_json, std::ios::binary);
     if (!in) throw std::runtime_error("cannot read '" + layout_json.string() + "': " + std::strerror(errno));
     std::stringstream text;
@@ -136,8 +136,13 @@ SixwayTexture SixwayTexture::load(const fs::path& layout_json) {
     if (const std::string problem = grid_problem(grid); !problem.empty())
         layout_error(layout_json, "/frames", problem);
     const fs::path folder = layout_json.parent_path();
-    return load(folder / read_file_name(doc, layout_json, "positive"),
-                folder / read_file_name(doc, layout_json, "negative"), grid);
+    return {grid, folder / read_file_name(doc, layout_json, "positive"),
+            folder / read_file_name(doc, layout_json, "negative")};
+}
+
+SixwayTexture SixwayTexture::load(const fs::path& layout_json) {
+    const SixwayLayout layout = read_sixway_layout(layout_json);
+    return load(layout.positive, layout.negative, layout.grid);
 }
 
 }  // namespace smoketrace

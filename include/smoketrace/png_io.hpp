@@ -1,9 +1,10 @@
 #pragma once
 // PNG files in (stb_image) and out (our encoder over zlib, png_io.cpp).
 //
-// Writing never leaves a half-written file: the PNG is encoded in memory, then handed to
-// write_file_atomically() (atomic_file.hpp: temporary file beside the target, renamed over it). Every
-// failure throws std::runtime_error whose message names the path and the problem.
+// The PNG is encoded in memory, then handed to write_output() (output_path.hpp): a regular file is
+// replaced whole or not at all (temporary file beside it, renamed over it), a symbolic link is followed,
+// an existing FIFO or device is written as it is, and the path "-" is standard output. Every failure
+// throws std::runtime_error whose message names the path and the problem.
 #include <smoketrace/image.hpp>
 
 #include <cstdint>

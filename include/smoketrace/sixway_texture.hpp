@@ -59,6 +59,17 @@ struct SixwaySample {
     float alpha = 0.0f;
 };
 
+// What a sidecar (kSixwayLayoutFile) says: the grid and the two PNGs (names resolved against the
+// sidecar's folder), read without loading the images.
+struct SixwayLayout {
+    SixwayAtlasGrid grid;
+    std::filesystem::path positive;
+    std::filesystem::path negative;
+};
+
+// Throws std::runtime_error naming the file and the JSON path and the problem.
+[[nodiscard]] SixwayLayout read_sixway_layout(const std::filesystem::path& layout_json);
+
 class SixwayTexture {
 public:
     SixwayTexture() = default;
@@ -69,7 +80,8 @@ public:
     // From the two PNGs and a grid. Throws std::runtime_error naming the file and the problem.
     [[nodiscard]] static SixwayTexture load(const std::filesystem::path& positive_png,
                                             const std::filesystem::path& negative_png, SixwayAtlasGrid grid);
-    // From a sidecar (kSixwayLayoutFile) and the PNGs it names. Errors name the file and the JSON path.
+    // From a sidecar (kSixwayLayoutFile, read_sixway_layout()) and the PNGs it names. Errors name the file
+    // and the JSON path.
     [[nodiscard]] static SixwayTexture load(const std::filesystem::path& layout_json);
 
     [[nodiscard]] int frame_count() const { return grid_.frames; }

@@ -2,6 +2,7 @@
 // and their sidecar. With no -o it regenerates the committed assets in the source tree's assets/ folder.
 #include "arguments.hpp"
 #include "command.hpp"
+#include "output_arg.hpp"
 
 #include <smoketrace/sixway_baker.hpp>
 
@@ -26,6 +27,9 @@ int run_bake_sixway(const Args& args) {
     reader.finish();
     std::error_code ec;
     if (!std::filesystem::is_directory(folder, ec)) throw CliError("-o: '" + folder.string() + "' is not an existing folder");
+    // Before baking: each of the three files can be written (none is a folder, the folder takes new files).
+    for (const std::string_view name : {kSixwayPositiveFile, kSixwayNegativeFile, kSixwayLayoutFile})
+        (void)checked_output(folder / name, {});
 
     const auto start = std::chrono::steady_clock::now();
     const SixwayBake bake = bake_sixway(settings);

@@ -1,9 +1,10 @@
 // smoketrace depths: the optical-depth pipeline alone (thesis 4.3.2–4.3.3), one CSV row per particle.
 #include "arguments.hpp"
 #include "command.hpp"
+#include "output_arg.hpp"
 #include "thread_limit.hpp"
 
-#include <smoketrace/atomic_file.hpp>
+#include <smoketrace/output_path.hpp>
 #include <smoketrace/optical_depths.hpp>
 #include <smoketrace/particle_groups.hpp>
 #include <smoketrace/scene_file.hpp>
@@ -53,6 +54,10 @@ int run_depths(const Args& args) {
     }
     const HitSort sort = sort_arg ? parse_sort(*sort_arg) : HitSort::radix;
     const ThreadLimit limit(threads ? int(*threads) : 0);
+    // Before any work: -o must not be the scene file, a folder, or in a missing folder.
+    const OutputTarget output = checked_output(*out_path, {scene_path});
+    // With the CSV on standard output, the timings go to standard error.
+    std::ostream& report = output.kind == OutputKind::standard_output ? std::cerr : std::cout;
 
     const SceneDescription desc = load_scene_file(scene_path);
     const auto& particles = desc.smoke.particles;
@@ -76,7 +81,7 @@ int run_depths(const Args& args) {
         runs.push_back(t);
     }
 
-    write_file_atomically(*out_path, [&](std::ostream& out) {
+    write_output(*out_path, [&](std::ostream& out) {
         out << "particle,optical_path_length,hits,status\n";
         char buf[64];
         for (std::size_t i = 0; i < particles.size(); ++i) {
@@ -86,14 +91,15 @@ int run_depths(const Args& args) {
             out << i << ',' << buf << ',' << depths->hit_counts()[i] << ',' << status_name(depths->status()[i]) << '\n';
         }
     });
-    if (timings) std::cout << format_timings(median(runs), false);
+    if (timings) report << format_timings(median(runs), false);
     return 0;
 }
 
-const RegisterCommand registration{{"depths",
-                                    "depths SCENE.json -o OUT.csv [--shape sphere|icosahedron|icosphere:L] [--cutoff K] "
-                                    "[--threads T] [--repeat R] [--timings] [--sort radix|std|bubble]",
-                                    "optical path length of every particle toward the light, as CSV", &run_depths}};
+const RegisterCommand registration{
+    {"depths",
+     "depths SCENE.json -o OUT.csv|- [--shape sphere|icosahedron|icosphere:L] [--cutoff K] [--threads T] "
+     "[--repeat R] [--timings] [--sort radix|std|bubble]",
+     "optical path length of every particle toward the light, as CSV (-o -: on standard output)", &run_depths}};
 
 }  // namespace
 }  // namespace smoketrace::cli

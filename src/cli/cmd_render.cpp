@@ -1,15 +1,18 @@
 // smoketrace render: frames and sequences of the smoke scene (thesis 4.3, 5.2.2).
 #include "arguments.hpp"
 #include "command.hpp"
+#include "output_arg.hpp"
 #include "progress_bar.hpp"
 #include "thread_limit.hpp"
 
 #include <smoketrace/frame_renderer.hpp>
+#include <smoketrace/output_path.hpp>
 #include <smoketrace/png_io.hpp>
 
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <sys/stat.h>
 
 namespace smoketrace::cli {
 namespace {
@@ -19,6 +22,13 @@ RenderMode parse_mode(const std::string& s) {
     if (s == "simple-shadow") return RenderMode::simple_shadow;
     if (s == "full") return RenderMode::full;
     throw CliError("--mode: '" + s + "' is not one of basic, simple-shadow, full");
+}
+
+// An existing file that is not a regular file or a folder (a FIFO, a device): a single frame streamed into it
+// may have any name.
+bool is_existing_stream(const std::filesystem::path& path) {
+    struct stat st{};
+    return ::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode);
 }
 
 // OUT.png for one frame; OUT_0000.png, OUT_0001.png, … for a sequence.
@@ -50,9 +60,15 @@ int run_render(const Args& args) {
     in.finish();
     if (!out_arg) throw CliError("missing -o OUT.png");
     const std::filesystem::path out(*out_arg);
-    if (out.extension() != ".png") throw CliError("-o: '" + out.string() + "' must end in .png");
-    const std::filesystem::path out_dir = out.has_parent_path() ? out.parent_path() : ".";
-    if (!std::filesystem::is_directory(out_dir)) throw CliError("-o: folder '" + out_dir.string() + "' does not exist");
+    const bool to_stdout = out == kStandardOutputPath;
+    // Checks that need no file read, before the scene is loaded; every frame's path is checked below.
+    if (!to_stdout) {
+        if (out.extension() != ".png" && !is_existing_stream(out))
+            throw CliError("-o: '" + out.string() + "' must end in .png");
+        const std::filesystem::path out_dir = out.has_parent_path() ? out.parent_path() : ".";
+        if (!std::filesystem::is_directory(out_dir))
+            throw CliError("-o: folder '" + out_dir.string() + "' does not exist");
+    }
 
     const ThreadLimit limit(threads ? int(*threads) : 0);
     const SceneDescription scene = load_scene_file(scene_path);
@@ -86,8 +102,23 @@ int run_render(const Args& args) {
         else if (*compositor == "retrace") options.compositor = CompositorKind::retrace;
         else throw CliError("--compositor: '" + *compositor + "' is not one-traversal or retrace");
     }
+    const std::uint32_t frame_count = options.render.frames;
+    if (to_stdout && frame_count > 1)
+        throw CliError("-o -: standard output takes one frame, not " + std::to_string(frame_count) +
+                       " (--frames or the scene's render.frames); write a sequence with -o OUT.png");
+    if (frame_count > 1 && out.extension() != ".png")
+        throw CliError("-o: '" + out.string() + "' must end in .png (it names the files of a sequence)");
     const std::filesystem::path texture_dir = textures ? std::filesystem::path(*textures) : SMOKETRACE_ASSET_DIR;
-    const SixwayTexture texture = SixwayTexture::load(texture_dir / kSixwayLayoutFile);
+    const SixwayLayout layout = read_sixway_layout(texture_dir / kSixwayLayoutFile);
+    // Before any work: no frame may be written onto an input, a folder or into a missing folder.
+    const std::vector<std::filesystem::path> inputs{scene_path, texture_dir / kSixwayLayoutFile, layout.positive,
+                                                    layout.negative};
+    bool timings_to_stderr = false;  // the PNG is on standard output: nothing else may go there
+    for (std::uint32_t f = 0; f < frame_count; ++f)
+        if (checked_output(frame_path(out, f, frame_count), inputs).kind == OutputKind::standard_output)
+            timings_to_stderr = true;
+    std::ostream& report = timings_to_stderr ? std::cerr : std::cout;
+    const SixwayTexture texture = SixwayTexture::load(layout.positive, layout.negative, layout.grid);
 
     FrameRenderer renderer(scene, options, texture);
     ProgressBar progress(options.render.frames);
@@ -99,13 +130,15 @@ int run_render(const Args& args) {
         png.write_srgb(frame_path(out, f, options.render.frames), image);
         all.push_back(r.timings);
         if (timings) {
-            std::cout << "frame=" << f << " tlas=" << to_string(r.tlas) << "\n" << format_timings(r.timings, true);
+            report << "frame=" << f << " tlas=" << to_string(r.tlas) << "\n" << format_timings(r.timings, true);
         }
         progress.step();
     }
     progress.finish();
-    if (timings && options.render.frames > 1) std::cout << "median\n" << format_timings(median(all), true);
-    if (options.render.frames == 1)
+    if (timings && options.render.frames > 1) report << "median\n" << format_timings(median(all), true);
+    if (to_stdout)
+        std::cerr << "wrote the PNG to standard output\n";
+    else if (options.render.frames == 1)
         std::cerr << "wrote " << out.string() << "\n";
     else
         std::cerr << "wrote " << options.render.frames << " frames " << frame_path(out, 0, options.render.frames).string()
@@ -115,10 +148,10 @@ int run_render(const Args& args) {
 
 const RegisterCommand registration{
     {"render",
-     "render SCENE.json -o OUT.png [--mode basic|simple-shadow|full] [--size WxH] [--frames N] [--groups G] "
+     "render SCENE.json -o OUT.png|- [--mode basic|simple-shadow|full] [--size WxH] [--frames N] [--groups G] "
      "[--cutoff K] [--shape S] [--threads T] [--timings] [--compositing over|thesis] "
      "[--compositor one-traversal|retrace] [--textures DIR]",
-     "render a frame, or N frames OUT_0000.png …, of the smoke scene", &run_render}};
+     "render a frame (-o -: on standard output), or N frames OUT_0000.png …, of the smoke scene", &run_render}};
 
 }  // namespace
 }  // namespace smoketrace::cli

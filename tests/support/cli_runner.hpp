@@ -17,24 +17,42 @@ namespace smoketrace::test {
 struct CliRun {
     int exit_code;  // -1: killed by a signal (a crash)
     std::string err;
+    std::string out = {};  // standard output's bytes (run_cli_stdout only)
 };
 
-// Runs `smoketrace ARGS` (shell words), stdout discarded, stderr captured. Each call has its own
-// stderr file, so tests running in parallel (ctest -j) never read each other's messages.
-inline CliRun run_cli(const std::string& args) {
-    static std::atomic<unsigned> serial{0};
-    namespace fs = std::filesystem;
-    const fs::path err_file =
-        fs::temp_directory_path() / ("smoketrace_err_" + std::to_string(::getpid()) + "_" + std::to_string(serial++));
-    const std::string cmd = std::string(SMOKETRACE_CLI) + " " + args + " >/dev/null 2>" + err_file.string();
-    const int status = std::system(cmd.c_str());
-    std::ifstream in(err_file);
+// A file's bytes, "" when it cannot be read.
+inline std::string file_bytes(const std::filesystem::path& path) {
+    std::ifstream in(path, std::ios::binary);
     std::stringstream ss;
     ss << in.rdbuf();
-    in.close();
-    fs::remove(err_file);
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, ss.str()};
+    return ss.str();
 }
+
+namespace detail {
+// Runs `smoketrace ARGS` with stderr, and stdout when `capture_out`, in files of their own, so that tests
+// running in parallel (ctest -j) never read each other's output.
+inline CliRun run_cli(const std::string& args, bool capture_out) {
+    static std::atomic<unsigned> serial{0};
+    namespace fs = std::filesystem;
+    const std::string stem = "smoketrace_" + std::to_string(::getpid()) + "_" + std::to_string(serial++);
+    const fs::path err_file = fs::temp_directory_path() / (stem + ".err");
+    const fs::path out_file = fs::temp_directory_path() / (stem + ".out");
+    const std::string cmd = std::string(SMOKETRACE_CLI) + " " + args + " >" +
+                            (capture_out ? out_file.string() : std::string("/dev/null")) + " 2>" + err_file.string();
+    const int status = std::system(cmd.c_str());
+    CliRun run{WIFEXITED(status) ? WEXITSTATUS(status) : -1, file_bytes(err_file)};
+    if (capture_out) run.out = file_bytes(out_file);
+    std::error_code ec;
+    fs::remove(err_file, ec);
+    fs::remove(out_file, ec);
+    return run;
+}
+}  // namespace detail
+
+// Runs `smoketrace ARGS` (shell words), stdout discarded, stderr captured.
+inline CliRun run_cli(const std::string& args) { return detail::run_cli(args, false); }
+// The same, standard output captured too (byte for byte: a PNG written to -o -).
+inline CliRun run_cli_stdout(const std::string& args) { return detail::run_cli(args, true); }
 
 // A fresh, empty folder, removed with everything in it (even when a test made it read-only).
 struct TempDir {
