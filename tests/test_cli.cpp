@@ -1,18 +1,29 @@
 // The command line as a user meets it: bad input gets a clear message, a non-zero exit, and no output.
 #include "support/cli_runner.hpp"
+#include "support/fixtures.hpp"
+
+#include <smoketrace/optical_depths.hpp>
+#include <smoketrace/scene_file.hpp>
+#include <smoketrace/smoke_scene.hpp>
 
 #include <catch2/catch.hpp>
 
+#include <bit>
+#include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <string>
+#include <vector>
 #include <sys/wait.h>
 #include <unistd.h>
 
 namespace fs = std::filesystem;
+using namespace smoketrace;
 using smoketrace::test::CliRun;
 using smoketrace::test::run_cli;
 using smoketrace::test::TempDir;
@@ -21,17 +32,108 @@ namespace {
 
 const std::string kScene = std::string(SMOKETRACE_ASSET_DIR) + "/scenes/minimal.json";
 
+// The CSV rows of a depths run: index, length as printed, hits, status word.
+struct CsvRow {
+    std::string index, length, hits, status;
+};
+
+std::vector<CsvRow> read_depths_csv(const fs::path& path, std::string& header) {
+    std::ifstream in(path);
+    std::getline(in, header);
+    std::vector<CsvRow> rows;
+    for (std::string line; std::getline(in, line);) {
+        std::vector<std::string> f;
+        std::stringstream ss(line);
+        for (std::string field; std::getline(ss, field, ',');) f.push_back(field);
+        INFO("row '" << line << "'");
+        REQUIRE(f.size() == 4);
+        rows.push_back({f[0], f[1], f[2], f[3]});
+    }
+    return rows;
+}
+
+// The library's answer for the same scene and cutoff: OpticalDepths over every particle, as the CLI does.
+struct Depths {
+    std::vector<float> lengths;
+    std::vector<DepthStatus> status;
+    std::vector<std::uint32_t> hit_counts;
+};
+
+Depths library_depths(const SceneDescription& desc, std::uint32_t cutoff) {
+    std::optional<GroundQuad> ground;
+    if (desc.ground) ground = GroundQuad{desc.ground->corners};
+    SmokeScene smoke(desc.smoke.particles, desc.smoke.shape, ground, /*billboards=*/false);
+    smoke.update(desc.smoke.particles, desc.camera.position);
+    OpticalDepths depths(desc.smoke.particles.size());
+    FrameTimings t;
+    depths.update(smoke, desc.smoke.particles, smoketrace::test::all_of(desc.smoke.particles.size()),
+                  desc.light.direction, OpticalDepthSettings{cutoff}, HitSort::radix, t);
+    return {depths.lengths(), depths.status(), depths.hit_counts()};
+}
+
+const char* status_word(DepthStatus s) {
+    return s == DepthStatus::ok ? "ok" : s == DepthStatus::occluded ? "occluded" : "cutoff";
+}
+
 }  // namespace
 
+// Each row: its index in order, the length as a finite number >= 0 (ok) or "inf" (occluded, cutoff), the hit
+// count and the status word, all equal to the library's answer for the same scene. "%.9g" prints a float so
+// that it reads back as the same float, so the lengths are compared bit for bit.
 TEST_CASE("cli: depths writes one CSV row per particle", "[cli]") {
     TempDir dir;
-    const fs::path out = dir.path / "d.csv";
-    const CliRun r = run_cli("depths " + kScene + " -o " + out.string());
-    REQUIRE(r.exit_code == 0);
-    std::ifstream in(out);
-    std::string header;
-    std::getline(in, header);
-    REQUIRE(header == "particle,optical_path_length,hits,status");
+    // minimal.json (every particle ok), and a scene with every status: a roof over x < 0 occludes the
+    // particles under it, a column of four overlapping particles crosses more than --cutoff 3 surfaces.
+    const fs::path statuses = dir.write("statuses.json", R"({
+        "light": { "direction": [0, 1, 0] },
+        "smoke": { "particles": [
+            { "center": [-2, 0, 0], "radius": 0.5 }, { "center": [-1, 0.5, 0.5], "radius": 0.4 },
+            { "center": [2, 0, 0], "radius": 0.5 }, { "center": [2, 0.6, 0], "radius": 0.5 },
+            { "center": [2, 1.2, 0], "radius": 0.5 }, { "center": [2, 1.8, 0], "radius": 0.5 },
+            { "center": [4, 0, 0], "radius": 0.5 }, { "center": [4.3, 0.7, 0.2], "radius": 0.6 } ] },
+        "ground": { "corners": [[-8, 3, 8], [0, 3, 8], [0, 3, -8], [-8, 3, -8]] } })");
+    struct Run {
+        fs::path scene;
+        std::uint32_t cutoff;
+    };
+    std::size_t seen[3] = {0, 0, 0};  // rows per status, over both runs
+    for (const Run& run : {Run{kScene, 0}, Run{statuses, 3}}) {
+        INFO("scene " << run.scene << ", cutoff " << run.cutoff);
+        const fs::path out = dir.path / "d.csv";
+        const CliRun r = run_cli("depths " + run.scene.string() + " -o " + out.string() +
+                                 (run.cutoff ? " --cutoff " + std::to_string(run.cutoff) : std::string()));
+        INFO(r.err);
+        REQUIRE(r.exit_code == 0);
+        std::string header;
+        const std::vector<CsvRow> rows = read_depths_csv(out, header);
+        REQUIRE(header == "particle,optical_path_length,hits,status");
+
+        const SceneDescription desc = load_scene_file(run.scene);
+        const Depths want = library_depths(desc, run.cutoff);
+        REQUIRE(rows.size() == desc.smoke.particles.size());
+        for (std::size_t i = 0; i < rows.size(); ++i) {
+            const CsvRow& row = rows[i];
+            INFO("row " << i << ": " << row.index << "," << row.length << "," << row.hits << "," << row.status);
+            CHECK(row.index == std::to_string(i));
+            CHECK(row.status == status_word(want.status[i]));
+            CHECK(row.hits == std::to_string(want.hit_counts[i]));
+            if (want.status[i] == DepthStatus::ok) {
+                char* end = nullptr;
+                const float l = std::strtof(row.length.c_str(), &end);
+                REQUIRE(end == row.length.c_str() + row.length.size());  // the whole field is one number
+                CHECK(std::isfinite(l));
+                CHECK(l >= 0.0f);
+                CHECK(std::bit_cast<std::uint32_t>(l) == std::bit_cast<std::uint32_t>(want.lengths[i]));
+            } else {
+                CHECK(row.length == "inf");  // "fully dark" (kFullyDarkPathLength)
+            }
+            ++seen[int(want.status[i])];
+        }
+        fs::remove(out);
+    }
+    CHECK(seen[int(DepthStatus::ok)] >= 5);
+    CHECK(seen[int(DepthStatus::occluded)] == 2);
+    CHECK(seen[int(DepthStatus::cutoff)] >= 1);
 }
 
 TEST_CASE("cli: bad arguments and files name the problem and leave no output", "[cli]") {

@@ -23,6 +23,7 @@
 #include <glm/geometric.hpp>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -301,12 +302,53 @@ TEST_CASE("hostile cli: an empty particle list is valid: render draws the ground
     const fs::path sky_only = dir.write("sky.json", std::string("{") + kLight + R"(, "smoke": { "particles": [] } })");
     for (const fs::path& s : {scene, sky_only}) {
         INFO(s);
+        // Which pixels see the ground: the pixel's camera ray (the renderer's Camera, the file's default
+        // camera at 16x16) against the quad y = -1, |x|, |z| < 2, in double; rays within 1e-3 of its border
+        // are left out (a float ray may fall either side).
+        const SceneDescription desc = load_scene_file(s);
+        const Camera camera(desc.camera.position, desc.camera.look_at, desc.camera.up, desc.camera.fov_deg, 16, 16);
+        // Expected codes. Sky: the background, encoded exactly as the PNG writer does. Ground, eq. 4.4 with
+        // nothing to cast a shadow, the light straight above (N·L = 1): c_base·(c_light + c_amb), computed here
+        // in double; the renderer's float product may differ by an ulp, which can cross an 8-bit decision
+        // threshold, so the ground may be one code off.
+        std::array<int, 3> sky_code{}, ground_code{};
+        for (int k = 0; k < 3; ++k) {
+            sky_code[k] = linear_to_srgb8(desc.background[k]);
+            if (desc.ground) {
+                const double lit = double(desc.light.color[k]) + double(desc.ambient[k]);
+                ground_code[k] = linear_to_srgb8(float(double(desc.ground->color[k]) * lit));
+            }
+        }
         for (const char* mode : {"basic", "simple-shadow", "full"}) {
+            INFO("mode " << mode);
             const fs::path png = dir.path / (s.stem().string() + "_" + mode + ".png");
             const CliRun r = run_cli("render " + s.string() + " -o " + png.string() + " --size 16x16 --mode " + mode);
             INFO(r.err);
             REQUIRE(r.exit_code == 0);
-            CHECK(read_png_rgba8(png, 16, 16).width == 16);
+            const Rgba8Image img = read_png_rgba8(png, 16, 16);
+            int sky = 0, ground = 0;
+            for (int y = 0; y < 16; ++y)
+                for (int x = 0; x < 16; ++x) {
+                    const Ray ray = camera.ray(x, y, 0.0f);
+                    const glm::dvec3 o(ray.origin), d(ray.direction);
+                    bool on_ground = false;
+                    if (desc.ground && d.y < 0.0) {
+                        const glm::dvec3 g = o + ((-1.0 - o.y) / d.y) * d;
+                        const double out = std::max(std::abs(g.x), std::abs(g.z)) - 2.0;
+                        if (std::abs(out) < 1e-3) continue;
+                        on_ground = out < 0.0;
+                    }
+                    const std::uint8_t* px = img.texel(x, y);
+                    INFO("pixel (" << x << ", " << y << ") = " << int(px[0]) << " " << int(px[1]) << " " << int(px[2])
+                                   << (on_ground ? ", ground" : ", sky"));
+                    for (int k = 0; k < 3; ++k) {
+                        if (on_ground) CHECK(std::abs(int(px[k]) - ground_code[k]) <= 1);
+                        else CHECK(int(px[k]) == sky_code[k]);
+                    }
+                    (on_ground ? ground : sky) += 1;
+                }
+            CHECK(sky >= 16);  // the sky all round the ground
+            if (desc.ground) CHECK(ground >= 16);
         }
         const fs::path csv = dir.path / (s.stem().string() + ".csv");
         REQUIRE(run_cli("depths " + s.string() + " -o " + csv.string()).exit_code == 0);

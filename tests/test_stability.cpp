@@ -5,8 +5,10 @@
 //  * icosahedra / icospheres: the exact chord of the ray through each convex polyhedron (its face planes in
 //    double, from the mesh's float vertices placed by the same double transform c + r·v);
 //  * the eq. 3.1 counter: counter_start = −Σ values must equal the number of stand-ins that really contain
-//    the ray origin, the walk must never see it below 0, and it ends at 0: a leak (a missed surface) or a
-//    duplicate (a surface reported twice) breaks one of the three.
+//    the ray origin and the walk must never see it below 0; and the hits must pair up one to one with the
+//    surfaces the exact geometry puts on the ray, [exit] for a stand-in covering the origin and [entry, exit]
+//    for one ahead, each hit's t within the tolerance of its surface: a leak (a missed surface), a duplicate
+//    (a surface reported twice) or a face of the wrong sign breaks one of them.
 // Measured numbers (error growth far from the origin, scale invariance) are printed with WARN, and copied into
 // the README's "Numerical stability" section.
 #include "support/fixtures.hpp"
@@ -30,6 +32,7 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <iomanip>
 #include <limits>
 #include <numeric>
@@ -77,19 +80,15 @@ Traced trace_all(const std::vector<Particle>& ps, StandInShape shape, glm::vec3 
 }
 
 // Eq. 3.1's counter over one sorted hit list, applied a group of equal t at a time (as the resolver does).
+// (It ends at 0 by construction: it starts at −Σ values and adds them all back.)
 struct Walk {
-    int start = 0;        // −Σ values: stand-ins covering the origin
-    int lowest = 0;       // lowest value between groups
-    int end = 0;          // after the last hit
-    int entries = 0, exits = 0;
+    int start = 0;   // −Σ values: stand-ins covering the origin
+    int lowest = 0;  // lowest value between groups
 };
 
 Walk walk(std::span<const SurfaceHit> hits) {
     Walk w;
-    for (const SurfaceHit& h : hits) {
-        w.start -= h.value;
-        (h.value > 0 ? w.entries : w.exits) += 1;
-    }
+    for (const SurfaceHit& h : hits) w.start -= h.value;
     int counter = w.start;
     w.lowest = counter;
     for (std::size_t i = 0; i < hits.size();) {
@@ -97,8 +96,60 @@ Walk walk(std::span<const SurfaceHit> hits) {
         while (i < hits.size() && hits[i].t == t) counter += hits[i++].value;
         w.lowest = std::min(w.lowest, counter);
     }
-    w.end = counter;
     return w;
+}
+
+// A particle surface the exact geometry puts on a ray: the tracer must report a hit of this sign (+1 entry,
+// −1 exit) with t in [lo, hi]. Each stand-in the ray crosses gives [exit] (it covers the origin) or
+// [entry, exit].
+struct Surface {
+    double lo, hi;
+    std::int32_t value;
+};
+
+void add_chord(std::vector<Surface>& surfaces, double t_in, double t_out, double tolerance) {
+    if (t_in > 0.0) surfaces.push_back({t_in - tolerance, t_in + tolerance, +1});
+    surfaces.push_back({t_out - tolerance, t_out + tolerance, -1});
+}
+
+// "" when the hits and the surfaces pair up one to one: every hit is one of the surfaces (same sign, t inside
+// its bracket) and every surface is hit once; else what went wrong. Per sign, each hit in order of t takes the
+// open bracket that closes first, which finds a pairing whenever there is one (a bracket that closes before
+// the next hit is a surface nobody can have reported).
+std::string pairing_problem(std::span<const SurfaceHit> sorted_hits, std::vector<Surface> surfaces) {
+    std::sort(surfaces.begin(), surfaces.end(), [](const Surface& a, const Surface& b) { return a.lo < b.lo; });
+    std::ostringstream why;
+    for (const std::int32_t value : {+1, -1}) {
+        const char* what = value > 0 ? "entry" : "exit";
+        std::vector<double> open;  // hi of the brackets opened and not yet taken (a min-heap)
+        const auto closes_first = std::greater<double>();
+        std::size_t next = 0;
+        for (const SurfaceHit& h : sorted_hits) {
+            if (h.value != value) continue;
+            for (; next < surfaces.size() && surfaces[next].lo <= h.t; ++next) {
+                if (surfaces[next].value != value) continue;
+                open.push_back(surfaces[next].hi);
+                std::push_heap(open.begin(), open.end(), closes_first);
+            }
+            if (!open.empty() && open.front() < h.t) {
+                why << "the " << what << " surface closing at t = " << open.front() << " has no hit";
+                return why.str();
+            }
+            if (open.empty()) {
+                why << "the " << what << " hit at t = " << h.t << " is no surface";
+                return why.str();
+            }
+            std::pop_heap(open.begin(), open.end(), closes_first);
+            open.pop_back();
+        }
+        for (; next < surfaces.size(); ++next)
+            if (surfaces[next].value == value) open.push_back(surfaces[next].hi);
+        if (!open.empty()) {
+            why << open.size() << " " << what << " surface(s) without a hit";
+            return why.str();
+        }
+    }
+    return "";
 }
 
 // ---- Spheres: the exact answer and its tolerance are support/sphere_reference.hpp --------------------------
@@ -107,7 +158,22 @@ Walk walk(std::span<const SurfaceHit> hits) {
 struct Errors {
     double max_abs = 0.0;
     double max_tolerance = 0.0;
+    std::size_t paired = 0;  // rays whose hits were paired with the exact surfaces (no ambiguous surface)
 };
+
+// The surfaces of the spheres on the ray o + t·d (d unit), t > 0, each within ±tolerance.
+std::vector<Surface> sphere_surfaces(const std::vector<Particle>& ps, glm::dvec3 o, glm::dvec3 d, double tolerance) {
+    std::vector<Surface> surfaces;
+    for (const Particle& p : ps) {
+        const glm::dvec3 f = o - glm::dvec3(p.center);
+        const double mid = -glm::dot(f, d), r = p.radius;
+        const glm::dvec3 perp = f + mid * d;
+        const double s2 = r * r - glm::dot(perp, perp);
+        if (s2 <= 0.0 || mid + std::sqrt(s2) <= 0.0) continue;
+        add_chord(surfaces, mid - std::sqrt(s2), mid + std::sqrt(s2), tolerance);
+    }
+    return surfaces;
+}
 
 Errors check_spheres(const std::vector<Particle>& ps, const Traced& got, glm::vec3 to_light,
                      const std::vector<Particle>* reference = nullptr, double displacement = 0.0) {
@@ -128,11 +194,23 @@ Errors check_spheres(const std::vector<Particle>& ps, const Traced& got, glm::ve
             REQUIRE(w.start >= want.covering);
             REQUIRE(w.start <= want.covering + want.covering_ambiguous);
             REQUIRE(w.lowest >= 0);
-            REQUIRE(w.end == 0);
+            // With no surface near a tangent or the origin the set of surfaces is certain. Each endpoint's
+            // error is one term of want.tolerance, so the whole of it bounds every one.
+            if (want.ambiguous == 0 && want.covering_ambiguous == 0) {
+                const glm::dvec3 d = glm::normalize(glm::dvec3(to_light));
+                const std::string problem =
+                    pairing_problem(got.lists.of(i), sphere_surfaces(ps, glm::dvec3(ps[i].center), d, want.tolerance));
+                INFO(problem);
+                REQUIRE(problem.empty());
+                ++e.paired;
+            }
         }
         e.max_abs = std::max(e.max_abs, err);
         e.max_tolerance = std::max(e.max_tolerance, want.tolerance);
     }
+    // Most rays have no ambiguous surface (108 of 120 in the near-tangent scene, all in the others): the
+    // pairing is not being skipped wholesale.
+    if (!reference) CHECK(2 * e.paired >= ps.size());
     return e;
 }
 
@@ -184,6 +262,34 @@ double inside_margin(const std::vector<Plane>& planes, glm::dvec3 x) {
     double m = kInfD;
     for (const Plane& f : planes) m = std::min(m, (f.d - glm::dot(f.n, x)) / glm::length(f.n));
     return m;
+}
+
+// The surfaces of convex bodies on the ray o + t·d (d unit), t > 0. The tracer's ray is the exact one moved by
+// rounding (its object-space origin and direction: ~16u·(|o − c| + r) <= 4e-6 here), i.e. it sees each body
+// moved by less than `eps` = 1e-5: between the body shrunk and grown by eps, so each of its hits lies between
+// the two chords' endpoints, give or take the rounding of t (kRoundingsPerRay·u·t). False when that leaves a
+// body's surfaces uncertain: crossed when grown but not when shrunk (a graze), or an endpoint's bracket
+// reaching t <= TMin.
+bool convex_surfaces(const std::vector<std::vector<Plane>>& bodies, glm::dvec3 o, glm::dvec3 d,
+                     std::vector<Surface>& surfaces) {
+    constexpr double eps = 1e-5;
+    auto moved = [](std::vector<Plane> body, double by) {
+        for (Plane& f : body) f.d += by * glm::length(f.n);
+        return body;
+    };
+    const double tmin = double(kOpticalDepthTmin);
+    for (const auto& body : bodies) {
+        double grown_in = 0.0, grown_out = 0.0, shrunk_in = 0.0, shrunk_out = 0.0;
+        if (!convex_chord(moved(body, eps), o, d, grown_in, grown_out)) continue;  // missed by eps at least
+        if (!convex_chord(moved(body, -eps), o, d, shrunk_in, shrunk_out)) return false;
+        if (grown_out <= tmin) continue;  // behind the origin
+        if (shrunk_out <= tmin) return false;
+        const double slack = kRoundingsPerRay * kFloatUnit * grown_out;
+        if (grown_in > tmin) surfaces.push_back({grown_in - slack, shrunk_in + slack, +1});
+        else if (shrunk_in > -tmin) return false;  // the entry may be just ahead of the origin or behind it
+        surfaces.push_back({shrunk_out - slack, grown_out + slack, -1});
+    }
+    return true;
 }
 
 // ---- Scenes ---------------------------------------------------------------------------------------------------
@@ -432,8 +538,14 @@ TEST_CASE("stability: rays through shared edges and vertices of icosahedra and i
             REQUIRE(got.hit_counts[k] == surfaces);
             REQUIRE(w.start == covering);
             REQUIRE(w.lowest >= 0);
-            REQUIRE(w.end == 0);
-            REQUIRE(std::abs(double(got.lengths[k]) - want) <= length_tolerance_units * kFloatUnit * t_max);
+            const double tolerance = length_tolerance_units * kFloatUnit * t_max;
+            REQUIRE(std::abs(double(got.lengths[k]) - want) <= tolerance);
+            // Each hit is an endpoint of one of the exact chords, to the same tolerance as the length.
+            std::vector<Surface> exact;
+            for (const auto& [t_in, t_out] : chords) add_chord(exact, t_in, t_out, tolerance);
+            const std::string problem = pairing_problem(got.lists.of(std::size_t(k)), exact);
+            INFO(problem);
+            REQUIRE(problem.empty());
         }
     };
 
@@ -465,7 +577,8 @@ TEST_CASE("stability: rays through shared edges and vertices of icosahedra and i
 //     top faces) or above it (a miss). Off the edge the length matches the exact chord within 16u·t_far;
 //     exactly on it the length is one of the two one-sided limits (no chord, or the whole edge: both are the
 //     answer of an infinitesimally moved ray),
-//     and the counter stays consistent (start 1, never below 0, entries == exits of the grazed particle).
+//     and the counter stays consistent (start 1, never below 0) and the hits pair up with the exact surfaces
+//     (its own exit; particle 1 entered and left once, or not at all).
 // (c) In the plane of the ground: particles at height h ∈ {0, 10^-6, 10^-3} above a ground quad, light
 //     (1, θ, 0) with θ from −10^-2 to +10^-2 and exactly 0. The ground occludes exactly the rays that go
 //     down from h > 0 and meet the quad (here: every θ < 0 whose hit point h/|θ| lies inside the quad); a ray
@@ -499,6 +612,13 @@ TEST_CASE("stability: grazing rays (tangent spheres, parallel to triangles, in t
             const Walk w = walk(got.lists.of(0));
             CHECK(w.start == 1);
             CHECK(w.lowest >= 0);
+            // Its own exit at r, and the grazed sphere's entry and exit about its chord's midpoint t = 2.
+            std::vector<Surface> exact;
+            add_chord(exact, -0.5, 0.5, 4.0 * kFloatUnit * t_far);
+            if (s2 > 0.0) add_chord(exact, 2.0 - 0.5 * chord, 2.0 + 0.5 * chord, 4.0 * kFloatUnit * t_far);
+            const std::string problem = pairing_problem(got.lists.of(0), exact);
+            INFO(problem);
+            CHECK(problem.empty());
         }
         // Generic near-tangent rays: oblique light, random spheres placed 1 ± 10^-k radii off each ray.
         Pcg32 rng(8);
@@ -544,15 +664,28 @@ TEST_CASE("stability: grazing rays (tangent spheres, parallel to triangles, in t
             REQUIRE(got.status[0] == DepthStatus::ok);
             CHECK(w.start == 1);
             CHECK(w.lowest >= 0);
-            CHECK(w.entries == w.exits - 1);  // the grazed particle: entered as often as left
             const double t_far = 4.0 + double(r);
+            const double tolerance = 16.0 * kFloatUnit * t_far;
+            std::vector<Surface> own;
+            add_chord(own, own_in, own_out, tolerance);
             if (edge_above == 0.0f) {
-                // Exactly along the edge: either one-sided limit.
+                // Exactly along the edge: either one-sided limit, no hit on particle 1 or the whole edge.
                 const double none = own_out, whole = own_out + 2.0 * double(a) * double(r);
                 const double l = got.lengths[0];
-                CHECK((std::abs(l - none) <= 16.0 * kFloatUnit * t_far || std::abs(l - whole) <= 16.0 * kFloatUnit * t_far));
+                CHECK((std::abs(l - none) <= tolerance || std::abs(l - whole) <= tolerance));
+                std::vector<Surface> along = own;
+                add_chord(along, 4.0 - double(a) * double(r), 4.0 + double(a) * double(r), tolerance);
+                const std::string beside = pairing_problem(got.lists.of(0), own);
+                const std::string on = pairing_problem(got.lists.of(0), along);
+                INFO("hits against no edge: " << beside << "; against the whole edge: " << on);
+                CHECK((beside.empty() || on.empty()));
             } else {
-                CHECK(std::abs(double(got.lengths[0]) - (own_out + chord)) <= 16.0 * kFloatUnit * t_far);
+                CHECK(std::abs(double(got.lengths[0]) - (own_out + chord)) <= tolerance);
+                // Its own exit, and particle 1 entered and left once where the exact chord says (or not at all).
+                if (crossed) add_chord(own, in, out, tolerance);
+                const std::string problem = pairing_problem(got.lists.of(0), own);
+                INFO(problem);
+                CHECK(problem.empty());
             }
         }
     }
@@ -594,7 +727,8 @@ TEST_CASE("stability: grazing rays (tangent spheres, parallel to triangles, in t
 // exact chord), within 16u·(t + |o − c| + r) / cos(angle to the exit face) (origin and direction rounded in
 // object space, moved along the exit face's normal). Every other particle's ray: counter_start equals the
 // number of stand-ins that contain its origin (points within 10^-6 of a surface excluded as ambiguous), the
-// counter never drops below 0. With a cutoff of 100 every one of these rays is cut off (l = +inf).
+// counter never drops below 0, and its hits pair up with the exact surfaces (convex_surfaces). With a cutoff
+// of 100 every one of these rays is cut off (l = +inf).
 TEST_CASE("stability: hundreds of particles covering one ray origin", "[stability]") {
     constexpr std::size_t n = 400;
     Pcg32 rng(31);
@@ -617,6 +751,7 @@ TEST_CASE("stability: hundreds of particles covering one ray origin", "[stabilit
         const Traced got = trace_all(ps, shape, to_light);
         std::vector<std::vector<Plane>> bodies;
         for (const Particle& p : ps) bodies.push_back(planes_of(mesh, p));
+        std::size_t paired = 0;  // rays whose hits were paired with the exact surfaces
         for (std::size_t i = 0; i < n; ++i) {
             const glm::dvec3 o(ps[i].center);
             int covering = 0, ambiguous = 0;
@@ -632,8 +767,15 @@ TEST_CASE("stability: hundreds of particles covering one ray origin", "[stabilit
             REQUIRE(w.start >= covering);
             REQUIRE(w.start <= covering + ambiguous);
             REQUIRE(w.lowest >= 0);
-            REQUIRE(w.end == 0);
+            std::vector<Surface> exact;
+            if (ambiguous == 0 && convex_surfaces(bodies, o, d, exact)) {
+                const std::string problem = pairing_problem(got.lists.of(i), exact);
+                INFO(problem);
+                REQUIRE(problem.empty());
+                ++paired;
+            }
         }
+        CHECK(2 * paired >= n);  // all 400 here: the pairing is not being skipped wholesale
         // Particle 0: exactly n exits, length = farthest exact exit.
         double farthest = 0.0, tolerance = 0.0;
         for (std::size_t j = 0; j < n; ++j) {
