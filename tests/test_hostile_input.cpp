@@ -465,7 +465,6 @@ TEST_CASE("hostile cli: bad numbers and sizes for every numeric flag", "[hostile
 
 TEST_CASE("hostile cli: output paths that cannot be written", "[hostile][cli]") {
     TempDir dir;
-    const std::vector<std::string> inputs{"ro", "taken.png", "taken.csv"};
     // A target that is an existing folder: the rename onto it fails for every user, root included.
     fs::create_directories(dir.path / "taken.png");
     fs::create_directories(dir.path / "taken.csv");
@@ -475,15 +474,17 @@ TEST_CASE("hostile cli: output paths that cannot be written", "[hostile][cli]") 
         {"render " + kScene + " -o " + (dir.path / "no" / "such" / "x.png").string(), "does not exist"},
         {"bake-sixway -o " + (dir.path / "no" / "such").string(), "is not an existing folder"},
     };
-    // A folder nobody can create files in, root included: /proc (a kernel file system).
-    if (fs::is_directory("/proc")) {
-        cases.push_back({"render " + kScene + " -o /proc/smoketrace_out.png --size 8x8", "/proc/smoketrace_out.png"});
-        cases.push_back({"depths " + kScene + " -o /proc/smoketrace_out.csv", "/proc/smoketrace_out.csv"});
-        cases.push_back({"bake-sixway -o /proc --frames 1 --tile 4", "/proc"});
-    }
+    // A "folder" that is a regular file: no user, root included, can create a file in it. (No test writes to
+    // /proc, /dev or any other system path, even to check that it is refused.)
+    { std::ofstream(dir.path / "plain_file") << "not a folder\n"; }
+    const fs::path in_file = dir.path / "plain_file";
+    cases.push_back({"render " + kScene + " -o " + (in_file / "x.png").string() + " --size 8x8", "plain_file"});
+    cases.push_back({"depths " + kScene + " -o " + (in_file / "x.csv").string(), "plain_file"});
+    cases.push_back({"bake-sixway -o " + in_file.string() + " --frames 1 --tile 4", "plain_file"});
     fs::create_directories(dir.path / "ro");
-    require_clean_failures(cases, dir, inputs);
-    CHECK_FALSE(fs::exists("/proc/smoketrace_out.png"));
+    require_clean_failures(cases, dir, {"ro", "taken.png", "taken.csv", "plain_file"});
+    CHECK(fs::is_regular_file(in_file));
+    CHECK(fs::file_size(in_file) == std::string("not a folder\n").size());
 
     // A read-only folder: meaningful only where permissions apply, i.e. not for root, which CI may run as.
     const fs::path ro = dir.path / "ro";
@@ -491,7 +492,7 @@ TEST_CASE("hostile cli: output paths that cannot be written", "[hostile][cli]") 
     const bool writable_anyway = ::access(ro.c_str(), W_OK) == 0;  // root (or CAP_DAC_OVERRIDE)
     if (writable_anyway) {
         WARN("running with permission to write into read-only folders (root?): the read-only-folder checks "
-             "are skipped; the /proc and existing-folder checks above fail for root too");
+             "are skipped; the file-as-folder and existing-folder checks above fail for root too");
     } else {
         for (const Case& c : std::vector<Case>{
                  {"render " + kScene + " -o " + (ro / "x.png").string() + " --size 8x8", (ro / "x.png").string()},
