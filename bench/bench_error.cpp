@@ -24,7 +24,10 @@
 //
 // Section "scaling": the whole frame (scene defaults: sphere, cutoff 60, groups 1) for 250…1500
 // particles (tables B.1/B.2), 10k and, in the full run, 100k; 1 thread and every thread; the growth
-// exponent of each stage (log-log least squares). scaling.csv.
+// exponent of each stage (log-log least squares). The 10k and 100k frames run without a cutoff, on tubes
+// whose particle radius shrinks with the count (bench_util.hpp), so that their light rays cross about as
+// many surfaces as at 750 instead of being cut off; the mean surfaces per ray is printed beside the times.
+// Exponents are fitted over each kind of scene alone. scaling.csv.
 #include "bench_registry.hpp"
 #include "bench_util.hpp"
 #include "error_metrics.hpp"
@@ -403,21 +406,25 @@ void run_scaling(const BenchOptions& options) {
     const SixwayTexture& texture = textures();
 
     std::cout << "  whole frames of the animated scene, scene defaults (sphere, cutoff 60, groups 1, threshold 1/255), "
-              << size << "x" << size << "; ms, median over frames 1..n (frame 0, the first build, excluded);\n"
-              << "  1 thread and " << all_threads << " threads alternate frame by frame\n";
+              << size << "x" << size << ";\n  from " << kLargeSceneFrom
+              << " particles on no cutoff and radius 0.35*sqrt(750/N); ms, median over frames 1..n (frame 0, the "
+                 "first build, excluded);\n  1 thread and "
+              << all_threads << " threads alternate frame by frame; surfaces per light ray (a cut-off ray counts\n"
+              << "  cutoff + 1) and rays cut off, in the last frame\n";
     std::cout << "  " << std::setw(7) << "count" << std::setw(4) << "thr";
     for (const char* st : kStageNames) std::cout << std::setw(12) << st;
-    std::cout << "\n";
+    std::cout << std::setw(10) << "surf/ray" << std::setw(9) << "cut off" << "\n";
 
     CsvFile csv([] {
-        std::string h = "particles,threads,size,frames";
+        std::string h = "particles,radius,cutoff,threads,size,frames";
         for (const char* st : kStageNames) h += std::string(",") + st + "_median," + st + "_min," + st + "_max";
-        return h;
+        return h + ",hits_per_ray,cut_off";
     }());
     // fit[thread index][stage] = medians over counts
     std::vector<std::array<std::vector<double>, 6>> fit(thread_counts.size());
     std::vector<double> fit_counts;
     double total_750[2] = {0, 0};
+    double largest_hits_per_ray = 0;
     for (const std::uint32_t n : counts) {
         const SceneDescription scene = animated_scene(n, size);
         RenderOptions o = RenderOptions::from_scene(scene);
@@ -436,46 +443,66 @@ void run_scaling(const BenchOptions& options) {
                 if (f > 0) samples[t].push_back(rep.timings);
             }
         fit_counts.push_back(n);
+        const float radius = scene.smoke.tubes->particle_radius;
         for (std::size_t t = 0; t < thread_counts.size(); ++t) {
             const auto s = stage_stats(samples[t]);
+            const OpticalDepths& depths = renderers[t]->depths();
+            std::size_t cut_off = 0;
+            for (const DepthStatus st : depths.status()) cut_off += st == DepthStatus::cutoff;
+            const double hits_per_ray = mean_of(depths.hit_counts());
             std::ostringstream line;
             line << "  " << std::setw(7) << n << std::setw(4) << thread_counts[t];
             for (const Stats& st : s) line << std::setw(12) << fmt(st.median);
+            line << std::setw(10) << fmt(hits_per_ray, 2) << std::setw(9) << cut_off;
             std::cout << line.str() << "\n" << std::flush;
-            csv.row(n, thread_counts[t], size, samples[t].size(), s[0].median, s[0].min, s[0].max, s[1].median,
-                    s[1].min, s[1].max, s[2].median, s[2].min, s[2].max, s[3].median, s[3].min, s[3].max,
-                    s[4].median, s[4].min, s[4].max, s[5].median, s[5].min, s[5].max);
+            csv.row(n, radius, o.render.cutoff, thread_counts[t], size, samples[t].size(), s[0].median, s[0].min,
+                    s[0].max, s[1].median, s[1].min, s[1].max, s[2].median, s[2].min, s[2].max, s[3].median, s[3].min,
+                    s[3].max, s[4].median, s[4].min, s[4].max, s[5].median, s[5].min, s[5].max, hits_per_ray, cut_off);
+            if (n == counts.back()) largest_hits_per_ray = hits_per_ray;
             for (std::size_t k = 0; k < s.size(); ++k) fit[t][k].push_back(s[k].median);
             if (n == 750) total_750[t] = s[kTotal].median;
         }
     }
     csv.write(std::filesystem::path(options.results_dir) / "scaling.csv");
 
-    // Growth exponents: over every count, and over the thesis's 250…1500 alone.
+    // Growth exponents over each kind of scene alone: the thesis's 250…1500 (radius kept, cutoff 60: the
+    // surfaces per ray grow with the count) and the large counts (radius shrunk, no cutoff: about as many
+    // surfaces per ray at every count), the latter only with two counts or more (the full run).
     std::cout << "  growth exponent b of ms ~ count^b (log-log least squares):\n";
-    const std::size_t b1 = 6;  // 250…1500
-    std::vector<double> b1_counts(fit_counts.begin(), fit_counts.begin() + b1);
-    double total_exponent = 0, od_exponent = 0, view_exponent = 0;
+    const auto b1_end = std::size_t(std::find_if(counts.begin(), counts.end(), [](std::uint32_t n) {
+                                        return n >= kLargeSceneFrom;
+                                    }) - counts.begin());
+    auto part = [](const std::vector<double>& v, std::size_t from, std::size_t to) {
+        return std::vector<double>(v.begin() + std::ptrdiff_t(from), v.begin() + std::ptrdiff_t(to));
+    };
+    const bool large_fit = counts.size() - b1_end >= 2;
+    std::array<double, 6> b1_exponent{}, large_exponent{};
     for (std::size_t t = 0; t < thread_counts.size(); ++t) {
-        std::ostringstream all, small;
-        all << "    " << thread_counts[t] << " thr, 250.." << counts.back() << ":";
-        small << "    " << thread_counts[t] << " thr, 250..1500:";
+        std::ostringstream small, large;
+        small << "    " << thread_counts[t] << " thr, 250..1500 (cutoff 60):";
+        large << "    " << thread_counts[t] << " thr, " << counts[b1_end] << ".." << counts.back() << " (no cutoff):";
         for (std::size_t k = 0; k < kStageNames.size(); ++k) {
-            const double e = fit_exponent(fit_counts, fit[t][k]);
-            const double e1 = fit_exponent(b1_counts, std::vector<double>(fit[t][k].begin(), fit[t][k].begin() + b1));
-            all << "  " << kStageNames[k] << " " << fmt(e, 2);
+            const double e1 = fit_exponent(part(fit_counts, 0, b1_end), part(fit[t][k], 0, b1_end));
+            const double e2 =
+                fit_exponent(part(fit_counts, b1_end, counts.size()), part(fit[t][k], b1_end, counts.size()));
             small << "  " << kStageNames[k] << " " << fmt(e1, 2);
+            large << "  " << kStageNames[k] << " " << fmt(e2, 2);
             if (t + 1 == thread_counts.size()) {
-                if (k == 4) total_exponent = e;
-                if (k == 1) od_exponent = e;
-                if (k == 3) view_exponent = e;
+                b1_exponent[k] = e1;
+                large_exponent[k] = e2;
             }
         }
-        std::cout << all.str() << "\n" << small.str() << "\n";
+        std::cout << small.str() << "\n";
+        if (large_fit) std::cout << large.str() << "\n";
     }
-    report("scaling_exponent_total", total_exponent);
-    report("scaling_exponent_od_pass", od_exponent);
-    report("scaling_exponent_view", view_exponent);
+    report("scaling_exponent_total_b1", b1_exponent[kTotal]);
+    report("scaling_exponent_od_pass_b1", b1_exponent[1]);
+    report("scaling_exponent_view_b1", b1_exponent[3]);
+    if (large_fit) {
+        report("scaling_exponent_total_large", large_exponent[kTotal]);
+        report("scaling_exponent_od_pass_large", large_exponent[1]);
+    }
+    report("scaling_hits_per_ray_" + std::to_string(counts.back() / 1000) + "k", largest_hits_per_ray);
     report("frame_ms_750", total_750[thread_counts.size() - 1]);
     if (thread_counts.size() > 1) report("frame_thread_speedup_750", total_750[0] / total_750[1]);
 }

@@ -61,6 +61,29 @@ inline double fit_exponent(const std::vector<double>& x, const std::vector<doubl
     return sxx > 0 ? sxy / sxx : 0.0;
 }
 
+// Large particle counts (10k, 100k) are measured on tubes of the same size whose particle radius shrinks
+// with the count, r = 0.35·√(750/N): the particles' total cross-section stays that of the thesis's 750,
+// so a light ray crosses about as many surfaces as at 750 (from above: 16.7 at 750, 17.8 at 10k, 17.9 at
+// 100k; from the scene files' right: 21.8, 22.3, 22.6), and no cutoff is needed. With the radius kept, a
+// ray at 100k crosses ~130 times as many: under the thesis's cutoff of 60 every particle was cut off, and
+// a time taken that way measured rays that stop early.
+inline constexpr std::uint32_t kLargeSceneFrom = 10'000;
+inline constexpr std::uint32_t kThesisParticleCount = 750;
+
+// The particle radius of a `count`-particle bench scene whose radius at 750 particles is `radius_at_750`:
+// unchanged below kLargeSceneFrom (tables B.1-B.3 vary the count alone), shrunk as above from there on.
+inline float bench_particle_radius(std::uint32_t count, float radius_at_750) {
+    if (count < kLargeSceneFrom) return radius_at_750;
+    return float(double(radius_at_750) * std::sqrt(double(kThesisParticleCount) / double(count)));
+}
+
+// Mean of `counts` (surfaces per ray, from an optical-depth pass's hit counts); 0 for none.
+inline double mean_of(const std::vector<std::uint32_t>& counts) {
+    double sum = 0;
+    for (const std::uint32_t c : counts) sum += c;
+    return counts.empty() ? 0.0 : sum / double(counts.size());
+}
+
 // The animated scene of the frame-level sections ("error", "scaling"): assets/scenes/two_tubes_right.json
 // (the thesis's view 2, light from the right) with `count` particles, the light turning about +z by
 // kLightDegreesPerFrame (from the right toward above, thesis 4.1 and 5.2.2) and a little motion (per-particle
@@ -69,11 +92,14 @@ inline constexpr float kLightDegreesPerFrame = 1.0f;
 inline constexpr float kJitterPerFrame = 0.002f;  // world units per frame, per axis (particle radius 0.35)
 inline constexpr float kSpinPerFrame = 0.02f;     // radians per frame
 
+// From kLargeSceneFrom particles on, the radius shrinks (bench_particle_radius) and the cutoff is off.
 inline SceneDescription animated_scene(std::uint32_t count, int size) {
     SceneDescription d =
         load_scene_file(std::filesystem::path(SMOKETRACE_ASSET_DIR) / "scenes" / "two_tubes_right.json");
     TubeSettings t = d.smoke.tubes.value_or(TubeSettings{});
     t.particles = count;
+    t.particle_radius = bench_particle_radius(count, t.particle_radius);
+    if (count >= kLargeSceneFrom) d.render.cutoff = 0;
     t.jitter_speed = kJitterPerFrame;
     t.spin_speed = kSpinPerFrame;
     d.smoke.tubes = t;

@@ -10,7 +10,8 @@
 #                 (error_sweeps.csv, section "error")
 #   groups.png    image error frame by frame for 1…32 particle groups (error_frames.csv)
 #   stages.png    stage times against particle count, all threads, and the total on one thread
-#                 (scaling.csv, section "scaling")
+#                 (scaling.csv, section "scaling"; the lines break between the table B.1 counts and
+#                 the large counts, whose scenes differ: radius shrunk, no cutoff)
 #   resolver.png  resolver time per hit against the cutoff for bubble, std::sort and radix
 #                 (resolver.csv, section "resolver", thesis table B.4)
 #   embree.png    time ours / time Embree 3 for each side-by-side measurement (summary.txt)
@@ -139,16 +140,18 @@ fi
 if have scaling.csv "stages.png"; then
   threads=$(pick "$results/scaling.csv" "" "" threads | sort -n | tail -1)
   size=$(pick "$results/scaling.csv" "" "" size | head -1)
+  # A blank line where the large counts start: gnuplot breaks the lines there.
+  split_large() { awk '$1 >= 10000 && prev < 10000 && NR > 1 { print "" } { print; prev = $1 }'; }
   pick "$results/scaling.csv" threads "$threads" particles tlas_update_median od_pass_median resolve_median \
-    view_median total_median > "$tmp/stages_all.dat"
-  pick "$results/scaling.csv" threads 1 particles total_median > "$tmp/stages_one.dat"
+    view_median total_median | split_large > "$tmp/stages_all.dat"
+  pick "$results/scaling.csv" threads 1 particles total_median | split_large > "$tmp/stages_one.dat"
   gnuplot <<EOF
 $common
 set datafile separator whitespace
 set datafile nocolumnheaders
 set terminal pngcairo size 900,600 font "sans,11" noenhanced
 set output "$out/stages.png"
-set title "Stage times against particle count (whole frame, ${size}x${size}, sphere stand-ins, cutoff 60)"
+set title "Stage times against particle count (whole frame, ${size}x${size}, sphere stand-ins)\n250-1500: cutoff 60, radius 0.35; 10k, 100k: no cutoff, radius 0.35*sqrt(750/N)"
 set logscale xy
 set format x "%g"; set format y "%g"
 set xlabel "particles"
@@ -187,25 +190,28 @@ fi
 
 # ---- ours against Embree ------------------------------------------------------------------------------
 if have summary.txt "embree.png"; then
-  # Every bar is time ours / time Embree (the rays/s ratios of section bvh are inverted to match).
+  # Every bar is time ours / time Embree over the same work (the rays/s ratios of section bvh are
+  # inverted to match).
   awk -F= '
-    $1 == "build_ratio_vs_embree"       { print "\"BLAS build\\n(mesh, medium)\"", $2 }
-    $1 == "smoke_build_ratio_vs_embree" { print "\"scene build\\n(billboards)\"", $2 }
-    $1 == "closest_hit_ratio_vs_embree" { print "\"closest hit\\n(mesh)\"", 1 / $2 }
-    $1 == "all_hits_ratio_vs_embree"    { print "\"all hits\\n(mesh)\"", 1 / $2 }
-    $1 == "od_pass_ratio_vs_embree"     { print "\"optical-depth\\npass\"", $2 }
-    $1 == "view_rays_ratio_vs_embree"   { print "\"view rays\\n(closest)\"", $2 }
-    $1 == "view_layers_ratio_vs_embree" { print "\"view rays\\n(all layers)\"", $2 }
+    $1 == "build_ratio_vs_embree_medium_1t"  { print "\"BLAS build\\n(medium)\\n1 thread\"", $2 }
+    $1 == "build_ratio_vs_embree_medium_2t"  { print "\"BLAS build\\n(medium)\\n2 threads\"", $2 }
+    $1 == "smoke_build_ratio_vs_embree"      { print "\"scene build\\n(billboards)\"", $2 }
+    $1 == "closest_hit_ratio_vs_embree"      { print "\"closest hit\\n(mesh)\"", 1 / $2 }
+    $1 == "all_hits_ratio_vs_embree"         { print "\"all hits\\n(mesh)\"", 1 / $2 }
+    $1 == "od_sphere_ratio_vs_embree_sphere" { print "\"optical-depth\\npass\\n(spheres)\"", $2 }
+    $1 == "od_pass_ratio_vs_embree"          { print "\"optical-depth\\npass\\n(icosahedra)\"", $2 }
+    $1 == "view_rays_ratio_vs_embree"        { print "\"view rays\\n(closest)\"", $2 }
+    $1 == "view_layers_ratio_vs_embree"      { print "\"view rays\\n(all layers)\"", $2 }
   ' "$results/summary.txt" > "$tmp/embree.dat"
   if [ -s "$tmp/embree.dat" ]; then
     gnuplot <<EOF
 $common
 set datafile separator whitespace
 set datafile nocolumnheaders
-set terminal pngcairo size 1100,550 font "sans,11"
+set terminal pngcairo size 1300,560 font "sans,11"
 set output "$out/embree.png"
-set title "smoketrace against Embree 3 (fastest Embree configuration), same run: time ours / time Embree"
-set bmargin 4
+set title "smoketrace against Embree 3 (fastest Embree configuration, packets included), same run: time ours / time Embree"
+set bmargin 5
 set style fill solid 0.7 border -1
 set boxwidth 0.6
 set yrange [0:*]
