@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <initializer_list>
 #include <limits>
@@ -49,6 +50,8 @@ constexpr double kDefaultCameraMargin = 1.1;         // 10 % empty border around
 // Smallest framed radius, relative to the distance of the framed centre from the origin (and at least this
 // absolute): 1e-6 is ~10 float steps, enough for the camera position to differ from the point it looks at.
 constexpr double kMinDefaultFramingRadius = 1e-6;
+
+constexpr double kRadiansPerDegree = 3.14159265358979323846 / 180.0;
 
 constexpr std::uint32_t kMaxGroups = 1u << 20;     // one update spread over 2^20 frames is ~5 h at 60 fps
 constexpr std::uint32_t kMaxFrames = 1'000'000;    // ~4.6 h at 60 fps: anything more is a typo
@@ -388,6 +391,90 @@ std::string particle_extent_problem(const Particle& p, std::uint64_t steps) {
     return {};
 }
 
+// ---- The default camera -------------------------------------------------------------------------------
+
+// Where default_camera() puts the camera, in double (before rounding to float, so that a position beyond
+// the float range can be reported rather than turned into inf).
+struct DefaultView {
+    glm::dvec3 position, look_at;
+};
+DefaultView default_view(const std::vector<Particle>& particles, const std::optional<GroundDescription>& ground,
+                         float fov_deg, std::uint32_t width, std::uint32_t height) {
+    // Bounding sphere: centre of the box, radius to the farthest surface point.
+    glm::dvec3 center(0.0);
+    double radius = 1.0;
+    if (!particles.empty()) {
+        glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+        for (const Particle& p : particles) {
+            lo = glm::min(lo, glm::dvec3(p.center) - double(p.radius));
+            hi = glm::max(hi, glm::dvec3(p.center) + double(p.radius));
+        }
+        center = 0.5 * (lo + hi);
+        radius = 0.0;
+        for (const Particle& p : particles) radius = std::max(radius, glm::length(glm::dvec3(p.center) - center) + p.radius);
+    } else if (ground) {
+        for (const glm::vec3& c : ground->corners) center += 0.25 * glm::dvec3(c);
+        radius = 0.0;
+        for (const glm::vec3& c : ground->corners) radius = std::max(radius, glm::length(glm::dvec3(c) - center));
+    }
+
+    const double to_radians = kRadiansPerDegree;
+    const double half_vertical = 0.5 * fov_deg * to_radians;
+    const double half_horizontal = std::atan(std::tan(half_vertical) * double(width) / double(height));
+    const double half = std::min(half_vertical, half_horizontal);
+    // Never closer than float resolution at the centre allows: a lone particle of radius 1e-38 at (1, 1, 1)
+    // would otherwise put the camera on the point it looks at.
+    radius = std::max(radius, kMinDefaultFramingRadius * std::max(1.0, glm::length(center)));
+    const double distance = kDefaultCameraMargin * radius / std::sin(half);
+    const double elevation = kDefaultCameraElevationDeg * to_radians;
+    const glm::dvec3 toward_camera(0.0, std::sin(elevation), std::cos(elevation));
+
+    return {center + distance * toward_camera, center};
+}
+
+// v rounded up to 3 significant digits, for "at least v" in messages.
+std::string shown_rounded_up(double v) {
+    const double step = std::pow(10.0, std::floor(std::log10(v)) - 2.0);
+    char buffer[32];
+    std::snprintf(buffer, sizeof buffer, "%.3g", std::ceil(v / step) * step);
+    return buffer;
+}
+
+std::string shown_3_digits(double v) {
+    char buffer[32];
+    std::snprintf(buffer, sizeof buffer, "%.3g", v);
+    return buffer;
+}
+
+// A field of view so small that neighbouring pixels' rays are closer than kMinPixelAngle is refused at
+// fov_deg (n): the float camera would accept it and render blocks of equal pixels (1e-20 even failed there,
+// blamed on camera.up).
+void check_fov_resolution(const Reader& r, const Node& n, float fov_deg, std::uint32_t height) {
+    const double half = 0.5 * double(fov_deg) * kRadiansPerDegree;
+    if (2.0 * std::tan(half) / double(height) >= kMinPixelAngle) return;
+    const double smallest = 2.0 * std::atan(0.5 * kMinPixelAngle * double(height)) / kRadiansPerDegree;
+    r.fail(n, "too small for a usable camera (got " + shown_value(*n.value) + "): at " + std::to_string(height) +
+                  " pixels high, neighbouring pixels' rays would be less than 2^-20 radians apart, within a few "
+                  "roundings of their direction, and the image would fall apart into blocks; at this height "
+                  "fov_deg must be at least " + shown_rounded_up(smallest));
+}
+
+// The default camera must stand within ±kMaxDefaultCameraCoordinate. `path`: /camera/fov_deg when the file
+// gave the field of view (it is what backs the camera off), else /camera.
+void check_default_position(const Reader& r, const DefaultView& v, const std::string& path, bool fov_given) {
+    const double reach = std::max({std::abs(v.position.x), std::abs(v.position.y), std::abs(v.position.z)});
+    if (reach <= kMaxDefaultCameraCoordinate) return;
+    const std::string where = "(to fit the smoke into this view it would stand at (" + shown_3_digits(v.position.x) +
+                              ", " + shown_3_digits(v.position.y) + ", " + shown_3_digits(v.position.z) + "))";
+    if (fov_given)
+        r.fail(path, "pushes the default camera beyond the coordinate limit of " +
+                         shown_number(kMaxDefaultCameraCoordinate) + " " + where +
+                         ": give camera.position, or a larger fov_deg");
+    r.fail(path, "the default camera would stand beyond the coordinate limit of " +
+                     shown_number(kMaxDefaultCameraCoordinate) + " " + where +
+                     ": give camera.position, a larger fov_deg, or a less narrow image");
+}
+
 // ---- Sections ----------------------------------------------------------------------------------------
 
 LightDescription read_light(const Reader& r, const Node& n) {
@@ -526,15 +613,22 @@ CameraDescription read_camera(const Reader& r, const Node& n, const SceneDescrip
     r.require_object(n, {"position", "look_at", "up", "fov_deg", "width", "height"});
     float fov = CameraDescription{}.fov_deg;
     std::uint32_t width = CameraDescription{}.width, height = CameraDescription{}.height;
-    if (auto v = Reader::optional(n, "fov_deg")) fov = r.real(*v, Bounds{0.0, true, 180.0, true});
+    const auto fov_node = Reader::optional(n, "fov_deg");
+    if (fov_node) fov = r.real(*fov_node, Bounds{0.0, true, 180.0, true});
     if (auto v = Reader::optional(n, "width")) width = r.u32(*v, 1, std::uint32_t(kMaxImageSide));
     if (auto v = Reader::optional(n, "height")) height = r.u32(*v, 1, std::uint32_t(kMaxImageSide));
     if (std::uint64_t{width} * height > kMaxImagePixels)
         r.fail(n, "image too large (" + std::to_string(width) + "x" + std::to_string(height) + " > " +
                       std::to_string(kMaxImagePixels) + " pixels)");
+    if (fov_node) check_fov_resolution(r, *fov_node, fov, height);
 
     CameraDescription camera = default_camera(scene.smoke.particles, scene.ground, fov, width, height);
-    if (auto v = Reader::optional(n, "position")) camera.position = r.vec3(*v, kCoordinate);
+    if (auto v = Reader::optional(n, "position")) {
+        camera.position = r.vec3(*v, kCoordinate);
+    } else {
+        check_default_position(r, default_view(scene.smoke.particles, scene.ground, fov, width, height),
+                               fov_node ? fov_node->path : n.path, fov_node.has_value());
+    }
     if (auto v = Reader::optional(n, "look_at")) camera.look_at = r.vec3(*v, kCoordinate);
     const auto up = Reader::optional(n, "up");
     if (up) camera.up = r.vec3(*up);
@@ -627,38 +721,10 @@ const char* to_string(Compositing c) {
 
 CameraDescription default_camera(const std::vector<Particle>& particles, const std::optional<GroundDescription>& ground,
                                  float fov_deg, std::uint32_t width, std::uint32_t height) {
-    // Bounding sphere: centre of the box, radius to the farthest surface point.
-    glm::dvec3 center(0.0);
-    double radius = 1.0;
-    if (!particles.empty()) {
-        glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
-        for (const Particle& p : particles) {
-            lo = glm::min(lo, glm::dvec3(p.center) - double(p.radius));
-            hi = glm::max(hi, glm::dvec3(p.center) + double(p.radius));
-        }
-        center = 0.5 * (lo + hi);
-        radius = 0.0;
-        for (const Particle& p : particles) radius = std::max(radius, glm::length(glm::dvec3(p.center) - center) + p.radius);
-    } else if (ground) {
-        for (const glm::vec3& c : ground->corners) center += 0.25 * glm::dvec3(c);
-        radius = 0.0;
-        for (const glm::vec3& c : ground->corners) radius = std::max(radius, glm::length(glm::dvec3(c) - center));
-    }
-
-    const double to_radians = 3.14159265358979323846 / 180.0;
-    const double half_vertical = 0.5 * fov_deg * to_radians;
-    const double half_horizontal = std::atan(std::tan(half_vertical) * double(width) / double(height));
-    const double half = std::min(half_vertical, half_horizontal);
-    // Never closer than float resolution at the centre allows: a lone particle of radius 1e-38 at (1, 1, 1)
-    // would otherwise put the camera on the point it looks at.
-    radius = std::max(radius, kMinDefaultFramingRadius * std::max(1.0, glm::length(center)));
-    const double distance = kDefaultCameraMargin * radius / std::sin(half);
-    const double elevation = kDefaultCameraElevationDeg * to_radians;
-    const glm::dvec3 toward_camera(0.0, std::sin(elevation), std::cos(elevation));
-
+    const DefaultView view = default_view(particles, ground, fov_deg, width, height);
     CameraDescription camera;
-    camera.position = glm::vec3(center + distance * toward_camera);
-    camera.look_at = glm::vec3(center);
+    camera.position = glm::vec3(view.position);
+    camera.look_at = glm::vec3(view.look_at);
     camera.up = {0.0f, 1.0f, 0.0f};
     camera.fov_deg = fov_deg;
     camera.width = width;
@@ -687,6 +753,8 @@ SceneDescription parse_scene(std::string_view json_text, std::string_view source
     } else {
         const CameraDescription d;
         scene.camera = default_camera(scene.smoke.particles, scene.ground, d.fov_deg, d.width, d.height);
+        check_default_position(r, default_view(scene.smoke.particles, scene.ground, d.fov_deg, d.width, d.height),
+                               "/camera", false);
         check_renderer_accepts(r, scene.camera, "/camera");
     }
     return scene;
