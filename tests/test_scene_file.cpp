@@ -676,7 +676,8 @@ TEST_CASE("error: a field of view that backs the default camera beyond its limit
     CHECK(error_of(j.dump()) == "(no error)");
     j["camera"] = {{"fov_deg", 2}};
     const SceneDescription two = parse_scene(j.dump(), "two.json");
-    CHECK(glm::length(glm::dvec3(two.camera.position)) == Approx(1.1e15 / std::sin(1.0 * 3.14159265358979 / 180.0)).epsilon(1e-6));
+    const double distance = 1.1e15 / std::sin(1.0 * 3.14159265358979 / 180.0);
+    CHECK(glm::length(glm::dvec3(two.camera.position)) == Approx(distance).epsilon(1e-6));
     j["camera"] = {{"fov_deg", 1}};
     require_error(j, "/camera/fov_deg", "pushes the default camera beyond the coordinate limit of 1e+17");
     const std::string message = error_of(j.dump());
@@ -688,7 +689,8 @@ TEST_CASE("error: a field of view that backs the default camera beyond its limit
     // Without fov_deg, a tall narrow image backs the default camera off (the narrower angle frames the
     // smoke): named at /camera.
     json narrow = json::parse(R"({ "light": { "direction": [0, 1, 0] },
-        "smoke": { "particles": [ { "center": [0, 0, 0], "radius": 1e15 } ] }, "camera": { "width": 1, "height": 4096 } })");
+        "smoke": { "particles": [ { "center": [0, 0, 0], "radius": 1e15 } ] },
+        "camera": { "width": 1, "height": 4096 } })");
     require_error(narrow, "/camera", "the default camera would stand beyond the coordinate limit of 1e+17");
 }
 
@@ -700,7 +702,9 @@ TEST_CASE("error: the command line shows the field-of-view message with the file
     const auto r = smoketrace::test::run_cli("depths " + tiny_path.string() + " -o " + (dir.path / "d.csv").string());
     INFO(r.err);
     CHECK(r.exit_code == 1);
-    CHECK(r.err.rfind("smoketrace depths: " + tiny_path.string() + ": /camera/fov_deg: too small for a usable camera (got 1e-20)", 0) == 0);
+    CHECK(r.err.rfind("smoketrace depths: " + tiny_path.string() +
+                          ": /camera/fov_deg: too small for a usable camera (got 1e-20)",
+                      0) == 0);
     CHECK(!std::filesystem::exists(dir.path / "d.csv"));
 
     json far = json::parse(R"({ "light": { "direction": [0, 1, 0] },
@@ -709,6 +713,8 @@ TEST_CASE("error: the command line shows the field-of-view message with the file
     const auto f = smoketrace::test::run_cli("render " + far_path.string() + " -o " + (dir.path / "f.png").string());
     INFO(f.err);
     CHECK(f.exit_code == 1);
-    CHECK(f.err.rfind("smoketrace render: " + far_path.string() + ": /camera/fov_deg: pushes the default camera beyond the coordinate limit of 1e+17", 0) == 0);
+    CHECK(f.err.rfind("smoketrace render: " + far_path.string() +
+                          ": /camera/fov_deg: pushes the default camera beyond the coordinate limit of 1e+17",
+                      0) == 0);
     CHECK(!std::filesystem::exists(dir.path / "f.png"));
 }
