@@ -86,6 +86,12 @@ std::string shown_number(double v) {
     const auto result = std::to_chars(buffer, buffer + sizeof buffer, v);
     return std::string(buffer, result.ptr);
 }
+// A float as its shortest round-trip decimal (1.1754944e-38, not the double's 1.1754943508222875e-38).
+std::string shown_number(float v) {
+    char buffer[64];
+    const auto result = std::to_chars(buffer, buffer + sizeof buffer, v);
+    return std::string(buffer, result.ptr);
+}
 
 struct Node {
     const json* value;
@@ -166,17 +172,57 @@ public:
         return v;
     }
 
-    // A finite number representable as a normal float (or zero), within `bounds`.
+    // A finite number within the float range, within `bounds` as written and once rounded to float.
+    // Subnormal floats (below 1.2e-38, down to 1.4e-45) are accepted: they are floats like any other. A
+    // nonzero number that rounds to 0 in float (|v| <= 2^-150 ≈ 7e-46, e.g. 1e-50) reads as 0 where 0 is
+    // allowed (a coordinate, a speed, a colour: 0 is that value to any precision a float scene holds), and
+    // is an error where it is not (a size, a radius, the field of view must be > 0, and silently reading 0
+    // would make it one, reported as "must be > 0 (got 1e-50)").
     [[nodiscard]] float real(const Node& n, const Bounds& bounds = kAny) const {
         const double v = number(n);
-        const double magnitude = std::abs(v);
-        if (magnitude > static_cast<double>(std::numeric_limits<float>::max()))
+        if (std::abs(v) > static_cast<double>(std::numeric_limits<float>::max()))
             fail(n, "too large for single precision (got " + shown_value(*n.value) + ")");
-        if (magnitude != 0.0 && magnitude < static_cast<double>(std::numeric_limits<float>::min()))
-            fail(n, "too close to 0 for single precision (got " + shown_value(*n.value) + ")");
+        if (!bounds.contains(v)) fail(n, bounds.describe(v) + " (got " + shown_value(*n.value) + ")");
         const auto f = static_cast<float>(v);
-        if (!bounds.contains(f)) fail(n, bounds.describe(f) + " (got " + shown_value(*n.value) + ")");
+        if (f == 0.0f && v != 0.0) {
+            if (!bounds.contains(0.0))
+                fail(n, "too close to 0 for single precision (got " + shown_value(*n.value) + ", which rounds to 0; " +
+                            bounds.describe(0.0) + ")");
+            return 0.0f;  // +0 for -1e-50 too
+        }
+        if (!bounds.contains(f))
+            fail(n, bounds.describe(f) + " (got " + shown_value(*n.value) + ", which rounds to " + shown_number(f) +
+                        " in single precision)");
         return f;
+    }
+
+    // A particle radius: a float in `bounds` and at least kMinParticleRadius, the smallest normal float.
+    // Below it a particle's object space (scaled by 1/radius) overflows single precision, and the particle
+    // system keeps every radius there anyway (particle_system.hpp).
+    [[nodiscard]] float radius(const Node& n, const Bounds& bounds) const {
+        const float r = real(n, bounds);
+        if (!(r >= kMinParticleRadius))
+            fail(n, "must be at least " + shown_number(kMinParticleRadius) + ", the smallest normal float (got " +
+                        shown_value(*n.value) + "): the particle is scaled by 1/radius, which would overflow");
+        return r;
+    }
+
+    // A direction: 3 numbers within the float range, not all 0, normalised in double from the values as
+    // written. So [1e-50, 0, 0] is +x (rounding each number to float first would make it the zero vector), and
+    // a component that is tiny next to the others is as exact as they are.
+    [[nodiscard]] glm::dvec3 direction(const Node& n) const {
+        if (!n.value->is_array() || n.value->size() != 3) wrong_type(n, "an array of 3 numbers");
+        glm::dvec3 d(0.0);
+        for (std::size_t a = 0; a < 3; ++a) {
+            const Node c = n.element(a);
+            d[int(a)] = number(c);
+            if (std::abs(d[int(a)]) > static_cast<double>(std::numeric_limits<float>::max()))
+                fail(c, "too large for single precision (got " + shown_value(*c.value) + ")");
+        }
+        // Scaled to its largest component first: |d|² of [1e-200, 1e-200, 0] underflows even in double.
+        const double largest = std::max({std::abs(d.x), std::abs(d.y), std::abs(d.z)});
+        if (largest == 0.0) fail(n, "must not be the zero vector");
+        return glm::normalize(d / largest);
     }
 
     [[nodiscard]] glm::vec3 vec3(const Node& n, const Bounds& bounds = kAny) const {
@@ -480,11 +526,7 @@ void check_default_position(const Reader& r, const DefaultView& v, const std::st
 LightDescription read_light(const Reader& r, const Node& n) {
     r.require_object(n, {"direction", "color", "rotation_per_frame_deg"});
     LightDescription light;
-    const Node dir = r.required(n, "direction");
-    const glm::dvec3 d(r.vec3(dir));
-    const double length = glm::length(d);
-    if (length == 0.0) r.fail(dir, "must not be the zero vector");
-    light.direction = glm::vec3(d / length);
+    light.direction = glm::vec3(r.direction(r.required(n, "direction")));
     if (auto c = Reader::optional(n, "color")) light.color = r.vec3(*c, kColor);
     if (auto a = Reader::optional(n, "rotation_per_frame_deg")) light.rotation_per_frame_deg = r.real(*a);
     return light;
@@ -494,7 +536,7 @@ Particle read_particle(const Reader& r, const Node& n) {
     r.require_object(n, {"center", "radius", "velocity", "spin", "growth", "rotation"});
     Particle p;
     p.center = r.vec3(r.required(n, "center"), kCoordinate);
-    p.radius = r.real(r.required(n, "radius"), kRadius);
+    p.radius = r.radius(r.required(n, "radius"), kRadius);
     if (auto v = Reader::optional(n, "velocity")) p.velocity = r.vec3(*v);
     if (auto s = Reader::optional(n, "spin")) p.spin = r.real(*s);
     if (auto g = Reader::optional(n, "growth")) p.growth = r.real(*g, Bounds{-1.0, true});
@@ -515,7 +557,7 @@ TubeSettings read_tubes(const Reader& r, const Node& n) {
     if (auto v = Reader::optional(n, "tube_radius")) t.tube_radius = r.real(*v, kPositive);
     if (auto v = Reader::optional(n, "tube_length")) t.tube_length = r.real(*v, kPositive);
     if (auto v = Reader::optional(n, "separation")) t.separation = r.real(*v, kNonNegative);
-    if (auto v = Reader::optional(n, "particle_radius")) t.particle_radius = r.real(*v, kPositive);
+    if (auto v = Reader::optional(n, "particle_radius")) t.particle_radius = r.radius(*v, kPositive);
     if (auto v = Reader::optional(n, "drift")) t.drift = r.vec3(*v);
     if (auto v = Reader::optional(n, "jitter_speed")) t.jitter_speed = r.real(*v, kNonNegative);
     if (auto v = Reader::optional(n, "spin_speed")) t.spin_speed = r.real(*v, kNonNegative);
@@ -631,19 +673,17 @@ CameraDescription read_camera(const Reader& r, const Node& n, const SceneDescrip
     }
     if (auto v = Reader::optional(n, "look_at")) camera.look_at = r.vec3(*v, kCoordinate);
     const auto up = Reader::optional(n, "up");
-    if (up) camera.up = r.vec3(*up);
+    // Unit length (normalised in double from the file's numbers): the renderer's camera then sees |forward ×
+    // up| = the sine checked below, whatever length the file gave (up = [0, 1e-30, 0] underflowed there; up =
+    // [3e38, 3e38, 0] overflowed to a zero right vector).
+    const glm::dvec3 up_d = up ? r.direction(*up) : glm::dvec3(camera.up);
 
     const glm::dvec3 view = glm::dvec3(camera.look_at) - glm::dvec3(camera.position);
     if (glm::length(view) == 0.0) r.fail(n, "position and look_at are the same point");
-    const glm::dvec3 up_d(camera.up);
     const std::string up_path = up ? up->path : n.path + "/up";
-    if (glm::length(up_d) == 0.0) r.fail(up_path, "must not be the zero vector");
-    const double sine = glm::length(glm::cross(glm::normalize(view), glm::normalize(up_d)));
+    const double sine = glm::length(glm::cross(glm::normalize(view), up_d));
     if (!(sine >= kMinUpViewSine)) r.fail(up_path, "is parallel to the view direction (look_at - position)");
-    // Stored unit length (normalised in double): the renderer's float camera then sees |forward × up| = the
-    // sine checked above, whatever length the file gave (up = [0, 1e-30, 0] underflowed there; up =
-    // [3e38, 3e38, 0] overflowed to a zero right vector).
-    camera.up = glm::vec3(glm::normalize(up_d));
+    camera.up = glm::vec3(up_d);
     check_renderer_accepts(r, camera, up_path);
     return camera;
 }

@@ -22,7 +22,7 @@
 //   smoke        REQUIRED object with exactly one of "particles" and "tubes"
 //     particles    [ {...}, ... ]   explicit particles, in this order (an empty list is valid):
 //       center       REQUIRED [x,y,z]
-//       radius       REQUIRED       > 0
+//       radius       REQUIRED       >= 1.1754944e-38 (the smallest normal float, kMinParticleRadius)
 //       velocity     [0,0,0]        world units per frame
 //       spin         [0]            billboard rotation speed, radians per frame
 //       growth       [0]            radius *= 1 + growth per frame; > -1
@@ -62,8 +62,12 @@
 // Coordinates (particle centres, ground corners, camera position and look_at) lie within
 // ±kMaxSceneCoordinate and radii are at most that, also after `frames` frames of motion (velocity, growth);
 // colours (light, ambient, background, ground) are at most kMaxSceneColor.
-// Every number must be finite and fit a float (1e999 and 1e39 are errors); integers must be written as
-// integers (750, not 750.0); duplicate keys are errors; nesting deeper than 64 levels is an error.
+// Every number must be finite and fit a float (1e999 and 1e39 are errors); subnormal floats (down to
+// 1.4e-45) are read as they are; a number that rounds to 0 in float (1e-50) reads as 0 where 0 is allowed
+// and is an error where the value must be > 0 (sizes, radii, fov_deg); radii (also tubes.particle_radius)
+// are at least the smallest normal float. Directions (light.direction, camera.up) are normalised in double
+// from the numbers as written. Integers must be written as integers (750, not 750.0); duplicate keys are
+// errors; nesting deeper than 64 levels is an error.
 // Particle counts above scene_particle_limit() are refused (kMaxSceneParticles, or fewer when this
 // machine's memory cannot hold that many at kPeakBytesPerParticle each), a particle list as soon as the
 // reader has counted past it. Errors are SceneFileError, "FILE: /json/path: problem", e.g.
