@@ -322,3 +322,34 @@ TEST_CASE("the command line reads subnormal scenes and names the field of a radi
                       0) == 0);
     CHECK(!std::filesystem::exists(dir.path / "b.csv"));
 }
+
+TEST_CASE("particles a few subnormal steps apart: the acceleration structure and the pass", "[subnormal]") {
+    // 64 particles of the smallest radius (kMinParticleRadius, 1.2e-38) whose centres are 1e-42 apart along
+    // x, a scene file can now hold. The BVH builder's bins per unit of centroid extent, kBins / 6.3e-41,
+    // overflowed to inf, and bin_of converted inf·0 = NaN to int (undefined; the sanitizer build stops
+    // there, a release build happened to put everything in bin 0). Every particle contains every centre, so
+    // each ray toward +x starts inside all 64 stand-ins: 64 exits, no entry, and l is the farthest exit.
+    std::vector<Particle> ps;
+    for (int k = 0; k < 64; ++k) ps.push_back(test::particle({float(k) * 1e-42f, 0.0f, 0.0f}, kMinParticleRadius));
+    const StandInShape shapes[] = {{StandInKind::sphere, 0}, {StandInKind::icosahedron, 0}};
+    for (const StandInShape shape : shapes) {
+        SmokeScene scene(ps, shape, std::nullopt, false);
+        scene.update(ps, glm::vec3(0.0f, 0.0f, 1.0f));
+        OpticalDepths od(ps.size());
+        FrameTimings timings;
+        od.update(scene, ps, test::all_of(ps.size()), glm::vec3(1.0f, 0.0f, 0.0f), OpticalDepthSettings{},
+                  HitSort::radix, timings);
+        for (std::size_t k = 0; k < ps.size(); ++k) {
+            INFO(shape.name() << ", particle " << k);
+            REQUIRE(od.status()[k] == DepthStatus::ok);
+            CHECK(od.hit_counts()[k] == 64);
+            // The farthest exit: the last particle's, at x_63 + r (sphere) or + the icosahedron's exit
+            // distance along +x (between its inradius 0.79·r and r), measured from x_k; 1e-42 is 700 float
+            // steps of r, so the spread of the centres shows.
+            const double r = double(kMinParticleRadius), ahead = double(ps.back().center.x) - double(ps[k].center.x);
+            const double l = od.lengths()[k];
+            if (shape.kind == StandInKind::sphere) CHECK(std::abs(l - (ahead + r)) <= 8.0 * 0x1.0p-24 * (ahead + r));
+            else CHECK((l >= ahead + 0.79 * r && l <= ahead + r));
+        }
+    }
+}
