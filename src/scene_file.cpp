@@ -176,8 +176,8 @@ public:
     // Subnormal floats (below 1.2e-38, down to 1.4e-45) are accepted: they are floats like any other. A
     // nonzero number that rounds to 0 in float (|v| <= 2^-150 ≈ 7e-46, e.g. 1e-50) reads as 0 where 0 is
     // allowed (a coordinate, a speed, a colour: 0 is that value to any precision a float scene holds), and
-    // is an error where it is not (a size, a radius, the field of view must be > 0, and silently reading 0
-    // would make it one, reported as "must be > 0 (got 1e-50)").
+    // is an error saying so where it is not (sizes, radii and the field of view must be > 0; read as 0,
+    // 1e-50 would fail with "must be > 0 (got 1e-50)", which reads as a contradiction).
     [[nodiscard]] float real(const Node& n, const Bounds& bounds = kAny) const {
         const double v = number(n);
         if (std::abs(v) > static_cast<double>(std::numeric_limits<float>::max()))
@@ -464,15 +464,14 @@ DefaultView default_view(const std::vector<Particle>& particles, const std::opti
         for (const glm::vec3& c : ground->corners) radius = std::max(radius, glm::length(glm::dvec3(c) - center));
     }
 
-    const double to_radians = kRadiansPerDegree;
-    const double half_vertical = 0.5 * fov_deg * to_radians;
+    const double half_vertical = 0.5 * fov_deg * kRadiansPerDegree;
     const double half_horizontal = std::atan(std::tan(half_vertical) * double(width) / double(height));
     const double half = std::min(half_vertical, half_horizontal);
     // Never closer than float resolution at the centre allows: a lone particle of radius 1e-38 at (1, 1, 1)
     // would otherwise put the camera on the point it looks at.
     radius = std::max(radius, kMinDefaultFramingRadius * std::max(1.0, glm::length(center)));
     const double distance = kDefaultCameraMargin * radius / std::sin(half);
-    const double elevation = kDefaultCameraElevationDeg * to_radians;
+    const double elevation = kDefaultCameraElevationDeg * kRadiansPerDegree;
     const glm::dvec3 toward_camera(0.0, std::sin(elevation), std::cos(elevation));
 
     return {center + distance * toward_camera, center};
