@@ -323,7 +323,7 @@ private:
         r.org_x = p.center.x;
         r.org_y = p.center.y;
         r.org_z = p.center.z;
-        r.tnear = kOpticalDepthTmin;
+        r.tnear = optical_depth_tmin(p.radius);
         r.dir_x = dir.x;
         r.dir_y = dir.y;
         r.dir_z = dir.z;

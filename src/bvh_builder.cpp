@@ -135,12 +135,18 @@ struct Builder {
         return std::clamp(b, 0, kBins - 1);
     }
 
+    // Bins per unit of a centroid extent e > 0. For e below kBins / FLT_MAX (~1e-37: particles of the
+    // smallest radii a few subnormal steps apart) kBins / e overflows, and inf · (c − lo) made bin_of convert
+    // inf or NaN to int; FLT_MAX instead keeps every (c − lo) · scale <= e · FLT_MAX below kBins. Any larger
+    // extent gets exactly kBins / e, as before.
+    static float bin_scale(float e) { return std::min(float(kBins) / e, std::numeric_limits<float>::max()); }
+
     struct BinScale {
         glm::vec3 lo, scale;
         explicit BinScale(const Aabb& cb) : lo(cb.lo) {
             for (int a = 0; a < 3; ++a) {
                 const float e = cb.hi[a] - cb.lo[a];
-                scale[a] = e > 0.0f ? float(kBins) / e : 0.0f;
+                scale[a] = e > 0.0f ? bin_scale(e) : 0.0f;
             }
         }
     };
@@ -255,7 +261,7 @@ struct Builder {
             if (split.axis >= 0 && cb.hi[split.axis] > cb.lo[split.axis]) {
                 const int a = split.axis;
                 const float lo = cb.lo[a];
-                const float scale = float(kBins) / (cb.hi[a] - lo);
+                const float scale = bin_scale(cb.hi[a] - lo);
                 mid = static_cast<std::uint32_t>(
                     std::partition(refs.begin() + begin, refs.begin() + end,
                                    [&](const PrimRef& r) { return bin_of(r.centroid(a), lo, scale) <= split.bin; }) -

@@ -97,7 +97,11 @@ void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> 
     // The rays in bundles of neighbours (ray_bundle.hpp): ray_order_[k] is the k-th ray traced, an index
     // into `which`.
     origins_.resize(n);
-    for (std::size_t i = 0; i < n; ++i) origins_[i] = particles[which[i]].center;
+    tmins_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        origins_[i] = particles[which[i]].center;
+        tmins_[i] = optical_depth_tmin(particles[which[i]].radius);
+    }
     bundle_order(origins_, dir, ray_order_, order_scratch_);
     rays_.resize(n);
 
@@ -132,7 +136,7 @@ void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> 
                 for (std::size_t k = c * kParticlesPerChunk; k < end; k += kBundleWidth) {
                     RayBundle bundle(dir);
                     for (std::size_t j = k; j < std::min(end, k + kBundleWidth); ++j)
-                        bundle.add(origins_[ray_order_[j]], kOpticalDepthTmin, kOpticalDepthTmax);
+                        bundle.add(origins_[ray_order_[j]], tmins_[ray_order_[j]], kOpticalDepthTmax);
                     for (std::vector<SurfaceHit>& lane : sc.lane_hits) lane.clear();
                     // Thesis 4.3.2's any-hit shader: store (t, +1) entering a stand-in, (t, −1) leaving one,
                     // and IgnoreHit() so that the search goes on.

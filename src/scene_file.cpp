@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <initializer_list>
 #include <limits>
@@ -50,6 +51,8 @@ constexpr double kDefaultCameraMargin = 1.1;         // 10 % empty border around
 // absolute): 1e-6 is ~10 float steps, enough for the camera position to differ from the point it looks at.
 constexpr double kMinDefaultFramingRadius = 1e-6;
 
+constexpr double kRadiansPerDegree = 3.14159265358979323846 / 180.0;
+
 constexpr std::uint32_t kMaxGroups = 1u << 20;     // one update spread over 2^20 frames is ~5 h at 60 fps
 constexpr std::uint32_t kMaxFrames = 1'000'000;    // ~4.6 h at 60 fps: anything more is a typo
 constexpr std::size_t kMaxShownValueChars = 60;    // "(got …)" shows at most this much of a value
@@ -79,6 +82,12 @@ std::string shown_value(const json& j) {
 }
 
 std::string shown_number(double v) {
+    char buffer[64];
+    const auto result = std::to_chars(buffer, buffer + sizeof buffer, v);
+    return std::string(buffer, result.ptr);
+}
+// A float as its shortest round-trip decimal (1.1754944e-38, not the double's 1.1754943508222875e-38).
+std::string shown_number(float v) {
     char buffer[64];
     const auto result = std::to_chars(buffer, buffer + sizeof buffer, v);
     return std::string(buffer, result.ptr);
@@ -163,17 +172,57 @@ public:
         return v;
     }
 
-    // A finite number representable as a normal float (or zero), within `bounds`.
+    // A finite number within the float range, within `bounds` as written and once rounded to float.
+    // Subnormal floats (below 1.2e-38, down to 1.4e-45) are accepted: they are floats like any other. A
+    // nonzero number that rounds to 0 in float (|v| <= 2^-150 ≈ 7e-46, e.g. 1e-50) reads as 0 where 0 is
+    // allowed (a coordinate, a speed, a colour: 0 is that value to any precision a float scene holds), and
+    // is an error saying so where it is not (sizes, radii and the field of view must be > 0; read as 0,
+    // 1e-50 would fail with "must be > 0 (got 1e-50)", which reads as a contradiction).
     [[nodiscard]] float real(const Node& n, const Bounds& bounds = kAny) const {
         const double v = number(n);
-        const double magnitude = std::abs(v);
-        if (magnitude > static_cast<double>(std::numeric_limits<float>::max()))
+        if (std::abs(v) > static_cast<double>(std::numeric_limits<float>::max()))
             fail(n, "too large for single precision (got " + shown_value(*n.value) + ")");
-        if (magnitude != 0.0 && magnitude < static_cast<double>(std::numeric_limits<float>::min()))
-            fail(n, "too close to 0 for single precision (got " + shown_value(*n.value) + ")");
+        if (!bounds.contains(v)) fail(n, bounds.describe(v) + " (got " + shown_value(*n.value) + ")");
         const auto f = static_cast<float>(v);
-        if (!bounds.contains(f)) fail(n, bounds.describe(f) + " (got " + shown_value(*n.value) + ")");
+        if (f == 0.0f && v != 0.0) {
+            if (!bounds.contains(0.0))
+                fail(n, "too close to 0 for single precision (got " + shown_value(*n.value) + ", which rounds to 0; " +
+                            bounds.describe(0.0) + ")");
+            return 0.0f;  // +0 for -1e-50 too
+        }
+        if (!bounds.contains(f))
+            fail(n, bounds.describe(f) + " (got " + shown_value(*n.value) + ", which rounds to " + shown_number(f) +
+                        " in single precision)");
         return f;
+    }
+
+    // A particle radius: a float in `bounds` and at least kMinParticleRadius, the smallest normal float.
+    // Below it a particle's object space (scaled by 1/radius) overflows single precision, and the particle
+    // system keeps every radius there anyway (particle_system.hpp).
+    [[nodiscard]] float radius(const Node& n, const Bounds& bounds) const {
+        const float r = real(n, bounds);
+        if (!(r >= kMinParticleRadius))
+            fail(n, "must be at least " + shown_number(kMinParticleRadius) + ", the smallest normal float (got " +
+                        shown_value(*n.value) + "): the particle is scaled by 1/radius, which would overflow");
+        return r;
+    }
+
+    // A direction: 3 numbers within the float range, not all 0, normalised in double from the values as
+    // written. So [1e-50, 0, 0] is +x (rounding each number to float first would make it the zero vector), and
+    // a component that is tiny next to the others is as exact as they are.
+    [[nodiscard]] glm::dvec3 direction(const Node& n) const {
+        if (!n.value->is_array() || n.value->size() != 3) wrong_type(n, "an array of 3 numbers");
+        glm::dvec3 d(0.0);
+        for (std::size_t a = 0; a < 3; ++a) {
+            const Node c = n.element(a);
+            d[int(a)] = number(c);
+            if (std::abs(d[int(a)]) > static_cast<double>(std::numeric_limits<float>::max()))
+                fail(c, "too large for single precision (got " + shown_value(*c.value) + ")");
+        }
+        // Scaled to its largest component first: |d|² of [1e-200, 1e-200, 0] underflows even in double.
+        const double largest = std::max({std::abs(d.x), std::abs(d.y), std::abs(d.z)});
+        if (largest == 0.0) fail(n, "must not be the zero vector");
+        return glm::normalize(d / largest);
     }
 
     [[nodiscard]] glm::vec3 vec3(const Node& n, const Bounds& bounds = kAny) const {
@@ -388,16 +437,95 @@ std::string particle_extent_problem(const Particle& p, std::uint64_t steps) {
     return {};
 }
 
+// ---- The default camera -------------------------------------------------------------------------------
+
+// Where default_camera() puts the camera, in double (before rounding to float, so that a position beyond
+// the float range can be reported rather than turned into inf).
+struct DefaultView {
+    glm::dvec3 position, look_at;
+};
+DefaultView default_view(const std::vector<Particle>& particles, const std::optional<GroundDescription>& ground,
+                         float fov_deg, std::uint32_t width, std::uint32_t height) {
+    // Bounding sphere: centre of the box, radius to the farthest surface point.
+    glm::dvec3 center(0.0);
+    double radius = 1.0;
+    if (!particles.empty()) {
+        glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+        for (const Particle& p : particles) {
+            lo = glm::min(lo, glm::dvec3(p.center) - double(p.radius));
+            hi = glm::max(hi, glm::dvec3(p.center) + double(p.radius));
+        }
+        center = 0.5 * (lo + hi);
+        radius = 0.0;
+        for (const Particle& p : particles) radius = std::max(radius, glm::length(glm::dvec3(p.center) - center) + p.radius);
+    } else if (ground) {
+        for (const glm::vec3& c : ground->corners) center += 0.25 * glm::dvec3(c);
+        radius = 0.0;
+        for (const glm::vec3& c : ground->corners) radius = std::max(radius, glm::length(glm::dvec3(c) - center));
+    }
+
+    const double half_vertical = 0.5 * fov_deg * kRadiansPerDegree;
+    const double half_horizontal = std::atan(std::tan(half_vertical) * double(width) / double(height));
+    const double half = std::min(half_vertical, half_horizontal);
+    // Never closer than float resolution at the centre allows: a lone particle of radius 1e-38 at (1, 1, 1)
+    // would otherwise put the camera on the point it looks at.
+    radius = std::max(radius, kMinDefaultFramingRadius * std::max(1.0, glm::length(center)));
+    const double distance = kDefaultCameraMargin * radius / std::sin(half);
+    const double elevation = kDefaultCameraElevationDeg * kRadiansPerDegree;
+    const glm::dvec3 toward_camera(0.0, std::sin(elevation), std::cos(elevation));
+
+    return {center + distance * toward_camera, center};
+}
+
+// v rounded up to 3 significant digits, for "at least v" in messages.
+std::string shown_rounded_up(double v) {
+    const double step = std::pow(10.0, std::floor(std::log10(v)) - 2.0);
+    char buffer[32];
+    std::snprintf(buffer, sizeof buffer, "%.3g", std::ceil(v / step) * step);
+    return buffer;
+}
+
+std::string shown_3_digits(double v) {
+    char buffer[32];
+    std::snprintf(buffer, sizeof buffer, "%.3g", v);
+    return buffer;
+}
+
+// A field of view so small that neighbouring pixels' rays are closer than kMinPixelAngle is refused at
+// fov_deg (n): the float camera would accept it and render blocks of equal pixels (1e-20 even failed there,
+// blamed on camera.up).
+void check_fov_resolution(const Reader& r, const Node& n, float fov_deg, std::uint32_t height) {
+    const double half = 0.5 * double(fov_deg) * kRadiansPerDegree;
+    if (2.0 * std::tan(half) / double(height) >= kMinPixelAngle) return;
+    const double smallest = 2.0 * std::atan(0.5 * kMinPixelAngle * double(height)) / kRadiansPerDegree;
+    r.fail(n, "too small for a usable camera (got " + shown_value(*n.value) + "): at " + std::to_string(height) +
+                  " pixels high, neighbouring pixels' rays would be less than 2^-20 radians apart, within a few "
+                  "roundings of their direction, and the image would fall apart into blocks; at this height "
+                  "fov_deg must be at least " + shown_rounded_up(smallest));
+}
+
+// The default camera must stand within ±kMaxDefaultCameraCoordinate. `path`: /camera/fov_deg when the file
+// gave the field of view (it is what backs the camera off), else /camera.
+void check_default_position(const Reader& r, const DefaultView& v, const std::string& path, bool fov_given) {
+    const double reach = std::max({std::abs(v.position.x), std::abs(v.position.y), std::abs(v.position.z)});
+    if (reach <= kMaxDefaultCameraCoordinate) return;
+    const std::string where = "(to fit the smoke into this view it would stand at (" + shown_3_digits(v.position.x) +
+                              ", " + shown_3_digits(v.position.y) + ", " + shown_3_digits(v.position.z) + "))";
+    if (fov_given)
+        r.fail(path, "pushes the default camera beyond the coordinate limit of " +
+                         shown_number(kMaxDefaultCameraCoordinate) + " " + where +
+                         ": give camera.position, or a larger fov_deg");
+    r.fail(path, "the default camera would stand beyond the coordinate limit of " +
+                     shown_number(kMaxDefaultCameraCoordinate) + " " + where +
+                     ": give camera.position, a larger fov_deg, or a less narrow image");
+}
+
 // ---- Sections ----------------------------------------------------------------------------------------
 
 LightDescription read_light(const Reader& r, const Node& n) {
     r.require_object(n, {"direction", "color", "rotation_per_frame_deg"});
     LightDescription light;
-    const Node dir = r.required(n, "direction");
-    const glm::dvec3 d(r.vec3(dir));
-    const double length = glm::length(d);
-    if (length == 0.0) r.fail(dir, "must not be the zero vector");
-    light.direction = glm::vec3(d / length);
+    light.direction = glm::vec3(r.direction(r.required(n, "direction")));
     if (auto c = Reader::optional(n, "color")) light.color = r.vec3(*c, kColor);
     if (auto a = Reader::optional(n, "rotation_per_frame_deg")) light.rotation_per_frame_deg = r.real(*a);
     return light;
@@ -407,7 +535,7 @@ Particle read_particle(const Reader& r, const Node& n) {
     r.require_object(n, {"center", "radius", "velocity", "spin", "growth", "rotation"});
     Particle p;
     p.center = r.vec3(r.required(n, "center"), kCoordinate);
-    p.radius = r.real(r.required(n, "radius"), kRadius);
+    p.radius = r.radius(r.required(n, "radius"), kRadius);
     if (auto v = Reader::optional(n, "velocity")) p.velocity = r.vec3(*v);
     if (auto s = Reader::optional(n, "spin")) p.spin = r.real(*s);
     if (auto g = Reader::optional(n, "growth")) p.growth = r.real(*g, Bounds{-1.0, true});
@@ -428,7 +556,7 @@ TubeSettings read_tubes(const Reader& r, const Node& n) {
     if (auto v = Reader::optional(n, "tube_radius")) t.tube_radius = r.real(*v, kPositive);
     if (auto v = Reader::optional(n, "tube_length")) t.tube_length = r.real(*v, kPositive);
     if (auto v = Reader::optional(n, "separation")) t.separation = r.real(*v, kNonNegative);
-    if (auto v = Reader::optional(n, "particle_radius")) t.particle_radius = r.real(*v, kPositive);
+    if (auto v = Reader::optional(n, "particle_radius")) t.particle_radius = r.radius(*v, kPositive);
     if (auto v = Reader::optional(n, "drift")) t.drift = r.vec3(*v);
     if (auto v = Reader::optional(n, "jitter_speed")) t.jitter_speed = r.real(*v, kNonNegative);
     if (auto v = Reader::optional(n, "spin_speed")) t.spin_speed = r.real(*v, kNonNegative);
@@ -526,30 +654,35 @@ CameraDescription read_camera(const Reader& r, const Node& n, const SceneDescrip
     r.require_object(n, {"position", "look_at", "up", "fov_deg", "width", "height"});
     float fov = CameraDescription{}.fov_deg;
     std::uint32_t width = CameraDescription{}.width, height = CameraDescription{}.height;
-    if (auto v = Reader::optional(n, "fov_deg")) fov = r.real(*v, Bounds{0.0, true, 180.0, true});
+    const auto fov_node = Reader::optional(n, "fov_deg");
+    if (fov_node) fov = r.real(*fov_node, Bounds{0.0, true, 180.0, true});
     if (auto v = Reader::optional(n, "width")) width = r.u32(*v, 1, std::uint32_t(kMaxImageSide));
     if (auto v = Reader::optional(n, "height")) height = r.u32(*v, 1, std::uint32_t(kMaxImageSide));
     if (std::uint64_t{width} * height > kMaxImagePixels)
         r.fail(n, "image too large (" + std::to_string(width) + "x" + std::to_string(height) + " > " +
                       std::to_string(kMaxImagePixels) + " pixels)");
+    if (fov_node) check_fov_resolution(r, *fov_node, fov, height);
 
     CameraDescription camera = default_camera(scene.smoke.particles, scene.ground, fov, width, height);
-    if (auto v = Reader::optional(n, "position")) camera.position = r.vec3(*v, kCoordinate);
+    if (auto v = Reader::optional(n, "position")) {
+        camera.position = r.vec3(*v, kCoordinate);
+    } else {
+        check_default_position(r, default_view(scene.smoke.particles, scene.ground, fov, width, height),
+                               fov_node ? fov_node->path : n.path, fov_node.has_value());
+    }
     if (auto v = Reader::optional(n, "look_at")) camera.look_at = r.vec3(*v, kCoordinate);
     const auto up = Reader::optional(n, "up");
-    if (up) camera.up = r.vec3(*up);
+    // Unit length (normalised in double from the file's numbers): the renderer's camera then sees |forward ×
+    // up| = the sine checked below, whatever length the file gave (up = [0, 1e-30, 0] underflowed there; up =
+    // [3e38, 3e38, 0] overflowed to a zero right vector).
+    const glm::dvec3 up_d = up ? r.direction(*up) : glm::dvec3(camera.up);
 
     const glm::dvec3 view = glm::dvec3(camera.look_at) - glm::dvec3(camera.position);
     if (glm::length(view) == 0.0) r.fail(n, "position and look_at are the same point");
-    const glm::dvec3 up_d(camera.up);
     const std::string up_path = up ? up->path : n.path + "/up";
-    if (glm::length(up_d) == 0.0) r.fail(up_path, "must not be the zero vector");
-    const double sine = glm::length(glm::cross(glm::normalize(view), glm::normalize(up_d)));
+    const double sine = glm::length(glm::cross(glm::normalize(view), up_d));
     if (!(sine >= kMinUpViewSine)) r.fail(up_path, "is parallel to the view direction (look_at - position)");
-    // Stored unit length (normalised in double): the renderer's float camera then sees |forward × up| = the
-    // sine checked above, whatever length the file gave (up = [0, 1e-30, 0] underflowed there; up =
-    // [3e38, 3e38, 0] overflowed to a zero right vector).
-    camera.up = glm::vec3(glm::normalize(up_d));
+    camera.up = glm::vec3(up_d);
     check_renderer_accepts(r, camera, up_path);
     return camera;
 }
@@ -627,38 +760,10 @@ const char* to_string(Compositing c) {
 
 CameraDescription default_camera(const std::vector<Particle>& particles, const std::optional<GroundDescription>& ground,
                                  float fov_deg, std::uint32_t width, std::uint32_t height) {
-    // Bounding sphere: centre of the box, radius to the farthest surface point.
-    glm::dvec3 center(0.0);
-    double radius = 1.0;
-    if (!particles.empty()) {
-        glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
-        for (const Particle& p : particles) {
-            lo = glm::min(lo, glm::dvec3(p.center) - double(p.radius));
-            hi = glm::max(hi, glm::dvec3(p.center) + double(p.radius));
-        }
-        center = 0.5 * (lo + hi);
-        radius = 0.0;
-        for (const Particle& p : particles) radius = std::max(radius, glm::length(glm::dvec3(p.center) - center) + p.radius);
-    } else if (ground) {
-        for (const glm::vec3& c : ground->corners) center += 0.25 * glm::dvec3(c);
-        radius = 0.0;
-        for (const glm::vec3& c : ground->corners) radius = std::max(radius, glm::length(glm::dvec3(c) - center));
-    }
-
-    const double to_radians = 3.14159265358979323846 / 180.0;
-    const double half_vertical = 0.5 * fov_deg * to_radians;
-    const double half_horizontal = std::atan(std::tan(half_vertical) * double(width) / double(height));
-    const double half = std::min(half_vertical, half_horizontal);
-    // Never closer than float resolution at the centre allows: a lone particle of radius 1e-38 at (1, 1, 1)
-    // would otherwise put the camera on the point it looks at.
-    radius = std::max(radius, kMinDefaultFramingRadius * std::max(1.0, glm::length(center)));
-    const double distance = kDefaultCameraMargin * radius / std::sin(half);
-    const double elevation = kDefaultCameraElevationDeg * to_radians;
-    const glm::dvec3 toward_camera(0.0, std::sin(elevation), std::cos(elevation));
-
+    const DefaultView view = default_view(particles, ground, fov_deg, width, height);
     CameraDescription camera;
-    camera.position = glm::vec3(center + distance * toward_camera);
-    camera.look_at = glm::vec3(center);
+    camera.position = glm::vec3(view.position);
+    camera.look_at = glm::vec3(view.look_at);
     camera.up = {0.0f, 1.0f, 0.0f};
     camera.fov_deg = fov_deg;
     camera.width = width;
@@ -687,6 +792,8 @@ SceneDescription parse_scene(std::string_view json_text, std::string_view source
     } else {
         const CameraDescription d;
         scene.camera = default_camera(scene.smoke.particles, scene.ground, d.fov_deg, d.width, d.height);
+        check_default_position(r, default_view(scene.smoke.particles, scene.ground, d.fov_deg, d.width, d.height),
+                               "/camera", false);
         check_renderer_accepts(r, scene.camera, "/camera");
     }
     return scene;

@@ -551,7 +551,7 @@ TEST_CASE("optical depth: the bundled pass gives every particle what its ray alo
             const OpticalDepthHits out = run_pass(scene, ps, light, cutoff);
             std::size_t ok = 0, occluded = 0, cut = 0;
             for (std::size_t i = 0; i < ps.size(); ++i) {
-                const Ray ray{ps[i].center, kOpticalDepthTmin, light, kOpticalDepthTmax};
+                const Ray ray{ps[i].center, optical_depth_tmin(ps[i].radius), light, kOpticalDepthTmax};
                 std::vector<SurfaceHit> alone;
                 const TraceResult r = trace<TlasWalk::all_hits>(scene.scene(), ray, ray_flag_none, kLightRayMask,
                                                                [&](const TraceHit& h) {

@@ -1,5 +1,8 @@
 // Scene files: the minimal form, our optional keys and their defaults, the shipped scenes, and one test
 // per kind of bad input (each checking that the message names the file and the JSON path).
+#include "support/cli_runner.hpp"
+
+#include <smoketrace/camera.hpp>
 #include <smoketrace/scene_file.hpp>
 #include <smoketrace/tube_generator.hpp>
 
@@ -630,4 +633,88 @@ TEST_CASE("error: load_scene_file names the file when it cannot be read or is ba
         CHECK(std::string(e.what()) == bad.string() + ": /smoke/particles/0/radius: must be > 0 (got -2)");
     }
     std::filesystem::remove_all(dir);
+}
+
+// ---- The field of view -------------------------------------------------------------------------------
+
+TEST_CASE("error: a field of view too small for a usable camera names /camera/fov_deg", "[scene]") {
+    // fov_deg 1e-20 used to pass the reader and then fail in the float camera (the default camera backed
+    // off to ~1e22, where |look_at − position|² overflows), reported as "/camera/up: ... up is parallel to
+    // the view direction". At 512 pixels high the smallest usable fov is 2·atan(2^-21·512) = 0.02798°.
+    for (const double fov : {1e-20, 1e-6, 0.0279}) {
+        for (const bool with_position : {false, true}) {
+            json j = minimal();
+            j["camera"] = {{"fov_deg", fov}};
+            if (with_position) j["camera"]["position"] = {0, 0, 50};
+            INFO("fov_deg " << fov << (with_position ? ", position given" : ""));
+            require_error(j, "/camera/fov_deg", "too small for a usable camera");
+            const std::string message = error_of(j.dump());
+            CHECK(message.find("at 512 pixels high") != std::string::npos);
+            CHECK(message.find("fov_deg must be at least 0.028") != std::string::npos);
+            CHECK(message.find("/camera/up") == std::string::npos);
+        }
+    }
+    // Just above the bound, and the bound grows with the height: 0.03 is fine at 512 pixels, not at 1024.
+    json ok = minimal();
+    ok["camera"] = {{"fov_deg", 0.03}};
+    CHECK(error_of(ok.dump()) == "(no error)");
+    ok["camera"]["height"] = 1024;
+    require_error(ok, "/camera/fov_deg", "at 1024 pixels high");
+    // One pixel high, a far smaller field of view still gives distinct rays (columns 2^-20 apart).
+    json one_row = minimal();
+    one_row["camera"] = {{"fov_deg", 1e-4}, {"width", 4}, {"height", 1}};
+    const SceneDescription s = parse_scene(one_row.dump(), "one_row.json");
+    CHECK_NOTHROW(Camera(s.camera.position, s.camera.look_at, s.camera.up, s.camera.fov_deg, 4, 1));
+}
+
+TEST_CASE("error: a field of view that backs the default camera beyond its limit names /camera/fov_deg", "[scene]") {
+    // A particle of radius 1e15 at the origin, no camera position: the default camera stands
+    // 1.1·1e15/sin(fov/2) away. 45° (the default) puts it at 2.9e15, 2° at 6.3e16 (accepted), 1° at
+    // 1.26e17, beyond kMaxDefaultCameraCoordinate (1e17).
+    json j = json::parse(R"({ "light": { "direction": [0, 1, 0] },
+        "smoke": { "particles": [ { "center": [0, 0, 0], "radius": 1e15 } ] } })");
+    CHECK(error_of(j.dump()) == "(no error)");
+    j["camera"] = {{"fov_deg", 2}};
+    const SceneDescription two = parse_scene(j.dump(), "two.json");
+    const double distance = 1.1e15 / std::sin(1.0 * 3.14159265358979 / 180.0);
+    CHECK(glm::length(glm::dvec3(two.camera.position)) == Approx(distance).epsilon(1e-6));
+    j["camera"] = {{"fov_deg", 1}};
+    require_error(j, "/camera/fov_deg", "pushes the default camera beyond the coordinate limit of 1e+17");
+    const std::string message = error_of(j.dump());
+    CHECK(message.find("it would stand at (0, 4.31e+16, 1.18e+17)") != std::string::npos);
+    CHECK(message.find("give camera.position, or a larger fov_deg") != std::string::npos);
+    // With a position the default camera is not used: the same field of view is fine.
+    j["camera"]["position"] = {0, 0, 1e15};
+    CHECK(error_of(j.dump()) == "(no error)");
+    // Without fov_deg, a tall narrow image backs the default camera off (the narrower angle frames the
+    // smoke): named at /camera.
+    json narrow = json::parse(R"({ "light": { "direction": [0, 1, 0] },
+        "smoke": { "particles": [ { "center": [0, 0, 0], "radius": 1e15 } ] },
+        "camera": { "width": 1, "height": 4096 } })");
+    require_error(narrow, "/camera", "the default camera would stand beyond the coordinate limit of 1e+17");
+}
+
+TEST_CASE("error: the command line shows the field-of-view message with the file and the path", "[scene][cli]") {
+    smoketrace::test::TempDir dir;
+    json tiny = minimal();
+    tiny["camera"] = {{"fov_deg", 1e-20}};
+    const auto tiny_path = dir.write("tiny_fov.json", tiny.dump());
+    const auto r = smoketrace::test::run_cli("depths " + tiny_path.string() + " -o " + (dir.path / "d.csv").string());
+    INFO(r.err);
+    CHECK(r.exit_code == 1);
+    CHECK(r.err.rfind("smoketrace depths: " + tiny_path.string() +
+                          ": /camera/fov_deg: too small for a usable camera (got 1e-20)",
+                      0) == 0);
+    CHECK(!std::filesystem::exists(dir.path / "d.csv"));
+
+    json far = json::parse(R"({ "light": { "direction": [0, 1, 0] },
+        "smoke": { "particles": [ { "center": [0, 0, 0], "radius": 1e15 } ] }, "camera": { "fov_deg": 1 } })");
+    const auto far_path = dir.write("far.json", far.dump());
+    const auto f = smoketrace::test::run_cli("render " + far_path.string() + " -o " + (dir.path / "f.png").string());
+    INFO(f.err);
+    CHECK(f.exit_code == 1);
+    CHECK(f.err.rfind("smoketrace render: " + far_path.string() +
+                          ": /camera/fov_deg: pushes the default camera beyond the coordinate limit of 1e+17",
+                      0) == 0);
+    CHECK(!std::filesystem::exists(dir.path / "f.png"));
 }

@@ -5,8 +5,9 @@
 // ray_bundle.hpp), each ray getting what trace() would give it alone; the rare follow-ups below use
 // trace().
 //
-//   ray:    origin = particle centre, direction = toward the light, tmin = 1e-7, tmax = 1e38,
-//           inclusion mask ~2 (everything but billboards), no closest-hit data needed;
+//   ray:    origin = particle centre, direction = toward the light, tmin = optical_depth_tmin(radius)
+//           (2^-22 of the particle's radius; the thesis's fixed 1e-7 would lose every particle smaller
+//           than that), tmax = 1e38, inclusion mask ~2 (everything but billboards), no closest-hit data needed;
 //   any-hit (particle stand-ins, non-opaque): store (t, +1) for a front face (entering a particle) or
 //           (t, −1) for a back face (leaving one), IgnoreHit() so the search goes on;
 //   ground (opaque): commits without any-hit and shrinks tmax — the particle is occluded.
@@ -35,9 +36,17 @@
 
 namespace smoketrace {
 
-// TMin of the thesis's optical-depth rays (4.3.2): just off the centre, so that a stand-in whose
-// surface passes through another particle's centre still counts, but no zero-length hit is reported.
-inline constexpr float kOpticalDepthTmin = 1e-7f;
+// TMin of an optical-depth ray, relative to its particle's radius r. The ray starts at the centre, inside its
+// own stand-in. tmin > 0 so that a surface the centre lies on (the ground under a particle resting on it,
+// another stand-in through the centre) is not crossed at t = 0. And tmin may be any fraction of r below
+// the own exit (>= the inradius, 0.79·r for the icosahedron) without changing l: the ray is in smoke over
+// [0, own exit) whatever it meets there, so a surface in [0, tmin) changes only the hit count, and a ground
+// within tmin of the centre does not occlude. The thesis's absolute 1e-7 dropped the own exit of every
+// particle smaller than that (l = 0, no hits); a fraction of r behaves the same at every scale.
+// 2^-22: a power of two, so scaling a scene by 2^k scales every tmin exactly; near the thesis's 1e-7 at the
+// default particle radius 0.35 (8.3e-8); and > 0 even for kMinParticleRadius (2^-126 · 2^-22 = 2^-148).
+inline constexpr float kOpticalDepthTminPerRadius = 0x1.0p-22f;
+[[nodiscard]] constexpr float optical_depth_tmin(float radius) { return kOpticalDepthTminPerRadius * radius; }
 // TMax of the thesis's optical-depth rays: effectively unbounded, yet finite.
 inline constexpr float kOpticalDepthTmax = 1e38f;
 
@@ -115,6 +124,7 @@ private:
     };
     tbb::enumerable_thread_specific<Scratch> scratch_;
     std::vector<glm::vec3> origins_;        // the rays' origins, in the order of `which`
+    std::vector<float> tmins_;              // and their tmin (optical_depth_tmin of the particle's radius)
     std::vector<std::uint32_t> ray_order_;  // bundle_order() of origins_
     BundleOrderScratch order_scratch_;
     std::vector<RayRecord> rays_;           // [k]: the k-th ray traced

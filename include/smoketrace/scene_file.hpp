@@ -22,7 +22,7 @@
 //   smoke        REQUIRED object with exactly one of "particles" and "tubes"
 //     particles    [ {...}, ... ]   explicit particles, in this order (an empty list is valid):
 //       center       REQUIRED [x,y,z]
-//       radius       REQUIRED       > 0
+//       radius       REQUIRED       >= 1.1754944e-38 (the smallest normal float, kMinParticleRadius)
 //       velocity     [0,0,0]        world units per frame
 //       spin         [0]            billboard rotation speed, radians per frame
 //       growth       [0]            radius *= 1 + growth per frame; > -1
@@ -44,7 +44,10 @@
 //     position     [see below]      default: in front (+z) of the smoke and a little above, far enough
 //     look_at      [see below]        that the smoke's bounding sphere fits the view; looks at its centre
 //     up           [0,1,0]          must not be parallel to look_at − position; stored normalised
-//     fov_deg      [45]             vertical field of view, degrees, in (0, 180)
+//     fov_deg      [45]             vertical field of view, degrees, in (0, 180); large enough that
+//                                   neighbouring pixels' rays are kMinPixelAngle apart (0.028 at 512
+//                                   pixels high), and that the default camera stays within
+//                                   ±kMaxDefaultCameraCoordinate
 //     width, height [512, 512]      pixels, each 1…16384, width·height <= 2^26
 //   render       optional object
 //     mode         ["full"]         "basic" | "simple-shadow" | "full" (thesis 3.2)
@@ -59,8 +62,12 @@
 // Coordinates (particle centres, ground corners, camera position and look_at) lie within
 // ±kMaxSceneCoordinate and radii are at most that, also after `frames` frames of motion (velocity, growth);
 // colours (light, ambient, background, ground) are at most kMaxSceneColor.
-// Every number must be finite and fit a float (1e999 and 1e39 are errors); integers must be written as
-// integers (750, not 750.0); duplicate keys are errors; nesting deeper than 64 levels is an error.
+// Every number must be finite and fit a float (1e999 and 1e39 are errors); subnormal floats (down to
+// 1.4e-45) are read as they are; a number that rounds to 0 in float (1e-50) reads as 0 where 0 is allowed
+// and is an error where the value must be > 0 (sizes, radii, fov_deg); radii (also tubes.particle_radius)
+// are at least the smallest normal float. Directions (light.direction, camera.up) are normalised in double
+// from the numbers as written. Integers must be written as integers (750, not 750.0); duplicate keys are
+// errors; nesting deeper than 64 levels is an error.
 // Particle counts above scene_particle_limit() are refused (kMaxSceneParticles, or fewer when this
 // machine's memory cannot hold that many at kPeakBytesPerParticle each), a particle list as soon as the
 // reader has counted past it. Errors are SceneFileError, "FILE: /json/path: problem", e.g.
@@ -115,6 +122,15 @@ inline constexpr std::uint64_t kMaxSceneParticles = 50'000'000;
 // stay below ~10^32, against FLT_MAX ≈ 3.4·10^38. A particle at 10^38 used to end in "Scene: instance 0 has
 // a non-finite or empty world box", with no file or JSON path.
 inline constexpr double kMaxSceneCoordinate = 1e15;
+// A default camera (no camera.position) frames the smoke from outside it, so it may stand beyond
+// kMaxSceneCoordinate: with the default view (45°, square image) every scene within the limits puts it
+// within ~1.3·10^16. Up to 10^17 leaves room for narrower views and still keeps its squared distances
+// below 10^35. A narrower field of view (or a tall, narrow image) that backs it off farther is an error.
+inline constexpr double kMaxDefaultCameraCoordinate = 1e17;
+// The smallest angle between the rays of neighbouring pixels (radians, about tan(fov/2)·2/height): 2^-20,
+// 16 float steps (2^-24) of the unit view direction. Closer, the rounding of each ray's direction is a
+// sizeable part of a pixel and neighbouring pixels merge into blocks: the field of view is too small.
+inline constexpr double kMinPixelAngle = 0x1.0p-20;
 // Colour components: the image clamps at 1, so 10^6 is far beyond any meaningful intensity, and products
 // of three colours summed over layers (c_base·(c_light + c_amb), front-to-back sums) stay finite; light and
 // ambient of 3·10^38 used to render infinite pixels, which the PNG writer then refused.

@@ -5,7 +5,8 @@
 //    ("fuzz.json: ..."); any other exception escapes and libFuzzer reports it as a crash (uncaught
 //    exception → abort), as are sanitizer findings (the build makes every ASan/UBSan report fatal);
 //  * a scene it accepts honours the documented format: every number finite and within its documented
-//    range, a unit light direction, a camera the renderer accepts, a particle count within the limit;
+//    range (subnormals included; radii normal floats), a unit light direction, a camera the renderer
+//    accepts with a field of view it can resolve, a particle count within the limit;
 //  * a small accepted scene (<= kMaxPipelineParticles) also goes through the pipeline: the optical-depth
 //    pass, and one 4x4 frame in basic and full mode; its lengths are finite or the documented +inf and its
 //    pixels finite. Any exception there is a crash too: the reader accepted something the renderer cannot use.
@@ -58,7 +59,8 @@ void check_format(const SceneDescription& s) {
     require(s.smoke.particles.size() <= scene_particle_limit(), "particle count");
     for (const Particle& p : s.smoke.particles) {
         require(within(p.center, -kMaxSceneCoordinate, kMaxSceneCoordinate), "particle centre");
-        require(p.radius > 0.0f && double(p.radius) <= kMaxSceneCoordinate, "particle radius");
+        // A normal float: the reader refuses subnormal radii (1/radius would overflow).
+        require(p.radius >= kMinParticleRadius && double(p.radius) <= kMaxSceneCoordinate, "particle radius");
         require(finite(p.velocity) && finite(p.spin) && finite(p.rotation), "particle motion");
         require(finite(p.growth) && p.growth > -1.0f, "particle growth");
     }
@@ -73,6 +75,12 @@ void check_format(const SceneDescription& s) {
     const CameraDescription& c = s.camera;
     require(finite(c.position) && finite(c.look_at) && finite(c.up), "camera vectors");
     require(c.fov_deg > 0.0f && c.fov_deg < 180.0f, "fov");
+    // Neighbouring pixels' rays at least kMinPixelAngle apart at the file's height, and a default camera no
+    // farther out than kMaxDefaultCameraCoordinate (a given position is within kMaxSceneCoordinate).
+    // (The reader's expression, rounding for rounding.)
+    const double half_fov = 0.5 * double(c.fov_deg) * (3.14159265358979323846 / 180.0);
+    require(2.0 * std::tan(half_fov) / double(c.height) >= kMinPixelAngle, "fov too small for the image height");
+    require(within(c.position, -kMaxDefaultCameraCoordinate, kMaxDefaultCameraCoordinate), "camera position");
     require(c.width >= 1 && c.height >= 1 && c.width <= std::uint32_t(kMaxImageSide) && c.height <= std::uint32_t(kMaxImageSide) &&
                 std::uint64_t(c.width) * c.height <= kMaxImagePixels,
             "image size");

@@ -64,9 +64,13 @@ struct SphereQuery {
 // each endpoint, so the tolerance is the sum over endpoints. A sphere with |s²| < delta may be met or
 // missed (its 2 surfaces are ambiguous); a surface within that distance of the origin may be dropped by
 // the tracer's TMin (1 ambiguous, and up to TMin of length), one that close to t_cut may fall either side.
+// TMin is the pass's, optical_depth_tmin() of the radius of the particle centred at o (the largest, if
+// several are; 0 if none is).
 inline SphereAnswer exact_spheres(const std::vector<Particle>& ps, glm::dvec3 o, glm::dvec3 d, const SphereQuery& q = {}) {
     d = glm::normalize(d);
-    const double tmin = double(kOpticalDepthTmin);
+    double tmin = 0.0;
+    for (const Particle& p : ps)
+        if (glm::dvec3(p.center) == o) tmin = std::max(tmin, double(optical_depth_tmin(p.radius)));
     SphereAnswer a;
     std::vector<std::pair<double, double>> intervals;
     for (const Particle& p : ps) {
