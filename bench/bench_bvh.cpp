@@ -27,8 +27,8 @@
 
 #include "support/embree_reference.hpp"
 
-#include <smoketrace/blas_traversal.hpp>
-#include <smoketrace/prng.hpp>
+#include <smoketrace/trace/blas_traversal.hpp>
+#include <smoketrace/core/prng.hpp>
 
 #include <glm/geometric.hpp>
 #include <tbb/blocked_range.h>

@@ -33,9 +33,9 @@
 #include "error_metrics.hpp"
 #include "timing.hpp"
 
-#include <smoketrace/frame_renderer.hpp>
-#include <smoketrace/png_io.hpp>
-#include <smoketrace/sixway_texture.hpp>
+#include <smoketrace/render/frame_renderer.hpp>
+#include <smoketrace/io/png_io.hpp>
+#include <smoketrace/render/sixway_texture.hpp>
 
 #include <tbb/info.h>
 #include <tbb/task_arena.h>

@@ -1,7 +1,7 @@
 // smoketrace_bench: [--quick] [--section NAME]... [--repeats N] [--results DIR]
 #include "bench_registry.hpp"
 
-#include <smoketrace/output_path.hpp>
+#include <smoketrace/io/output_path.hpp>
 
 #include <chrono>
 #include <cstdlib>

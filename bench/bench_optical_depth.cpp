@@ -41,10 +41,10 @@
 #include "support/embree_reference.hpp"
 #include "timing.hpp"
 
-#include <smoketrace/optical_depths.hpp>
-#include <smoketrace/ray_bundle.hpp>
-#include <smoketrace/stand_in_shapes.hpp>
-#include <smoketrace/tube_generator.hpp>
+#include <smoketrace/smoke/optical_depths.hpp>
+#include <smoketrace/geometry/ray_bundle.hpp>
+#include <smoketrace/smoke/stand_in_shapes.hpp>
+#include <smoketrace/smoke/tube_generator.hpp>
 
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>

@@ -17,10 +17,10 @@
 #include "bench_util.hpp"
 #include "timing.hpp"
 
-#include <smoketrace/frame_renderer.hpp>
-#include <smoketrace/image.hpp>
-#include <smoketrace/png_io.hpp>
-#include <smoketrace/sixway_texture.hpp>
+#include <smoketrace/render/frame_renderer.hpp>
+#include <smoketrace/core/image.hpp>
+#include <smoketrace/io/png_io.hpp>
+#include <smoketrace/render/sixway_texture.hpp>
 
 #include <stb_image_write.h>
 #include <tbb/info.h>

@@ -6,9 +6,9 @@
 #include "bench_util.hpp"
 #include "timing.hpp"
 
-#include <smoketrace/prng.hpp>
-#include <smoketrace/hit_resolver.hpp>
-#include <smoketrace/radix_sort.hpp>
+#include <smoketrace/core/prng.hpp>
+#include <smoketrace/smoke/hit_resolver.hpp>
+#include <smoketrace/core/radix_sort.hpp>
 
 #include <tbb/info.h>
 #include <tbb/task_arena.h>

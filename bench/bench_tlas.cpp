@@ -12,10 +12,10 @@
 #include "bench_util.hpp"
 #include "timing.hpp"
 
-#include <smoketrace/prng.hpp>
-#include <smoketrace/scene.hpp>
-#include <smoketrace/stand_in_shapes.hpp>
-#include <smoketrace/trace.hpp>
+#include <smoketrace/core/prng.hpp>
+#include <smoketrace/accel/scene.hpp>
+#include <smoketrace/smoke/stand_in_shapes.hpp>
+#include <smoketrace/trace/trace.hpp>
 
 #include <glm/geometric.hpp>
 

@@ -1,9 +1,9 @@
 #pragma once
 // Small helpers shared by the bench sections: CSV files written whole or not at all, the log-log growth
 // exponent, the scene and textures every frame-level section starts from.
-#include <smoketrace/output_path.hpp>
-#include <smoketrace/scene_file.hpp>
-#include <smoketrace/tube_generator.hpp>
+#include <smoketrace/io/output_path.hpp>
+#include <smoketrace/io/scene_file.hpp>
+#include <smoketrace/smoke/tube_generator.hpp>
 
 #include <cmath>
 #include <cstddef>

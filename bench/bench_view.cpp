@@ -8,8 +8,8 @@
 #include "bench_util.hpp"
 #include "timing.hpp"
 
-#include <smoketrace/frame_renderer.hpp>
-#include <smoketrace/sixway_texture.hpp>
+#include <smoketrace/render/frame_renderer.hpp>
+#include <smoketrace/render/sixway_texture.hpp>
 
 #include <algorithm>
 #include <cmath>

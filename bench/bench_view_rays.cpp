@@ -24,10 +24,10 @@
 #include "support/embree_reference.hpp"
 #include "timing.hpp"
 
-#include <smoketrace/camera.hpp>
-#include <smoketrace/smoke_scene.hpp>
-#include <smoketrace/trace.hpp>
-#include <smoketrace/view_compositor.hpp>
+#include <smoketrace/render/camera.hpp>
+#include <smoketrace/smoke/smoke_scene.hpp>
+#include <smoketrace/trace/trace.hpp>
+#include <smoketrace/render/view_compositor.hpp>
 
 #include <tbb/blocked_range.h>
 #include <tbb/combinable.h>

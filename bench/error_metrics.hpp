@@ -14,7 +14,7 @@
 // the renderer computes them (before the sRGB encoding of the PNG), alpha ignored; RMSE over all pixels
 // and the three channels, PSNR = 10·log10(1 / MSE) dB with peak 1 (+inf for identical images), and the
 // largest absolute channel difference.
-#include <smoketrace/image.hpp>
+#include <smoketrace/core/image.hpp>
 
 #include <algorithm>
 #include <cmath>

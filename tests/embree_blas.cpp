@@ -4,9 +4,9 @@
 // and one exit (Embree cross-checks those as well, after deduplication).
 #include "support/embree_reference.hpp"
 
-#include <smoketrace/blas_traversal.hpp>
-#include <smoketrace/prng.hpp>
-#include <smoketrace/stand_in_shapes.hpp>
+#include <smoketrace/trace/blas_traversal.hpp>
+#include <smoketrace/core/prng.hpp>
+#include <smoketrace/smoke/stand_in_shapes.hpp>
 
 #include <catch2/catch.hpp>
 #include <glm/geometric.hpp>

@@ -18,9 +18,9 @@
 #include "support/embree_instances.hpp"
 #include "support/embree_reference.hpp"
 
-#include <smoketrace/prng.hpp>
-#include <smoketrace/stand_in_shapes.hpp>
-#include <smoketrace/trace.hpp>
+#include <smoketrace/core/prng.hpp>
+#include <smoketrace/smoke/stand_in_shapes.hpp>
+#include <smoketrace/trace/trace.hpp>
 
 #include <catch2/catch.hpp>
 

@@ -18,11 +18,11 @@
 #include "support/fixtures.hpp"
 #include "support/embree_reference.hpp"
 
-#include <smoketrace/optical_depth_pass.hpp>
-#include <smoketrace/optical_depths.hpp>
-#include <smoketrace/prng.hpp>
-#include <smoketrace/stand_in_shapes.hpp>
-#include <smoketrace/tube_generator.hpp>
+#include <smoketrace/smoke/optical_depth_pass.hpp>
+#include <smoketrace/smoke/optical_depths.hpp>
+#include <smoketrace/core/prng.hpp>
+#include <smoketrace/smoke/stand_in_shapes.hpp>
+#include <smoketrace/smoke/tube_generator.hpp>
 
 #include <catch2/catch.hpp>
 

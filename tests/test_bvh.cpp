@@ -1,12 +1,12 @@
 // The BVH (bvh.hpp, bvh_builder.hpp), its traversal (bvh_traversal.hpp, blas_traversal.hpp), the mesh
 // BLAS (triangle_mesh.hpp) and the stand-in meshes (stand_in_shapes.hpp), each against brute force.
-#include <smoketrace/blas_traversal.hpp>
-#include <smoketrace/bvh.hpp>
-#include <smoketrace/bvh_builder.hpp>
-#include <smoketrace/bvh_traversal.hpp>
-#include <smoketrace/prng.hpp>
-#include <smoketrace/stand_in_shapes.hpp>
-#include <smoketrace/triangle_mesh.hpp>
+#include <smoketrace/trace/blas_traversal.hpp>
+#include <smoketrace/accel/bvh.hpp>
+#include <smoketrace/accel/bvh_builder.hpp>
+#include <smoketrace/accel/bvh_traversal.hpp>
+#include <smoketrace/core/prng.hpp>
+#include <smoketrace/smoke/stand_in_shapes.hpp>
+#include <smoketrace/accel/triangle_mesh.hpp>
 
 #include <catch2/catch.hpp>
 #include <glm/geometric.hpp>

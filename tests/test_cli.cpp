@@ -2,9 +2,9 @@
 #include "support/cli_runner.hpp"
 #include "support/fixtures.hpp"
 
-#include <smoketrace/optical_depths.hpp>
-#include <smoketrace/scene_file.hpp>
-#include <smoketrace/smoke_scene.hpp>
+#include <smoketrace/smoke/optical_depths.hpp>
+#include <smoketrace/io/scene_file.hpp>
+#include <smoketrace/smoke/smoke_scene.hpp>
 
 #include <catch2/catch.hpp>
 

@@ -4,12 +4,12 @@
 // "Exact" here means: configurations built from small dyadic numbers, whose every float operation is
 // exact, or references computed in double from the float inputs (a float difference is exact in double,
 // a double division is 2^29 times finer than the float results under test).
-#include <smoketrace/aabb.hpp>
-#include <smoketrace/prng.hpp>
-#include <smoketrace/ray_sphere.hpp>
-#include <smoketrace/ray_triangle.hpp>
-#include <smoketrace/ray_triangle_block.hpp>
-#include <smoketrace/triangle_mesh.hpp>
+#include <smoketrace/geometry/aabb.hpp>
+#include <smoketrace/core/prng.hpp>
+#include <smoketrace/geometry/ray_sphere.hpp>
+#include <smoketrace/geometry/ray_triangle.hpp>
+#include <smoketrace/geometry/ray_triangle_block.hpp>
+#include <smoketrace/accel/triangle_mesh.hpp>
 
 #include <catch2/catch.hpp>
 #include <glm/geometric.hpp>

@@ -1,10 +1,10 @@
 // The hit resolver (thesis 4.3.3) and its sorts: float_sort_key, radix / insertion sort against
 // std::stable_sort, eq. 3.1 and the in-smoke walk against exact answers, and the three HitSort methods
 // against each other and against an independent interval-union computation.
-#include <smoketrace/prng.hpp>
-#include <smoketrace/hit_resolver.hpp>
-#include <smoketrace/radix_sort.hpp>
-#include <smoketrace/sorting_network.hpp>
+#include <smoketrace/core/prng.hpp>
+#include <smoketrace/smoke/hit_resolver.hpp>
+#include <smoketrace/core/radix_sort.hpp>
+#include <smoketrace/core/sorting_network.hpp>
 
 #include <catch2/catch.hpp>
 #include <tbb/task_arena.h>

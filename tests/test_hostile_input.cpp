@@ -11,13 +11,13 @@
 //    takes them, output paths in read-only or unwritable folders and onto an existing folder.
 #include "support/cli_runner.hpp"
 
-#include <smoketrace/camera.hpp>
-#include <smoketrace/memory_budget.hpp>
-#include <smoketrace/optical_depth_pass.hpp>
-#include <smoketrace/png_io.hpp>
-#include <smoketrace/scene_file.hpp>
-#include <smoketrace/sixway_texture.hpp>
-#include <smoketrace/tube_generator.hpp>
+#include <smoketrace/render/camera.hpp>
+#include <smoketrace/core/memory_budget.hpp>
+#include <smoketrace/smoke/optical_depth_pass.hpp>
+#include <smoketrace/io/png_io.hpp>
+#include <smoketrace/io/scene_file.hpp>
+#include <smoketrace/render/sixway_texture.hpp>
+#include <smoketrace/smoke/tube_generator.hpp>
 
 #include <catch2/catch.hpp>
 #include <glm/geometric.hpp>

@@ -8,13 +8,13 @@
 #include "support/fixtures.hpp"
 #include "support/sphere_reference.hpp"
 
-#include <smoketrace/optical_depth_pass.hpp>
-#include <smoketrace/optical_depths.hpp>
-#include <smoketrace/particle_groups.hpp>
-#include <smoketrace/prng.hpp>
-#include <smoketrace/radix_sort.hpp>
-#include <smoketrace/trace.hpp>
-#include <smoketrace/tube_generator.hpp>
+#include <smoketrace/smoke/optical_depth_pass.hpp>
+#include <smoketrace/smoke/optical_depths.hpp>
+#include <smoketrace/smoke/particle_groups.hpp>
+#include <smoketrace/core/prng.hpp>
+#include <smoketrace/core/radix_sort.hpp>
+#include <smoketrace/trace/trace.hpp>
+#include <smoketrace/smoke/tube_generator.hpp>
 
 #include <catch2/catch.hpp>
 #include <tbb/global_control.h>

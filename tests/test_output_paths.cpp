@@ -8,9 +8,9 @@
 #include "support/cli_runner.hpp"
 #include "support/fixtures.hpp"
 
-#include <smoketrace/output_path.hpp>
-#include <smoketrace/png_io.hpp>
-#include <smoketrace/sixway_texture.hpp>
+#include <smoketrace/io/output_path.hpp>
+#include <smoketrace/io/png_io.hpp>
+#include <smoketrace/render/sixway_texture.hpp>
 
 #include <catch2/catch.hpp>
 

@@ -1,7 +1,7 @@
 // The PRNG, the particle system's motion and the thesis's two-tube generator (4.1.1).
-#include <smoketrace/particle_system.hpp>
-#include <smoketrace/prng.hpp>
-#include <smoketrace/tube_generator.hpp>
+#include <smoketrace/smoke/particle_system.hpp>
+#include <smoketrace/core/prng.hpp>
+#include <smoketrace/smoke/tube_generator.hpp>
 
 #include <catch2/catch.hpp>
 

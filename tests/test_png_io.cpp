@@ -5,8 +5,8 @@
 
 #include <catch2/catch.hpp>
 
-#include <smoketrace/image.hpp>
-#include <smoketrace/png_io.hpp>
+#include <smoketrace/core/image.hpp>
+#include <smoketrace/io/png_io.hpp>
 
 #include <atomic>
 #include <bit>

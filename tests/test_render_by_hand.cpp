@@ -16,9 +16,9 @@
 #include "support/fixtures.hpp"
 #include "support/sphere_reference.hpp"
 
-#include <smoketrace/frame_renderer.hpp>
-#include <smoketrace/scene_file.hpp>
-#include <smoketrace/sixway_texture.hpp>
+#include <smoketrace/render/frame_renderer.hpp>
+#include <smoketrace/io/scene_file.hpp>
+#include <smoketrace/render/sixway_texture.hpp>
 
 #include <catch2/catch.hpp>
 

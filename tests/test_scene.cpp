@@ -1,11 +1,11 @@
 // The two-level Scene: what commit() does per frame (none / refit / rebuild, scene.hpp), the TLAS it
 // leaves behind (exact boxes, node masks = OR of the subtree), and that a refit tree, however degraded
 // by motion, answers every query with exactly the hits a freshly built one gives.
-#include <smoketrace/bvh_builder.hpp>
-#include <smoketrace/prng.hpp>
-#include <smoketrace/scene.hpp>
-#include <smoketrace/stand_in_shapes.hpp>
-#include <smoketrace/trace.hpp>
+#include <smoketrace/accel/bvh_builder.hpp>
+#include <smoketrace/core/prng.hpp>
+#include <smoketrace/accel/scene.hpp>
+#include <smoketrace/smoke/stand_in_shapes.hpp>
+#include <smoketrace/trace/trace.hpp>
 
 #include <catch2/catch.hpp>
 

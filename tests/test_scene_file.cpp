@@ -2,9 +2,9 @@
 // per kind of bad input (each checking that the message names the file and the JSON path).
 #include "support/cli_runner.hpp"
 
-#include <smoketrace/camera.hpp>
-#include <smoketrace/scene_file.hpp>
-#include <smoketrace/tube_generator.hpp>
+#include <smoketrace/render/camera.hpp>
+#include <smoketrace/io/scene_file.hpp>
+#include <smoketrace/smoke/tube_generator.hpp>
 
 #include <catch2/catch.hpp>
 #include <glm/geometric.hpp>

@@ -1,7 +1,7 @@
 // The scenes shipped in assets/scenes/: every frame a user renders from them is lit as intended.
 #include <catch2/catch.hpp>
 
-#include <smoketrace/scene_file.hpp>
+#include <smoketrace/io/scene_file.hpp>
 
 #include <glm/geometric.hpp>
 

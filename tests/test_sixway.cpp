@@ -6,9 +6,9 @@
 
 #include <catch2/catch.hpp>
 
-#include <smoketrace/png_io.hpp>
-#include <smoketrace/sixway_baker.hpp>
-#include <smoketrace/sixway_texture.hpp>
+#include <smoketrace/io/png_io.hpp>
+#include <smoketrace/render/sixway_baker.hpp>
+#include <smoketrace/render/sixway_texture.hpp>
 
 #include <nlohmann/json.hpp>
 #include <tbb/global_control.h>

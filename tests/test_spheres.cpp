@@ -15,8 +15,8 @@
 // > kSlack·δ⊥ it must not; in between (a band a few ulps wide) either answer is correct and is not
 // checked. An exactly tangent ray (perp = R in exact arithmetic, with exactly representable input)
 // must report nothing.
-#include <smoketrace/prng.hpp>
-#include <smoketrace/trace.hpp>
+#include <smoketrace/core/prng.hpp>
+#include <smoketrace/trace/trace.hpp>
 
 #include <catch2/catch.hpp>
 

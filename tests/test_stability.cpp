@@ -14,12 +14,12 @@
 #include "support/fixtures.hpp"
 #include "support/sphere_reference.hpp"
 
-#include <smoketrace/frame_renderer.hpp>
-#include <smoketrace/hit_resolver.hpp>
-#include <smoketrace/optical_depth_pass.hpp>
-#include <smoketrace/prng.hpp>
-#include <smoketrace/scene_file.hpp>
-#include <smoketrace/stand_in_shapes.hpp>
+#include <smoketrace/render/frame_renderer.hpp>
+#include <smoketrace/smoke/hit_resolver.hpp>
+#include <smoketrace/smoke/optical_depth_pass.hpp>
+#include <smoketrace/core/prng.hpp>
+#include <smoketrace/io/scene_file.hpp>
+#include <smoketrace/smoke/stand_in_shapes.hpp>
 
 #include <catch2/catch.hpp>
 #include <tbb/global_control.h>

@@ -6,11 +6,11 @@
 #include "support/fixtures.hpp"
 #include "support/sphere_reference.hpp"
 
-#include <smoketrace/optical_depth_pass.hpp>
-#include <smoketrace/optical_depths.hpp>
-#include <smoketrace/prng.hpp>
-#include <smoketrace/stand_in_shapes.hpp>
-#include <smoketrace/trace.hpp>
+#include <smoketrace/smoke/optical_depth_pass.hpp>
+#include <smoketrace/smoke/optical_depths.hpp>
+#include <smoketrace/core/prng.hpp>
+#include <smoketrace/smoke/stand_in_shapes.hpp>
+#include <smoketrace/trace/trace.hpp>
 
 #include <catch2/catch.hpp>
 

@@ -5,11 +5,11 @@
 #include "support/cli_runner.hpp"
 #include "support/fixtures.hpp"
 
-#include <smoketrace/camera.hpp>
-#include <smoketrace/frame_renderer.hpp>
-#include <smoketrace/optical_depths.hpp>
-#include <smoketrace/scene_file.hpp>
-#include <smoketrace/sixway_texture.hpp>
+#include <smoketrace/render/camera.hpp>
+#include <smoketrace/render/frame_renderer.hpp>
+#include <smoketrace/smoke/optical_depths.hpp>
+#include <smoketrace/io/scene_file.hpp>
+#include <smoketrace/render/sixway_texture.hpp>
 
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>

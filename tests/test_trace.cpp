@@ -7,9 +7,9 @@
 // halves, exact in float, so hit distances are exact and compared with ==. The last sections (the
 // world-triangles path against the object-space path, and the two TLAS walks against each other) use
 // random affine maps instead, with the tolerances derived where they are used.
-#include <smoketrace/prng.hpp>
-#include <smoketrace/stand_in_shapes.hpp>
-#include <smoketrace/trace.hpp>
+#include <smoketrace/core/prng.hpp>
+#include <smoketrace/smoke/stand_in_shapes.hpp>
+#include <smoketrace/trace/trace.hpp>
 
 #include <catch2/catch.hpp>
 

@@ -7,13 +7,13 @@
 // what DXR fixes whatever the traversal order: the set of candidates (with their t, bit for bit) when
 // every candidate is ignored, the closest hit when every candidate is accepted, whether anything is
 // committed under ACCEPT_FIRST_HIT_AND_END_SEARCH, and the cutoff. Last, bundle_order().
-#include <smoketrace/bundle_traversal.hpp>
-#include <smoketrace/prng.hpp>
-#include <smoketrace/ray_bundle.hpp>
-#include <smoketrace/ray_sphere_bundle.hpp>
-#include <smoketrace/stand_in_shapes.hpp>
-#include <smoketrace/trace.hpp>
-#include <smoketrace/trace_bundle.hpp>
+#include <smoketrace/accel/bundle_traversal.hpp>
+#include <smoketrace/core/prng.hpp>
+#include <smoketrace/geometry/ray_bundle.hpp>
+#include <smoketrace/geometry/ray_sphere_bundle.hpp>
+#include <smoketrace/smoke/stand_in_shapes.hpp>
+#include <smoketrace/trace/trace.hpp>
+#include <smoketrace/trace/trace_bundle.hpp>
 
 #include <catch2/catch.hpp>
 

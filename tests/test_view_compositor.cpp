@@ -1,9 +1,9 @@
 // The view pass (thesis 4.3.5) and the frame loop: determinism, render-mode relations, the two compositors.
 #include <catch2/catch.hpp>
 
-#include <smoketrace/frame_renderer.hpp>
-#include <smoketrace/png_io.hpp>
-#include <smoketrace/trace.hpp>
+#include <smoketrace/render/frame_renderer.hpp>
+#include <smoketrace/io/png_io.hpp>
+#include <smoketrace/trace/trace.hpp>
 
 #include <tbb/global_control.h>
 

@@ -12,8 +12,8 @@
 //    pixels finite. Any exception there is a crash too: the reader accepted something the renderer cannot use.
 //
 // Build and run: scripts/fuzz.sh (clang, -DSMOKETRACE_FUZZ=ON, build-fuzz/); seed corpus: tests/fuzz/corpus/.
-#include <smoketrace/frame_renderer.hpp>
-#include <smoketrace/scene_file.hpp>
+#include <smoketrace/render/frame_renderer.hpp>
+#include <smoketrace/io/scene_file.hpp>
 
 #include <glm/geometric.hpp>
 

@@ -13,7 +13,7 @@
 // per instance (world_to_object_linear, from the same double inverse smoketrace uses).
 #include "support/embree_reference.hpp"
 
-#include <smoketrace/instance.hpp>
+#include <smoketrace/accel/instance.hpp>
 
 #include <embree3/rtcore.h>
 #include <glm/mat3x3.hpp>

@@ -10,9 +10,9 @@
 // filter is also what Embree calls for hits inside instanced geometry, so an instance geometry
 // (RTC_GEOMETRY_TYPE_INSTANCE, an attach_instance() next to attach_mesh()) needs no change here: its
 // hits arrive with EmbreeHit::instance set from the hit's instID.
-#include <smoketrace/ray.hpp>
-#include <smoketrace/stand_in_shapes.hpp>
-#include <smoketrace/triangle_mesh.hpp>
+#include <smoketrace/geometry/ray.hpp>
+#include <smoketrace/smoke/stand_in_shapes.hpp>
+#include <smoketrace/accel/triangle_mesh.hpp>
 
 #include <embree3/rtcore.h>
 

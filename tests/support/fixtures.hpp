@@ -1,7 +1,7 @@
 #pragma once
 // Small helpers that many tests share: a particle from a centre and a radius, the list of every particle
 // index, and the message an operation fails with.
-#include <smoketrace/particle_system.hpp>
+#include <smoketrace/smoke/particle_system.hpp>
 
 #include <glm/vec3.hpp>
 

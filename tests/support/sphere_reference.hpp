@@ -3,8 +3,8 @@
 // spheres (thesis eq. 3.1's "in-smoke stretches", computed without a tracer), the surfaces it crosses, and
 // the tolerance a float tracer must meet. The reference of tests/test_optical_depth.cpp and
 // tests/test_stability.cpp.
-#include <smoketrace/optical_depth_pass.hpp>
-#include <smoketrace/particle_system.hpp>
+#include <smoketrace/smoke/optical_depth_pass.hpp>
+#include <smoketrace/smoke/particle_system.hpp>
 
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>

@@ -1,0 +1,105 @@
+// smoketrace depths: the optical-depth pipeline alone (thesis 4.3.2–4.3.3), one CSV row per particle.
+#include "arguments.hpp"
+#include "command.hpp"
+#include "output_arg.hpp"
+#include "thread_limit.hpp"
+
+#include <smoketrace/io/output_path.hpp>
+#include <smoketrace/smoke/optical_depths.hpp>
+#include <smoketrace/smoke/particle_groups.hpp>
+#include <smoketrace/io/scene_file.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <memory>
+
+namespace smoketrace::cli {
+namespace {
+
+const char* status_name(DepthStatus s) {
+    switch (s) {
+        case DepthStatus::ok: return "ok";
+        case DepthStatus::occluded: return "occluded";
+        case DepthStatus::cutoff: return "cutoff";
+    }
+    return "?";
+}
+
+HitSort parse_sort(const std::string& s) {
+    if (s == "radix") return HitSort::radix;
+    if (s == "std") return HitSort::std_sort;
+    if (s == "bubble") return HitSort::bubble;
+    throw CliError("--sort: '" + s + "' is not one of radix, std, bubble");
+}
+
+int run_depths(const Args& args) {
+    ArgReader in(args);
+    const auto out_path = in.string("-o");
+    const auto shape_arg = in.string("--shape");
+    const auto cutoff = in.integer("--cutoff", 0, 1'000'000'000);
+    const auto threads = in.integer("--threads", 1, 4096);
+    const auto repeat = in.integer("--repeat", 1, 1'000'000);
+    const auto sort_arg = in.string("--sort");
+    const bool timings = in.flag("--timings");
+    // After every flag has taken its value, so that "-o OUT" is never mistaken for the scene file.
+    const std::string scene_path = in.positional("scene file (smoketrace depths SCENE.json -o OUT.csv)");
+    in.finish();
+    if (!out_path) throw CliError("missing -o OUT.csv");
+
+    std::optional<StandInShape> shape;
+    if (shape_arg) {
+        shape = parse_stand_in_shape(*shape_arg);
+        if (!shape) throw CliError("--shape: '" + *shape_arg + "' is not sphere, icosahedron or icosphere:L (L = 1…4)");
+    }
+    const HitSort sort = sort_arg ? parse_sort(*sort_arg) : HitSort::radix;
+    const ThreadLimit limit(threads ? int(*threads) : 0);
+    // Before any work: -o must not be the scene file, a folder, or in a missing folder.
+    const OutputTarget output = checked_output(*out_path, {scene_path});
+    // With the CSV on standard output, the timings go to standard error.
+    std::ostream& report = output.kind == OutputKind::standard_output ? std::cerr : std::cout;
+
+    const SceneDescription desc = load_scene_file(scene_path);
+    const auto& particles = desc.smoke.particles;
+    std::optional<GroundQuad> ground;
+    if (desc.ground) ground = GroundQuad{desc.ground->corners};
+    OpticalDepthSettings settings;
+    settings.cutoff = cutoff ? std::uint32_t(*cutoff) : desc.render.cutoff;
+    const std::vector<std::uint32_t> all = particle_group(particles.size(), 1, 0);
+
+    std::vector<FrameTimings> runs;
+    std::unique_ptr<OpticalDepths> depths;
+    for (long long r = 0; r < (repeat ? *repeat : 1); ++r) {
+        FrameTimings t;
+        StageClock clock;
+        SmokeScene smoke(particles, shape ? *shape : desc.smoke.shape, ground, /*billboards=*/false);
+        smoke.update(particles, desc.camera.position);
+        t.tlas_update = clock.lap_ms();
+        depths = std::make_unique<OpticalDepths>(particles.size());
+        depths->update(smoke, particles, all, desc.light.direction, settings, sort, t);
+        t.total = t.tlas_update + t.od_pass + t.resolve;
+        runs.push_back(t);
+    }
+
+    write_output(*out_path, [&](std::ostream& out) {
+        out << "particle,optical_path_length,hits,status\n";
+        char buf[64];
+        for (std::size_t i = 0; i < particles.size(); ++i) {
+            const float l = depths->lengths()[i];
+            if (std::isinf(l)) std::snprintf(buf, sizeof buf, "inf");
+            else std::snprintf(buf, sizeof buf, "%.9g", double(l));
+            out << i << ',' << buf << ',' << depths->hit_counts()[i] << ',' << status_name(depths->status()[i]) << '\n';
+        }
+    });
+    if (timings) report << format_timings(median(runs), false);
+    return 0;
+}
+
+const RegisterCommand registration{
+    {"depths",
+     "depths SCENE.json -o OUT.csv|- [--shape sphere|icosahedron|icosphere:L] [--cutoff K] [--threads T] "
+     "[--repeat R] [--timings] [--sort radix|std|bubble]",
+     "optical path length of every particle toward the light, as CSV (-o -: on standard output)", &run_depths}};
+
+}  // namespace
+}  // namespace smoketrace::cli

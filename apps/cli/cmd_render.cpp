@@ -1,0 +1,157 @@
+// smoketrace render: frames and sequences of the smoke scene (thesis 4.3, 5.2.2).
+#include "arguments.hpp"
+#include "command.hpp"
+#include "output_arg.hpp"
+#include "progress_bar.hpp"
+#include "thread_limit.hpp"
+
+#include <smoketrace/render/frame_renderer.hpp>
+#include <smoketrace/io/output_path.hpp>
+#include <smoketrace/io/png_io.hpp>
+
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <sys/stat.h>
+
+namespace smoketrace::cli {
+namespace {
+
+RenderMode parse_mode(const std::string& s) {
+    if (s == "basic") return RenderMode::basic;
+    if (s == "simple-shadow") return RenderMode::simple_shadow;
+    if (s == "full") return RenderMode::full;
+    throw CliError("--mode: '" + s + "' is not one of basic, simple-shadow, full");
+}
+
+// An existing file that is not a regular file or a folder (a FIFO, a device): a single frame streamed into it
+// may have any name.
+bool is_existing_stream(const std::filesystem::path& path) {
+    struct stat st{};
+    return ::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode);
+}
+
+// OUT.png for one frame; OUT_0000.png, OUT_0001.png, … for a sequence.
+std::filesystem::path frame_path(const std::filesystem::path& out, std::uint32_t frame, std::uint32_t frames) {
+    if (frames == 1) return out;
+    char suffix[32];
+    std::snprintf(suffix, sizeof suffix, "_%04u", frame);
+    std::filesystem::path p = out;
+    p.replace_filename(out.stem().string() + suffix + out.extension().string());
+    return p;
+}
+
+int run_render(const Args& args) {
+    ArgReader in(args);
+    const auto out_arg = in.string("-o");
+    const auto mode = in.string("--mode");
+    const auto size = in.size("--size", int(kMaxImageSide));
+    const auto frames = in.integer("--frames", 1, 100000);
+    const auto groups = in.integer("--groups", 1, 1 << 20);
+    const auto cutoff = in.integer("--cutoff", 0, 1'000'000'000);
+    const auto shape_arg = in.string("--shape");
+    const auto threads = in.integer("--threads", 1, 4096);
+    const auto compositing = in.string("--compositing");
+    const auto compositor = in.string("--compositor");
+    const auto textures = in.string("--textures");
+    const bool timings = in.flag("--timings");
+    // After every flag has taken its value, so that "-o OUT" is never mistaken for the scene file.
+    const std::string scene_path = in.positional("scene file (smoketrace render SCENE.json -o OUT.png)");
+    in.finish();
+    if (!out_arg) throw CliError("missing -o OUT.png");
+    const std::filesystem::path out(*out_arg);
+    const bool to_stdout = out == kStandardOutputPath;
+    // Checks that need no file read, before the scene is loaded; every frame's path is checked below.
+    if (!to_stdout) {
+        if (out.extension() != ".png" && !is_existing_stream(out))
+            throw CliError("-o: '" + out.string() + "' must end in .png");
+        const std::filesystem::path out_dir = out.has_parent_path() ? out.parent_path() : ".";
+        if (!std::filesystem::is_directory(out_dir))
+            throw CliError("-o: folder '" + out_dir.string() + "' does not exist");
+    }
+
+    const ThreadLimit limit(threads ? int(*threads) : 0);
+    const SceneDescription scene = load_scene_file(scene_path);
+    RenderOptions options = RenderOptions::from_scene(scene);
+    if (mode) options.render.mode = parse_mode(*mode);
+    if (size) {
+        options.width = size->first;
+        options.height = size->second;
+        if (std::uint64_t(options.width) * std::uint64_t(options.height) > kMaxImagePixels)
+            throw CliError("--size: " + std::to_string(options.width) + "x" + std::to_string(options.height) +
+                           " has more than " + std::to_string(kMaxImagePixels) + " pixels");
+    }
+    if (frames) {
+        options.render.frames = std::uint32_t(*frames);
+        check_scene_motion(scene, options.render.frames);  // more frames than the file's: motion re-checked
+    }
+    if (groups) options.render.groups = std::uint32_t(*groups);
+    if (cutoff) options.render.cutoff = std::uint32_t(*cutoff);
+    if (shape_arg) {
+        const auto s = parse_stand_in_shape(*shape_arg);
+        if (!s) throw CliError("--shape: '" + *shape_arg + "' is not sphere, icosahedron or icosphere:L (L = 1…4)");
+        options.shape = *s;
+    }
+    if (compositing) {
+        if (*compositing == "over") options.render.compositing = Compositing::over;
+        else if (*compositing == "thesis") options.render.compositing = Compositing::thesis;
+        else throw CliError("--compositing: '" + *compositing + "' is not over or thesis");
+    }
+    if (compositor) {
+        if (*compositor == "one-traversal") options.compositor = CompositorKind::one_traversal;
+        else if (*compositor == "retrace") options.compositor = CompositorKind::retrace;
+        else throw CliError("--compositor: '" + *compositor + "' is not one-traversal or retrace");
+    }
+    const std::uint32_t frame_count = options.render.frames;
+    if (to_stdout && frame_count > 1)
+        throw CliError("-o -: standard output takes one frame, not " + std::to_string(frame_count) +
+                       " (--frames or the scene's render.frames); write a sequence with -o OUT.png");
+    if (frame_count > 1 && out.extension() != ".png")
+        throw CliError("-o: '" + out.string() + "' must end in .png (it names the files of a sequence)");
+    const std::filesystem::path texture_dir = textures ? std::filesystem::path(*textures) : SMOKETRACE_ASSET_DIR;
+    const SixwayLayout layout = read_sixway_layout(texture_dir / kSixwayLayoutFile);
+    // Before any work: no frame may be written onto an input, a folder or into a missing folder.
+    const std::vector<std::filesystem::path> inputs{scene_path, texture_dir / kSixwayLayoutFile, layout.positive,
+                                                    layout.negative};
+    bool timings_to_stderr = false;  // the PNG is on standard output: nothing else may go there
+    for (std::uint32_t f = 0; f < frame_count; ++f)
+        if (checked_output(frame_path(out, f, frame_count), inputs).kind == OutputKind::standard_output)
+            timings_to_stderr = true;
+    std::ostream& report = timings_to_stderr ? std::cerr : std::cout;
+    const SixwayTexture texture = SixwayTexture::load(layout.positive, layout.negative, layout.grid);
+
+    FrameRenderer renderer(scene, options, texture);
+    ProgressBar progress(options.render.frames);
+    std::vector<FrameTimings> all;
+    ImageRgba image;
+    PngWriter png;  // one for the sequence: its memory is reused by every frame
+    for (std::uint32_t f = 0; f < options.render.frames; ++f) {
+        const FrameReport r = renderer.render(f, image);
+        png.write_srgb(frame_path(out, f, options.render.frames), image);
+        all.push_back(r.timings);
+        if (timings) {
+            report << "frame=" << f << " tlas=" << to_string(r.tlas) << "\n" << format_timings(r.timings, true);
+        }
+        progress.step();
+    }
+    progress.finish();
+    if (timings && options.render.frames > 1) report << "median\n" << format_timings(median(all), true);
+    if (to_stdout)
+        std::cerr << "wrote the PNG to standard output\n";
+    else if (options.render.frames == 1)
+        std::cerr << "wrote " << out.string() << "\n";
+    else
+        std::cerr << "wrote " << options.render.frames << " frames " << frame_path(out, 0, options.render.frames).string()
+                  << " … " << frame_path(out, options.render.frames - 1, options.render.frames).string() << "\n";
+    return 0;
+}
+
+const RegisterCommand registration{
+    {"render",
+     "render SCENE.json -o OUT.png|- [--mode basic|simple-shadow|full] [--size WxH] [--frames N] [--groups G] "
+     "[--cutoff K] [--shape S] [--threads T] [--timings] [--compositing over|thesis] "
+     "[--compositor one-traversal|retrace] [--textures DIR]",
+     "render a frame (-o -: on standard output), or N frames OUT_0000.png …, of the smoke scene", &run_render}};
+
+}  // namespace
+}  // namespace smoketrace::cli

@@ -1,0 +1,80 @@
+#pragma once
+// The bounding volume hierarchy shared by every level of smoketrace: bottom-level trees over triangles
+// and spheres, and the top-level tree over instances.
+//
+// Node layout (32 bytes): the node's own box, then either its children or its primitive range.
+// The two children of a node are stored side by side as a pair at an even index (the root is node 0,
+// node 1 is padding), and the node array is 64-byte aligned, so one cache line holds both child boxes:
+// the traversal tests both children of a node after a single memory fetch, the same effect as a
+// "child boxes in the parent" layout but with a node half the size. Nodes are in depth-first order
+// (a pair always comes after its parent), so a refit is one backward sweep over the array.
+#include <smoketrace/geometry/aabb.hpp>
+
+#include <cstddef>
+#include <cstdint>
+#include <new>
+#include <span>
+#include <vector>
+
+namespace smoketrace {
+
+struct alignas(32) BvhNode {
+    Aabb bounds;
+    std::uint32_t first;  // inner node: index of the left child (the right is first + 1);
+                          // leaf: first entry in Bvh::prim_indices
+    std::uint32_t count;  // 0 for an inner node, else the number of primitives in the leaf
+
+    [[nodiscard]] bool is_leaf() const { return count != 0; }
+};
+static_assert(sizeof(BvhNode) == 32);
+
+// Minimal allocator so that node pairs sit in one 64-byte cache line.
+template <class T, std::size_t Align>
+struct AlignedAllocator {
+    using value_type = T;
+    AlignedAllocator() = default;
+    template <class U>
+    AlignedAllocator(const AlignedAllocator<U, Align>&) {}
+    template <class U>
+    struct rebind { using other = AlignedAllocator<U, Align>; };
+    T* allocate(std::size_t n) { return static_cast<T*>(::operator new(n * sizeof(T), std::align_val_t{Align})); }
+    void deallocate(T* p, std::size_t) { ::operator delete(p, std::align_val_t{Align}); }
+    bool operator==(const AlignedAllocator&) const { return true; }
+};
+
+// Deepest tree any builder may produce; traversal stacks are this deep and live on the stack.
+inline constexpr int kMaxBvhDepth = 64;
+
+// SAH cost constants (Goldsmith–Salmon / MacDonald–Booth): cost of stepping through one inner node
+// (two box tests) relative to one primitive test. 1:1 is the usual choice for a scalar triangle test
+// that costs about as much as the two box tests of a node pair.
+struct SahCosts {
+    float traversal = 1.0f;
+    float intersection = 1.0f;
+};
+
+// One node's term of the SAH sum before the division by the root's area: its box area times the cost
+// of stepping through it (inner node) or of testing its primitives (leaf).
+inline double sah_term(const BvhNode& n, const SahCosts& costs) {
+    const double c = n.is_leaf() ? double(costs.intersection) * double(n.count) : double(costs.traversal);
+    return double(n.bounds.area()) * c;
+}
+
+struct Bvh {
+    std::vector<BvhNode, AlignedAllocator<BvhNode, 64>> nodes;  // nodes[0] is the root
+    std::vector<std::uint32_t> prim_indices;                    // leaf ranges index into the input
+
+    [[nodiscard]] bool empty() const { return nodes.empty(); }
+    [[nodiscard]] const Aabb& bounds() const { return nodes[0].bounds; }
+    [[nodiscard]] std::size_t node_count() const;  // nodes in use (padding slot excluded)
+    [[nodiscard]] int depth() const;
+
+    // Expected cost of a random ray that hits the root box (SAH): every node weighted by
+    // area(node)/area(root), inner nodes by the traversal cost, leaves by intersection·count.
+    [[nodiscard]] double sah_cost(const SahCosts& costs = {}) const;
+
+    // Recomputes every box bottom-up from new primitive boxes, keeping the topology. O(nodes).
+    void refit(std::span<const Aabb> prim_boxes);
+};
+
+}  // namespace smoketrace

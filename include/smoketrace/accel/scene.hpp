@@ -1,0 +1,168 @@
+#pragma once
+// The two-level scene: bottom-level structures (BLAS) placed by instances, and the top-level BVH
+// (TLAS) over the instances' world boxes.
+//
+// Per frame the application changes transforms and masks, then calls commit(), which brings the TLAS
+// up to date with the least work that keeps it good:
+//   * nothing changed                         → none    (no TLAS work at all)
+//   * transforms or masks changed             → refit   (boxes and masks recomputed bottom-up, O(n))
+//   * instances added or removed, or the refit tree's SAH cost has grown past
+//     kTlasRebuildSahRatio × its cost right after the last full build → rebuild (binned SAH).
+#include <smoketrace/accel/bvh.hpp>
+#include <smoketrace/accel/instance.hpp>
+#include <smoketrace/accel/sphere_set.hpp>
+#include <smoketrace/accel/triangle_mesh.hpp>
+#include <smoketrace/accel/wide_bvh.hpp>
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+namespace smoketrace {
+
+enum class GeometryKind : std::uint8_t { triangles, spheres };
+
+// One bottom-level structure: a triangle mesh or a set of exact spheres, with DXR's geometry opacity.
+struct BottomLevel {
+    GeometryKind kind = GeometryKind::triangles;
+    MeshBlas mesh;        // kind == triangles
+    SphereBlas spheres;   // kind == spheres
+    bool opaque = true;   // D3D12_RAYTRACING_GEOMETRY_FLAG_OPAQUE
+
+    static BottomLevel from_mesh(const TriangleMesh& m, bool opaque);
+    static BottomLevel from_spheres(const std::vector<Sphere>& s, bool opaque);
+    [[nodiscard]] Aabb bounds() const { return kind == GeometryKind::triangles ? mesh.bounds() : spheres.bounds(); }
+};
+
+// A refit tree whose SAH cost exceeds this multiple of its cost when last built is rebuilt. 1.2 keeps
+// traversal within about 20 % of a fresh tree (SAH cost tracks nodes visited per ray closely for the
+// TLAS) while letting small per-frame motion through with a refit alone; see bench "tlas".
+inline constexpr double kTlasRebuildSahRatio = 1.2;
+
+enum class TlasUpdate : std::uint8_t { none, refit, rebuild };
+[[nodiscard]] const char* to_string(TlasUpdate u);
+
+// How trace() tests an instance, decided when its transform is set (Scene::update_instance).
+enum class InstancePath : std::uint8_t {
+    object_space,     // the general path: the ray taken into object space, the BLAS traversed there
+    world_sphere,     // one sphere under a similarity transform: the sphere tested in world space
+    world_triangles,  // a one-leaf mesh of a few triangles: its triangles kept transformed, tested in world space
+};
+
+// Whether a Scene may use the world-space paths (the default) or takes every instance through the
+// object-space path.
+enum class InstancePaths : std::uint8_t { fastest, object_space_only };
+
+// Meshes of up to this many triangles in one BLAS leaf (a billboard quad, a ground quad) take the
+// world_triangles path: per instance, their vertices transformed once per transform change save every
+// ray the object-space ray and its triangle set-up, about as much work as the two triangle tests.
+inline constexpr std::uint32_t kMaxWorldTriangles = 4;
+
+// What trace() reads per instance, kept together in instance order. A visit to a world sphere reads the
+// first cache line only (up to sphere_radius, kept on one line by alignas) until it reports a hit; a world-
+// triangles visit reads the first bytes and the triangle fields of the second line; world_to_object_linear
+// comes last, needed by the general path and for a sphere hit's object_point. A bundle's walk meets the
+// records in leaf order, scattered over memory: with a sphere's fields spread over two or three lines (152-
+// byte records), the first read of a record was the optical-depth pass's costliest line.
+struct alignas(64) InstanceRecord {
+    std::uint8_t mask;
+    // Rule 2 as far as the instance decides it: the geometry's opacity after the instance's FORCE_OPAQUE /
+    // FORCE_NON_OPAQUE, so that trace() need not chase `blas` to decide it.
+    bool opaque;
+    InstancePath path;
+    std::uint8_t flags;
+    std::uint32_t user_id;
+    glm::dvec3 object_to_world_translation;  // subtracted first, then the linear inverse applied
+    // world_sphere only. The centre relative to the translation (linear · centre), not the world centre:
+    // trace() subtracts the translation from the ray origin first, exactly as the general path does, so
+    // a small sphere far from the world origin is as precise as there.
+    glm::dvec3 sphere_offset;
+    double sphere_radius;  // scale · radius
+    // world_triangles only: how many (in the BLAS's leaf order, from Scene::world_triangles()[first_world_
+    // triangle]), and whether a world-space front face is an object-space back face (a mirroring transform)
+    // — XOR TRIANGLE_FRONT_CLOCKWISE, so that rule 4 sees the facing the general path would.
+    std::uint8_t world_triangle_count;
+    bool world_facing_flipped;
+    std::uint32_t first_world_triangle;
+    const BottomLevel* blas;
+    glm::dmat3 world_to_object_linear;
+};
+static_assert(offsetof(InstanceRecord, sphere_radius) + sizeof(double) <= 64, "a world sphere's fields on one line");
+
+// The most prefetch_top_level() asks for: half of a 1 MiB L2 (the per-core L2 of AMD Zen 4/5, at
+// least as much on recent Intel cores), leaving the rest to the walk's own buffers.
+inline constexpr std::size_t kPrefetchTopLevelMaxBytes = std::size_t{512} << 10;
+
+class Scene {
+public:
+    // `paths` = object_space_only turns the world-space paths off (every instance takes the general path):
+    // for tests that hold the two against each other, and for whoever wants DXR's one mechanism only.
+    explicit Scene(InstancePaths paths = InstancePaths::fastest) : paths_(paths) {}
+    Scene(const Scene&) = delete;
+    Scene& operator=(const Scene&) = delete;
+    Scene(Scene&&) = default;
+    Scene& operator=(Scene&&) = default;
+
+    std::uint32_t add_bottom_level(BottomLevel blas);
+    std::uint32_t add_instance(const Instance& instance);  // returns its index
+    void remove_instance(std::uint32_t index);              // later indices move down by one
+    void set_transform(std::uint32_t index, const AffineTransform& object_to_world);
+    void set_mask(std::uint32_t index, std::uint8_t mask);
+
+    // Brings the TLAS up to date (see the table above) and says what it did.
+    TlasUpdate commit();
+
+    [[nodiscard]] std::size_t instance_count() const { return instances_.size(); }
+    [[nodiscard]] const Instance& instance(std::uint32_t i) const { return instances_[i]; }
+    [[nodiscard]] const BottomLevel& bottom_level(std::uint32_t i) const { return *blases_[i]; }
+    [[nodiscard]] const Aabb& instance_bounds(std::uint32_t i) const { return world_boxes_[i]; }
+
+    // For trace(): the committed top level. Valid after commit().
+    [[nodiscard]] const Bvh& tlas() const { return tlas_; }
+    [[nodiscard]] const std::vector<std::uint8_t>& tlas_node_masks() const { return node_masks_; }
+    // The same tree collapsed to 4-wide nodes, with the masks: what trace() walks.
+    [[nodiscard]] const WideBvh& wide_tlas() const { return wide_tlas_; }
+    [[nodiscard]] const InstanceRecord& record(std::uint32_t i) const { return records_[i]; }
+    // Asks this core's caches for what a walk of the whole top level reads first: the wide nodes, the
+    // leaves' index array and each instance record's first line (a world sphere's whole record), when
+    // they fit in kPrefetchTopLevelMaxBytes (else it does nothing). For a caller about to send rays over
+    // all of it, such as the optical-depth pass, whose rays together reach every particle: the walk
+    // chases pointers, node to node to record, and from L3 each step waits ~50 cycles, where a sweep
+    // keeps many lines in flight at once.
+    void prefetch_top_level() const;
+    // The world_triangles instances' triangles in world space, each instance's from its
+    // InstanceRecord::first_world_triangle.
+    [[nodiscard]] const MeshBlas::Triangle* world_triangles() const { return world_triangles_.data(); }
+    [[nodiscard]] bool committed() const { return !structure_dirty_ && !transforms_dirty_; }
+
+    [[nodiscard]] double tlas_sah_cost() const { return sah_current_; }
+    [[nodiscard]] double tlas_sah_cost_at_build() const { return sah_at_build_; }
+    void set_rebuild_ratio(double r) { rebuild_ratio_ = r; }
+
+private:
+    [[nodiscard]] bool takes_world_triangles(const BottomLevel& b) const;
+    void update_instance(std::uint32_t i);
+    void rebuild();
+    void refit_binary();
+
+    std::vector<std::unique_ptr<BottomLevel>> blases_;  // stable addresses for InstanceRecord::blas
+    std::vector<Instance> instances_;
+    std::vector<InstanceRecord> records_;
+    std::vector<MeshBlas::Triangle> world_triangles_;  // in instance order; slots fixed when added
+    std::vector<Aabb> world_boxes_;
+    // Each instance's mask again, one byte apiece: the refit sweep reads it at random (TLAS leaf order),
+    // and from the 100-byte Instance records that was a cache miss per leaf.
+    std::vector<std::uint8_t> instance_masks_;
+    Bvh tlas_;
+    std::vector<std::uint8_t> node_masks_;  // OR of the instance masks below each TLAS node
+    WideBvh wide_tlas_;                     // collapsed from tlas_ at each build, refit with it
+    double sah_at_build_ = 0.0;
+    double sah_current_ = 0.0;  // of the tree as last refit or built
+    double rebuild_ratio_ = kTlasRebuildSahRatio;
+    InstancePaths paths_ = InstancePaths::fastest;
+    bool structure_dirty_ = true;
+    bool transforms_dirty_ = false;
+};
+
+}  // namespace smoketrace

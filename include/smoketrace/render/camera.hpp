@@ -1,0 +1,29 @@
+#pragma once
+// A pinhole camera: one ray per pixel centre, as in the thesis's view pass (4.3.5).
+#include <smoketrace/geometry/ray.hpp>
+
+#include <glm/vec3.hpp>
+
+namespace smoketrace {
+
+class Camera {
+public:
+    // fov_deg is the vertical field of view. Throws std::invalid_argument when position == look_at, up is
+    // parallel to the view direction, or the size or field of view is out of range.
+    Camera(const glm::vec3& position, const glm::vec3& look_at, const glm::vec3& up, float fov_deg, int width,
+           int height);
+
+    // Ray through the centre of pixel (x, y), y = 0 the top row; unit direction, so t is distance.
+    [[nodiscard]] Ray ray(int x, int y, float tmin) const;
+
+    [[nodiscard]] const glm::vec3& position() const { return position_; }
+    [[nodiscard]] int width() const { return width_; }
+    [[nodiscard]] int height() const { return height_; }
+
+private:
+    glm::vec3 position_, forward_, right_, up_;
+    float half_height_, half_width_;  // tan(fov/2) and that times the aspect ratio
+    int width_, height_;
+};
+
+}  // namespace smoketrace

@@ -1,0 +1,65 @@
+#pragma once
+// One frame of the thesis's render loop (4.3, figure 4.1), and the sequence of frames (5.2.2):
+//   advance particles → TLAS update (none / refit / rebuild) → optical-depth pass and resolve for this
+//   frame's particle group (skipped in basic mode) → view pass → image.
+// Work a frame does not need is skipped: basic mode never runs the optical-depth pass; a frame in which
+// no particle moved and the light did not turn does no TLAS work and no optical-depth work, and redraws
+// only the view (the billboards' flipbook advances every frame). The previous image is kept as it is only
+// when the flipbook frame is also the same (a one-frame flipbook).
+#include <smoketrace/render/camera.hpp>
+#include <smoketrace/core/frame_timings.hpp>
+#include <smoketrace/core/image.hpp>
+#include <smoketrace/smoke/optical_depths.hpp>
+#include <smoketrace/smoke/particle_system.hpp>
+#include <smoketrace/io/scene_file.hpp>
+#include <smoketrace/render/sixway_texture.hpp>
+#include <smoketrace/render/view_compositor.hpp>
+
+#include <memory>
+
+namespace smoketrace {
+
+// Everything a render takes besides the scene file (the command line overrides the file's values).
+struct RenderOptions {
+    RenderSettings render;            // mode, cutoff, groups, frames, softness, threshold, compositing
+    StandInShape shape{};
+    int width = 512, height = 512;
+    CompositorKind compositor = CompositorKind::one_traversal;
+    HitSort sort = HitSort::radix;
+
+    // The scene file's own settings and camera size.
+    static RenderOptions from_scene(const SceneDescription& scene);
+};
+
+struct FrameReport {
+    FrameTimings timings;
+    TlasUpdate tlas = TlasUpdate::none;
+    std::size_t depths_updated = 0;  // particles traced this frame
+    bool reused_previous = false;    // nothing changed, the flipbook frame neither: the previous image was kept
+};
+
+class FrameRenderer {
+public:
+    FrameRenderer(const SceneDescription& scene, const RenderOptions& options, const SixwayTexture& texture);
+
+    // Renders frame `frame` (0, 1, 2, … in order: particles advance one step per frame) into `image`.
+    FrameReport render(std::uint64_t frame, ImageRgba& image);
+
+    [[nodiscard]] const OpticalDepths& depths() const { return depths_; }
+    [[nodiscard]] const ParticleSystem& particles() const { return particles_; }
+    [[nodiscard]] const SmokeScene& smoke() const { return smoke_; }
+
+private:
+    const SceneDescription& desc_;
+    RenderOptions options_;
+    const SixwayTexture& texture_;
+    ParticleSystem particles_;
+    SmokeScene smoke_;
+    Camera camera_;
+    OpticalDepths depths_;
+    std::int64_t last_frame_ = -1;
+    glm::vec3 last_light_{0.0f};
+    int last_flipbook_frame_ = -1;  // the flipbook frame of the image last drawn
+};
+
+}  // namespace smoketrace

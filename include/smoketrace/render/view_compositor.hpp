@@ -1,0 +1,52 @@
+#pragma once
+// The view pass (thesis 4.3.5): per pixel, the billboards along the camera ray are shaded with six-way
+// lighting and attenuated by their particle's optical depth, composited front to back over the ground
+// (lit, with a shadow ray) or the sky.
+//
+// Two compositors give the same image (tests/test_view_compositor.cpp states the tolerance):
+//  * one_traversal (default): one ray finds the opaque surface, then a single billboard traversal whose
+//    any-hit callback shades every layer in front of it (Multi-Layer Alpha Tracing, Brüll & Grosch
+//    2020, with an unbounded layer list); the layers are sorted by t with the hit resolver's radix sort
+//    and composited until the remaining transmittance drops below a threshold. Once the layers already
+//    met make the pixel opaque, the callback accepts a hit to cut the traversal short (exact: see
+//    view_compositor.cpp);
+//  * retrace (the thesis's loop, kept as the reference): trace the closest billboard, shade it,
+//    composite, and trace again from just behind it, until the ground, the sky or the threshold.
+#include <smoketrace/render/camera.hpp>
+#include <smoketrace/core/image.hpp>
+#include <smoketrace/io/scene_file.hpp>
+#include <smoketrace/render/sixway_texture.hpp>
+#include <smoketrace/smoke/smoke_scene.hpp>
+
+#include <span>
+
+namespace smoketrace {
+
+enum class CompositorKind : std::uint8_t { one_traversal, retrace };
+
+// TMin of view rays (thesis 4.3.5): 1e-3 in scene units, clear of the camera's own position.
+inline constexpr float kViewRayTmin = 1e-3f;
+
+struct ViewSettings {
+    RenderMode mode = RenderMode::full;
+    Compositing compositing = Compositing::over;
+    CompositorKind compositor = CompositorKind::one_traversal;
+    float sigma_t = 1.0f;
+    float alpha = 0.5f;
+    float softness = 0.3f;                        // soft-particle fade distance (Larsson 2.7); 0 = hard
+    float transmittance_threshold = 1.0f / 255.0f;  // stop compositing below this transmittance
+    glm::vec3 to_light{0.0f, 1.0f, 0.0f};         // unit
+    glm::vec3 light_color{1.0f};
+    glm::vec3 ambient{0.05f};
+    glm::vec3 background{0.53f, 0.81f, 0.92f};
+    glm::vec3 ground_color{0.8f, 0.1f, 0.1f};
+    int flipbook_frame = 0;                       // animation frame of the six-way flipbook
+};
+
+// Renders one image. `lengths` holds each particle's optical path length (ignored in basic mode).
+// Parallel over 16×16 tiles (TBB); each pixel depends on nothing but its own rays, so the image is the
+// same whatever the thread count.
+void render_view(const SmokeScene& scene, std::span<const Particle> particles, std::span<const float> lengths,
+                 const SixwayTexture& texture, const Camera& camera, const ViewSettings& settings, ImageRgba& image);
+
+}  // namespace smoketrace

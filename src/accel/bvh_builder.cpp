@@ -1,0 +1,420 @@
+// Binned SAH BVH construction (see bvh_builder.hpp for the policy).
+#include <smoketrace/accel/bvh_builder.hpp>
+
+#include <tbb/parallel_invoke.h>
+#include <tbb/parallel_reduce.h>
+#include <tbb/blocked_range.h>
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cassert>
+#include <limits>
+#include <stdexcept>
+#include <utility>
+#include <vector>
+
+#include <immintrin.h>
+
+namespace smoketrace {
+namespace {
+
+constexpr int kBins = BvhBuildSettings::kBins;
+
+// A primitive as the builder moves it: its box and its index, 32 bytes, so that a node's primitives are
+// one contiguous run that partitioning reorders in place (sequential memory access at every level, where
+// an index into the input boxes would be a cache miss per primitive on a large mesh). lo and hi are
+// each followed by a fourth float so that either loads as one 4-wide vector.
+struct alignas(32) PrimRef {
+    glm::vec3 lo;
+    std::uint32_t id;
+    glm::vec3 hi;
+    float unused = 0.0f;
+
+    // Exactly Aabb::center(): the split decisions are those of the boxes themselves. (Indexed through a
+    // pointer: glm's operator[] is a switch.)
+    [[nodiscard]] float centroid(int axis) const { return 0.5f * ((&lo.x)[axis] + (&hi.x)[axis]); }
+};
+static_assert(sizeof(PrimRef) == 32);
+
+// Box bounds of bins and ranges as two 4-wide vectors (the fourth lane is ignored): growing one is a
+// min and a max instruction instead of six scalar ones, in the loop that dominates the build.
+struct Bounds4 {
+    __m128 lo = _mm_set1_ps(std::numeric_limits<float>::infinity());
+    __m128 hi = _mm_set1_ps(-std::numeric_limits<float>::infinity());
+
+    void grow(const PrimRef& r) {
+        lo = _mm_min_ps(lo, _mm_load_ps(&r.lo.x));
+        hi = _mm_max_ps(hi, _mm_load_ps(&r.hi.x));
+    }
+    void grow(const Bounds4& b) {
+        lo = _mm_min_ps(lo, b.lo);
+        hi = _mm_max_ps(hi, b.hi);
+    }
+    [[nodiscard]] Aabb aabb() const {
+        alignas(16) float l[4], h[4];
+        _mm_store_ps(l, lo);
+        _mm_store_ps(h, hi);
+        return Aabb{{l[0], l[1], l[2]}, {h[0], h[1], h[2]}};
+    }
+    // Aabb::area() of a box known to be non-empty, same operations in the same order.
+    [[nodiscard]] float area() const {
+        alignas(16) float e[4];
+        _mm_store_ps(e, _mm_sub_ps(hi, lo));
+        return 2.0f * (e[0] * e[1] + e[1] * e[2] + e[2] * e[0]);
+    }
+};
+
+// Building happens in a scratch tree whose slots are reserved per subtree (a node over n primitives
+// owns 2n − 2 descendant slots), so parallel subtrees never share a counter; the scratch tree is then
+// compacted depth-first into the final node array.
+struct Builder {
+    std::vector<PrimRef> refs;
+    std::vector<BvhNode> scratch;
+    BvhBuildSettings settings;
+
+    struct Bin {
+        Bounds4 bounds;
+        std::uint32_t count = 0;
+    };
+    struct Binning {
+        std::array<std::array<Bin, kBins>, 3> bins{};
+        void add(const Binning& b) {
+            for (int ax = 0; ax < 3; ++ax)
+                for (int i = 0; i < kBins; ++i) {
+                    bins[ax][i].bounds.grow(b.bins[ax][i].bounds);
+                    bins[ax][i].count += b.bins[ax][i].count;
+                }
+        }
+    };
+    struct Split {
+        int axis = -1;
+        int bin = 0;  // primitives in bins [0, bin] go left
+        float cost = std::numeric_limits<float>::infinity();
+    };
+
+    // Box and centroid bounds of refs[begin, end).
+    void range_bounds_serial(std::uint32_t begin, std::uint32_t end, Bounds4& box, Bounds4& centroids) const {
+        const __m128 half = _mm_set1_ps(0.5f);
+        for (std::uint32_t i = begin; i < end; ++i) {
+            const __m128 lo = _mm_load_ps(&refs[i].lo.x), hi = _mm_load_ps(&refs[i].hi.x);
+            box.lo = _mm_min_ps(box.lo, lo);
+            box.hi = _mm_max_ps(box.hi, hi);
+            const __m128 c = _mm_mul_ps(half, _mm_add_ps(lo, hi));  // PrimRef::centroid, all axes
+            centroids.lo = _mm_min_ps(centroids.lo, c);
+            centroids.hi = _mm_max_ps(centroids.hi, c);
+        }
+    }
+
+    Aabb range_bounds(std::uint32_t begin, std::uint32_t end, Aabb& centroid_bounds) const {
+        Bounds4 box, cent;
+        if (end - begin >= settings.parallel_threshold * 4) {
+            using Acc = std::pair<Bounds4, Bounds4>;
+            const Acc r = tbb::parallel_reduce(
+                tbb::blocked_range<std::uint32_t>(begin, end, 8192), Acc{},
+                [&](const tbb::blocked_range<std::uint32_t>& range, Acc acc) {
+                    range_bounds_serial(range.begin(), range.end(), acc.first, acc.second);
+                    return acc;
+                },
+                [](Acc a, const Acc& b) {
+                    a.first.grow(b.first);
+                    a.second.grow(b.second);
+                    return a;
+                });
+            box = r.first;
+            cent = r.second;
+        } else {
+            range_bounds_serial(begin, end, box, cent);
+        }
+        centroid_bounds = cent.aabb();
+        return box.aabb();
+    }
+
+    static int bin_of(float c, float lo, float scale) {
+        const int b = static_cast<int>((c - lo) * scale);
+        return std::clamp(b, 0, kBins - 1);
+    }
+
+    // Bins per unit of a centroid extent e > 0. For e below kBins / FLT_MAX (~1e-37: particles of the
+    // smallest radii a few subnormal steps apart) kBins / e overflows, and inf · (c − lo) made bin_of convert
+    // inf or NaN to int; FLT_MAX instead keeps every (c − lo) · scale <= e · FLT_MAX below kBins. Any larger
+    // extent gets exactly kBins / e, as before.
+    static float bin_scale(float e) { return std::min(float(kBins) / e, std::numeric_limits<float>::max()); }
+
+    struct BinScale {
+        glm::vec3 lo, scale;
+        explicit BinScale(const Aabb& cb) : lo(cb.lo) {
+            for (int a = 0; a < 3; ++a) {
+                const float e = cb.hi[a] - cb.lo[a];
+                scale[a] = e > 0.0f ? bin_scale(e) : 0.0f;
+            }
+        }
+    };
+
+    void bin_serial(std::uint32_t begin, std::uint32_t end, const BinScale& s, Binning& acc) const {
+        for (std::uint32_t i = begin; i < end; ++i) {
+            const PrimRef& r = refs[i];
+            for (int a = 0; a < 3; ++a) {
+                Bin& bin = acc.bins[a][bin_of(r.centroid(a), s.lo[a], s.scale[a])];
+                bin.bounds.grow(r);
+                ++bin.count;
+            }
+        }
+    }
+
+    void bin_range(std::uint32_t begin, std::uint32_t end, const Aabb& cb, Binning& out) const {
+        const BinScale s(cb);
+        if (end - begin >= settings.parallel_threshold * 4) {
+            out = tbb::parallel_reduce(
+                tbb::blocked_range<std::uint32_t>(begin, end, 8192), Binning{},
+                [&](const tbb::blocked_range<std::uint32_t>& r, Binning acc) {
+                    bin_serial(r.begin(), r.end(), s, acc);
+                    return acc;
+                },
+                [](Binning a, const Binning& b) {
+                    a.add(b);
+                    return a;
+                });
+        } else {
+            bin_serial(begin, end, s, out);
+        }
+    }
+
+    // Sweeps the bins of each axis: SAH cost of splitting after bin i, relative to the parent area.
+    // An empty bin changes neither side, so its costs are those of its neighbour, copied rather than
+    // recomputed: the decisions are those of the full sweep (the first of equal costs wins either way),
+    // at a fraction of the work in the many small nodes where most bins are empty. A side without
+    // primitives costs 0, so the accumulated box is never empty where its area is taken.
+    Split best_split(const Binning& binning, float parent_area) const {
+        Split best;
+        for (int a = 0; a < 3; ++a) {
+            const auto& bins = binning.bins[a];
+            std::array<float, kBins - 1> left_cost{};
+            Bounds4 acc;
+            std::uint32_t n = 0;
+            float cost_so_far = 0.0f;
+            for (int i = 0; i < kBins - 1; ++i) {
+                if (bins[i].count != 0) {
+                    acc.grow(bins[i].bounds);
+                    n += bins[i].count;
+                    cost_so_far = acc.area() * float(n);
+                }
+                left_cost[i] = cost_so_far;
+            }
+            acc = Bounds4{};
+            n = 0;
+            for (int i = kBins - 1; i > 0; --i) {
+                if (bins[i].count != 0) {
+                    acc.grow(bins[i].bounds);
+                    n += bins[i].count;
+                } else if (i < kBins - 1) {
+                    continue;  // the same partition as the split after bin i, already costed
+                }
+                const float right_cost = n != 0 ? acc.area() * float(n) : 0.0f;
+                const float cost = settings.costs.traversal +
+                                   settings.costs.intersection * (left_cost[i - 1] + right_cost) / parent_area;
+                if (cost < best.cost) best = {a, i - 1, cost};
+            }
+        }
+        return best;
+    }
+
+    // Object-median split along the widest centroid axis (ties broken by primitive index, so the
+    // result is the same on every platform). Used when no SAH split exists or depth would overflow.
+    std::uint32_t median_split(std::uint32_t begin, std::uint32_t end, const Aabb& cb) {
+        const glm::vec3 e = cb.extent();
+        const int axis = (e.x >= e.y && e.x >= e.z) ? 0 : (e.y >= e.z ? 1 : 2);
+        const std::uint32_t mid = begin + (end - begin) / 2;
+        std::nth_element(refs.begin() + begin, refs.begin() + mid, refs.begin() + end,
+                         [&](const PrimRef& a, const PrimRef& b) {
+                             const float ca = a.centroid(axis), cb2 = b.centroid(axis);
+                             return ca < cb2 || (ca == cb2 && a.id < b.id);
+                         });
+        return mid;
+    }
+
+    void make_leaf(std::uint32_t node, std::uint32_t begin, std::uint32_t end) {
+        scratch[node].first = begin;
+        scratch[node].count = end - begin;
+    }
+
+    // Builds the subtree of scratch[node] over refs[begin, end); its descendants go to the slots
+    // starting at `slots` (2·(end − begin) − 2 of them, an even offset so pairs stay aligned).
+    void build(std::uint32_t node, std::uint32_t begin, std::uint32_t end, std::uint32_t slots, int depth) {
+        const std::uint32_t n = end - begin;
+        Aabb cb;
+        scratch[node].bounds = range_bounds(begin, end, cb);
+        if (n == 1) return make_leaf(node, begin, end);
+
+        // Levels still needed if every later split halved the count exactly; past the budget, halve.
+        const int levels_needed = std::bit_width(n - 1);
+        const bool must_halve = depth + levels_needed >= kMaxBvhDepth - 1;
+
+        std::uint32_t mid = begin;
+        if (!must_halve) {
+            Binning binning;
+            bin_range(begin, end, cb, binning);
+            const float area = scratch[node].bounds.area();
+            const Split split = area > 0.0f ? best_split(binning, area) : Split{};
+            const float leaf_cost = settings.costs.intersection * float(n);
+            if (n <= settings.max_leaf_size && !(split.cost < leaf_cost)) return make_leaf(node, begin, end);
+            if (split.axis >= 0 && cb.hi[split.axis] > cb.lo[split.axis]) {
+                const int a = split.axis;
+                const float lo = cb.lo[a];
+                const float scale = bin_scale(cb.hi[a] - lo);
+                mid = static_cast<std::uint32_t>(
+                    std::partition(refs.begin() + begin, refs.begin() + end,
+                                   [&](const PrimRef& r) { return bin_of(r.centroid(a), lo, scale) <= split.bin; }) -
+                    refs.begin());
+            }
+        }
+        if (mid == begin || mid == end) {
+            if (n <= settings.max_leaf_size && !must_halve) return make_leaf(node, begin, end);
+            mid = median_split(begin, end, cb);
+        }
+
+        const std::uint32_t left = slots, right = slots + 1;
+        scratch[node].first = left;
+        scratch[node].count = 0;
+        const std::uint32_t left_slots = slots + 2;
+        const std::uint32_t right_slots = left_slots + 2 * (mid - begin) - 2;
+        if (n >= settings.parallel_threshold) {
+            tbb::parallel_invoke([&] { build(left, begin, mid, left_slots, depth + 1); },
+                                 [&] { build(right, mid, end, right_slots, depth + 1); });
+        } else {
+            build(left, begin, mid, left_slots, depth + 1);
+            build(right, mid, end, right_slots, depth + 1);
+        }
+    }
+};
+
+// Depth-first compaction of the scratch tree: the root at 0, padding at 1, then each node's pair.
+void compact(const std::vector<BvhNode>& scratch, Bvh& out) {
+    out.nodes.clear();
+    out.nodes.reserve(scratch.size());
+    out.nodes.push_back(scratch[0]);
+    out.nodes.push_back(BvhNode{});  // padding: pairs start at an even index
+    struct Item {
+        std::uint32_t src, dst;
+    };
+    std::vector<Item> stack{{0u, 0u}};
+    while (!stack.empty()) {
+        const Item it = stack.back();
+        stack.pop_back();
+        BvhNode& dst = out.nodes[it.dst];
+        if (dst.is_leaf()) continue;
+        const std::uint32_t src_left = scratch[it.src].first;
+        const auto pair = static_cast<std::uint32_t>(out.nodes.size());
+        out.nodes.push_back(scratch[src_left]);
+        out.nodes.push_back(scratch[src_left + 1]);
+        out.nodes[it.dst].first = pair;
+        // Right first on the stack so the left subtree is laid out next (depth-first, left first).
+        stack.push_back({src_left + 1, pair + 1});
+        stack.push_back({src_left, pair});
+    }
+}
+
+}  // namespace
+
+Bvh build_bvh(std::span<const Aabb> prim_boxes, const BvhBuildSettings& settings) {
+    Bvh bvh;
+    if (prim_boxes.empty()) return bvh;
+    if (prim_boxes.size() >= std::numeric_limits<std::uint32_t>::max() / 2)
+        throw std::length_error("build_bvh: too many primitives");
+    const auto n = static_cast<std::uint32_t>(prim_boxes.size());
+    bvh.prim_indices.resize(n);
+    for (std::uint32_t i = 0; i < n; ++i) bvh.prim_indices[i] = i;
+
+    Builder b{{}, {}, settings};
+    b.settings.max_leaf_size = std::max(1u, settings.max_leaf_size);
+    b.refs.resize(n);
+    for (std::uint32_t i = 0; i < n; ++i) {
+        if (prim_boxes[i].empty()) throw std::invalid_argument("build_bvh: empty primitive box");
+        b.refs[i] = PrimRef{prim_boxes[i].lo, i, prim_boxes[i].hi};
+    }
+    b.scratch.resize(2 * std::size_t(n));  // root + 2n − 2 descendants (+1 spare)
+    b.build(0, 0, n, 2, 0);
+    for (std::uint32_t i = 0; i < n; ++i) bvh.prim_indices[i] = b.refs[i].id;
+    compact(b.scratch, bvh);
+    return bvh;
+}
+
+namespace {
+
+// Copies the subtree of `src` rooted at src_node into the node slot dst_node of `dst`, appending its
+// child pairs after it (depth-first, so a pair still comes after its parent) and its leaves' primitives,
+// mapped through `to_global`.
+void append_subtree(const Bvh& src, std::uint32_t src_node, std::span<const std::uint32_t> to_global, Bvh& dst,
+                    std::uint32_t dst_node) {
+    const BvhNode n = src.nodes[src_node];
+    dst.nodes[dst_node].bounds = n.bounds;
+    if (n.is_leaf()) {
+        dst.nodes[dst_node].first = static_cast<std::uint32_t>(dst.prim_indices.size());
+        dst.nodes[dst_node].count = n.count;
+        for (std::uint32_t i = 0; i < n.count; ++i) dst.prim_indices.push_back(to_global[src.prim_indices[n.first + i]]);
+        return;
+    }
+    const auto pair = static_cast<std::uint32_t>(dst.nodes.size());
+    dst.nodes.resize(dst.nodes.size() + 2);
+    dst.nodes[dst_node].first = pair;
+    dst.nodes[dst_node].count = 0;
+    append_subtree(src, n.first, to_global, dst, pair);
+    append_subtree(src, n.first + 1, to_global, dst, pair + 1);
+}
+
+// Copies the top tree, replacing each of its leaves (one group each) by that group's tree.
+void append_joined(const Bvh& top, std::uint32_t top_node, std::span<const Bvh> groups,
+                   std::span<const std::vector<std::uint32_t>> members, Bvh& dst, std::uint32_t dst_node) {
+    const BvhNode n = top.nodes[top_node];
+    if (n.is_leaf()) {
+        const std::uint32_t g = top.prim_indices[n.first];
+        append_subtree(groups[g], 0, members[g], dst, dst_node);
+        return;
+    }
+    const auto pair = static_cast<std::uint32_t>(dst.nodes.size());
+    dst.nodes.resize(dst.nodes.size() + 2);
+    dst.nodes[dst_node].bounds = n.bounds;
+    dst.nodes[dst_node].first = pair;
+    dst.nodes[dst_node].count = 0;
+    append_joined(top, n.first, groups, members, dst, pair);
+    append_joined(top, n.first + 1, groups, members, dst, pair + 1);
+}
+
+}  // namespace
+
+Bvh build_grouped_bvh(std::span<const Aabb> prim_boxes, std::span<const std::uint32_t> group_of,
+                      const BvhBuildSettings& settings) {
+    if (group_of.size() != prim_boxes.size()) throw std::invalid_argument("build_grouped_bvh: one group per primitive");
+    std::vector<std::uint32_t> keys(group_of.begin(), group_of.end());
+    std::sort(keys.begin(), keys.end());
+    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+    if (keys.size() <= 1 || keys.size() > kMaxBvhGroups) return build_bvh(prim_boxes, settings);
+
+    // Members of each group in primitive order (deterministic), their trees and their boxes.
+    std::vector<std::vector<std::uint32_t>> members(keys.size());
+    for (std::uint32_t i = 0; i < group_of.size(); ++i) {
+        const auto g = std::lower_bound(keys.begin(), keys.end(), group_of[i]) - keys.begin();
+        members[std::size_t(g)].push_back(i);
+    }
+    std::vector<Bvh> groups(keys.size());
+    std::vector<Aabb> group_boxes(keys.size());
+    std::vector<Aabb> boxes;
+    for (std::size_t g = 0; g < keys.size(); ++g) {
+        boxes.clear();
+        for (std::uint32_t i : members[g]) boxes.push_back(prim_boxes[i]);
+        groups[g] = build_bvh(boxes, settings);
+        group_boxes[g] = groups[g].bounds();
+    }
+    const Bvh top = build_bvh(group_boxes, BvhBuildSettings{settings.costs, 1, settings.parallel_threshold});
+
+    Bvh joined;
+    joined.nodes.reserve(2 * prim_boxes.size());
+    joined.prim_indices.reserve(prim_boxes.size());
+    joined.nodes.resize(2);  // the root and the padding slot that puts pairs at even indices
+    joined.nodes[1] = BvhNode{Aabb{}, 0, 0};
+    append_joined(top, 0, groups, members, joined, 0);
+    if (joined.depth() > kMaxBvhDepth) return build_bvh(prim_boxes, settings);
+    return joined;
+}
+
+}  // namespace smoketrace

@@ -1,0 +1,260 @@
+// Two-level scene and its TLAS update policy (see scene.hpp).
+#include <smoketrace/accel/bvh_builder.hpp>
+#include <smoketrace/accel/scene.hpp>
+
+#include <glm/geometric.hpp>
+#include <glm/matrix.hpp>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace smoketrace {
+
+const char* to_string(TlasUpdate u) {
+    switch (u) {
+        case TlasUpdate::none: return "none";
+        case TlasUpdate::refit: return "refit";
+        case TlasUpdate::rebuild: return "rebuild";
+    }
+    return "?";
+}
+
+BottomLevel BottomLevel::from_mesh(const TriangleMesh& m, bool opaque) {
+    BottomLevel b;
+    b.kind = GeometryKind::triangles;
+    b.mesh = MeshBlas(m);
+    b.opaque = opaque;
+    return b;
+}
+
+BottomLevel BottomLevel::from_spheres(const std::vector<Sphere>& s, bool opaque) {
+    BottomLevel b;
+    b.kind = GeometryKind::spheres;
+    b.spheres = SphereBlas(s, BvhBuildSettings{.max_leaf_size = 2});
+    b.opaque = opaque;
+    return b;
+}
+
+std::uint32_t Scene::add_bottom_level(BottomLevel blas) {
+    blases_.push_back(std::make_unique<BottomLevel>(std::move(blas)));
+    return static_cast<std::uint32_t>(blases_.size() - 1);
+}
+
+std::uint32_t Scene::add_instance(const Instance& instance) {
+    if (instance.blas >= blases_.size()) throw std::out_of_range("Scene::add_instance: no bottom level " + std::to_string(instance.blas));
+    instances_.push_back(instance);
+    records_.emplace_back();
+    // The world_triangles path depends on the BLAS alone, so an instance's slots are fixed here.
+    if (const BottomLevel& b = *blases_[instance.blas]; takes_world_triangles(b)) {
+        records_.back().first_world_triangle = static_cast<std::uint32_t>(world_triangles_.size());
+        world_triangles_.resize(world_triangles_.size() + b.mesh.leaf_triangles().size());
+    }
+    world_boxes_.emplace_back();
+    instance_masks_.push_back(instance.mask);
+    update_instance(static_cast<std::uint32_t>(instances_.size() - 1));
+    structure_dirty_ = true;
+    return static_cast<std::uint32_t>(instances_.size() - 1);
+}
+
+void Scene::remove_instance(std::uint32_t index) {
+    if (index >= instances_.size()) throw std::out_of_range("Scene::remove_instance");
+    const InstanceRecord& gone = records_[index];
+    if (gone.path == InstancePath::world_triangles) {
+        const std::uint32_t first = gone.first_world_triangle, n = gone.world_triangle_count;
+        world_triangles_.erase(world_triangles_.begin() + first, world_triangles_.begin() + first + n);
+        for (InstanceRecord& r : records_)
+            if (r.path == InstancePath::world_triangles && r.first_world_triangle > first) r.first_world_triangle -= n;
+    }
+    instances_.erase(instances_.begin() + index);
+    records_.erase(records_.begin() + index);
+    world_boxes_.erase(world_boxes_.begin() + index);
+    instance_masks_.erase(instance_masks_.begin() + index);
+    structure_dirty_ = true;
+}
+
+void Scene::set_transform(std::uint32_t index, const AffineTransform& m) {
+    if (instances_.at(index).object_to_world == m) return;  // an unchanged frame does no TLAS work
+    instances_[index].object_to_world = m;
+    update_instance(index);
+    transforms_dirty_ = true;
+}
+
+void Scene::set_mask(std::uint32_t index, std::uint8_t mask) {
+    if (instances_.at(index).mask == mask) return;
+    instances_[index].mask = mask;
+    records_[index].mask = mask;
+    instance_masks_[index] = mask;
+    transforms_dirty_ = true;  // node masks are refreshed by the refit sweep
+}
+
+namespace {
+
+// Relative tolerance of the similarity test. The sphere the fast path then tests differs from the true
+// image of the BLAS sphere (an ellipsoid, strictly) by at most ~1e-12 of its radius, far below the float
+// resolution of t (6e-8); and the tolerance is far above the rounding of a rotation built in double.
+constexpr double kSimilarityTolerance = 1e-12;
+
+// Whether m is a uniform scale times an orthogonal matrix (rotation, possibly mirrored): columns of equal
+// length and pairwise orthogonal, to kSimilarityTolerance. Then m maps a sphere of radius r to a sphere
+// of radius scale·r, scale the length of the first column (exactly |s| for m = s·I: √(s²) rounds to |s|).
+bool is_similarity(const glm::dmat3& m, double& scale) {
+    const double n0 = glm::dot(m[0], m[0]), n1 = glm::dot(m[1], m[1]), n2 = glm::dot(m[2], m[2]);
+    if (!(n0 > 0.0) || !std::isfinite(n0)) return false;
+    const double tol = kSimilarityTolerance * n0;
+    if (!(std::fabs(n1 - n0) <= tol && std::fabs(n2 - n0) <= tol)) return false;
+    if (!(std::fabs(glm::dot(m[0], m[1])) <= tol && std::fabs(glm::dot(m[0], m[2])) <= tol &&
+          std::fabs(glm::dot(m[1], m[2])) <= tol))
+        return false;
+    scale = std::sqrt(n0);
+    return true;
+}
+
+}  // namespace
+
+bool Scene::takes_world_triangles(const BottomLevel& b) const {
+    return paths_ == InstancePaths::fastest && b.kind == GeometryKind::triangles && !b.mesh.bvh().empty() &&
+           b.mesh.bvh().nodes[0].is_leaf() && b.mesh.leaf_triangles().size() <= kMaxWorldTriangles;
+}
+
+// World box: the 8 transformed corners of the object box, in double, rounded outward to float.
+void Scene::update_instance(std::uint32_t i) {
+    const Instance& in = instances_[i];
+    const BottomLevel& b = *blases_[in.blas];
+    const AffineTransform inv = in.object_to_world.inverse();
+    InstanceRecord& r = records_[i];
+    const std::uint32_t first_world_triangle = r.first_world_triangle;  // fixed by add_instance
+    r = InstanceRecord{};
+    r.path = InstancePath::object_space;
+    r.mask = in.mask;
+    r.flags = in.flags;
+    // Rule 2's instance part: FORCE_NON_OPAQUE over FORCE_OPAQUE over the geometry's opacity.
+    r.opaque = !(in.flags & instance_flag_force_non_opaque) && ((in.flags & instance_flag_force_opaque) || b.opaque);
+    r.user_id = in.user_id;
+    r.blas = &b;
+    r.object_to_world_translation = in.object_to_world.translation;
+    r.world_to_object_linear = inv.linear;
+    // The world-space paths of trace() (see InstancePath); anything else takes the general path.
+    double scale = 0.0;
+    if (paths_ == InstancePaths::fastest && b.kind == GeometryKind::spheres && b.spheres.leaf_spheres().size() == 1 &&
+        is_similarity(in.object_to_world.linear, scale)) {
+        const Sphere& sp = b.spheres.leaf_spheres()[0];
+        r.path = InstancePath::world_sphere;
+        r.sphere_offset = in.object_to_world.linear * glm::dvec3(sp.center);
+        r.sphere_radius = scale * double(sp.radius);
+    }
+    if (takes_world_triangles(b)) {
+        // Each vertex transformed in double and rounded once; a vertex shared by two triangles rounds to
+        // the same float in both, so the world-space mesh stays watertight for the watertight test.
+        r.path = InstancePath::world_triangles;
+        r.first_world_triangle = first_world_triangle;
+        r.world_triangle_count = static_cast<std::uint8_t>(b.mesh.leaf_triangles().size());
+        const bool mirrored = glm::determinant(in.object_to_world.linear) < 0.0;
+        r.world_facing_flipped = mirrored != ((in.flags & instance_flag_triangle_front_clockwise) != 0);
+        auto to_world = [&](const glm::vec3& v) { return glm::vec3(in.object_to_world.point(glm::dvec3(v))); };
+        for (std::uint32_t k = 0; k < r.world_triangle_count; ++k) {
+            const MeshBlas::Triangle& t = b.mesh.leaf_triangles()[k];
+            world_triangles_[first_world_triangle + k] = {to_world(t.v0), to_world(t.v1), to_world(t.v2)};
+        }
+    }
+    const Aabb ob = b.bounds();
+    Aabb wb;
+    if (!ob.empty()) {
+        glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+        for (int c = 0; c < 8; ++c) {
+            const glm::dvec3 p((c & 1) ? ob.hi.x : ob.lo.x, (c & 2) ? ob.hi.y : ob.lo.y, (c & 4) ? ob.hi.z : ob.lo.z);
+            const glm::dvec3 w = in.object_to_world.point(p);
+            lo = glm::min(lo, w);
+            hi = glm::max(hi, w);
+        }
+        for (int a = 0; a < 3; ++a) {
+            wb.lo[a] = std::nextafter(static_cast<float>(lo[a]), -std::numeric_limits<float>::infinity());
+            wb.hi[a] = std::nextafter(static_cast<float>(hi[a]), std::numeric_limits<float>::infinity());
+        }
+    }
+    if (!(std::isfinite(wb.lo.x) && std::isfinite(wb.lo.y) && std::isfinite(wb.lo.z) && std::isfinite(wb.hi.x) &&
+          std::isfinite(wb.hi.y) && std::isfinite(wb.hi.z)))
+        throw std::domain_error("Scene: instance " + std::to_string(i) + " has a non-finite or empty world box");
+    world_boxes_[i] = wb;
+}
+
+void Scene::rebuild() {
+    // Grouped by mask (bvh_builder.hpp): in the smoke scene a particle's stand-in and its billboard have
+    // almost the same box, and one SAH tree over both would pair them in every leaf's parent, so a view
+    // ray (stand-ins masked out) or a light ray (billboards masked out) would still walk the other half.
+    const std::vector<std::uint32_t> masks(instance_masks_.begin(), instance_masks_.end());
+    tlas_ = build_grouped_bvh(world_boxes_, masks, BvhBuildSettings{.max_leaf_size = 1});
+    node_masks_.assign(tlas_.nodes.size(), 0);
+    refit_binary();  // fills the node masks (boxes are already exact)
+    wide_tlas_.collapse(tlas_, node_masks_);
+    sah_at_build_ = sah_current_;
+}
+
+// One backward sweep (children before parents) refits the boxes, ORs the instance masks and sums the
+// SAH cost, with the terms and order of Bvh::sah_cost, so the rebuild test costs no extra pass.
+void Scene::refit_binary() {
+    constexpr std::size_t kPrefetch = 16;
+    auto& nodes = tlas_.nodes;
+    const SahCosts costs{};
+    double weighted = 0.0;
+    for (std::size_t k = nodes.size(); k-- > 0;) {
+        // A leaf's instance box is read at random (leaf order is not instance order): fetched kPrefetch
+        // nodes ahead, the misses overlap instead of stalling the sweep one after another.
+        if (k >= kPrefetch) {
+            const BvhNode& ahead = nodes[k - kPrefetch];
+            if (ahead.is_leaf()) __builtin_prefetch(&world_boxes_[tlas_.prim_indices[ahead.first]]);
+        }
+        if (k == 1) continue;
+        BvhNode& n = nodes[k];
+        Aabb b;
+        std::uint8_t m = 0;
+        if (n.is_leaf()) {
+            for (std::uint32_t i = 0; i < n.count; ++i) {
+                const std::uint32_t p = tlas_.prim_indices[n.first + i];
+                b.grow(world_boxes_[p]);
+                m |= instance_masks_[p];
+            }
+        } else {
+            b = merge(nodes[n.first].bounds, nodes[n.first + 1].bounds);
+            m = node_masks_[n.first] | node_masks_[n.first + 1];
+        }
+        n.bounds = b;
+        node_masks_[k] = m;
+        weighted += sah_term(n, costs);
+    }
+    const double root_area = nodes.empty() ? 0.0 : double(nodes[0].bounds.area());
+    sah_current_ = nodes.empty() ? 0.0 : root_area > 0.0 ? weighted / root_area : tlas_.sah_cost(costs);
+}
+
+TlasUpdate Scene::commit() {
+    if (structure_dirty_) {
+        rebuild();
+        structure_dirty_ = transforms_dirty_ = false;
+        return TlasUpdate::rebuild;
+    }
+    if (!transforms_dirty_) return TlasUpdate::none;
+    transforms_dirty_ = false;
+    refit_binary();
+    if (sah_current_ > rebuild_ratio_ * sah_at_build_) {
+        rebuild();
+        return TlasUpdate::rebuild;
+    }
+    wide_tlas_.refit(tlas_, node_masks_);
+    return TlasUpdate::refit;
+}
+
+void Scene::prefetch_top_level() const {
+    constexpr std::size_t kLine = 64;
+    const std::size_t node_bytes = wide_tlas_.node_count() * sizeof(WideBvhNode);
+    const std::size_t index_bytes = tlas_.prim_indices.size() * sizeof(std::uint32_t);
+    if (node_bytes + index_bytes + records_.size() * kLine > kPrefetchTopLevelMaxBytes) return;
+    auto sweep = [](const void* data, std::size_t bytes) {
+        const char* p = static_cast<const char*>(data);
+        for (std::size_t b = 0; b < bytes; b += kLine) __builtin_prefetch(p + b);
+    };
+    sweep(wide_tlas_.nodes(), node_bytes);
+    sweep(tlas_.prim_indices.data(), index_bytes);
+    for (const InstanceRecord& r : records_) __builtin_prefetch(&r);  // 64-byte aligned: its first line
+}
+
+}  // namespace smoketrace

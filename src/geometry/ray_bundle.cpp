@@ -1,0 +1,71 @@
+// Ray bundles and the order that groups rays into them (see ray_bundle.hpp).
+#include <smoketrace/core/radix_sort.hpp>
+#include <smoketrace/geometry/ray_bundle.hpp>
+
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <limits>
+
+namespace smoketrace {
+namespace {
+
+// Cells per axis of the Morton code: 1024, enough to tell apart the rays of 10^6 particles, and a 20-bit
+// code that the radix sort takes in two passes.
+constexpr unsigned kCellBits = 10;
+constexpr double kLastCell = double((1u << kCellBits) - 1u);
+
+// The bits of a 10-bit value spread to the even bit positions of a 20-bit one.
+std::uint32_t spread_bits(std::uint32_t v) {
+    v = (v | (v << 8)) & 0x00FF00FFu;
+    v = (v | (v << 4)) & 0x0F0F0F0Fu;
+    v = (v | (v << 2)) & 0x33333333u;
+    v = (v | (v << 1)) & 0x55555555u;
+    return v;
+}
+
+}  // namespace
+
+void bundle_order(std::span<const glm::vec3> origins, const glm::vec3& direction, std::vector<std::uint32_t>& order,
+                  BundleOrderScratch& scratch) {
+    const std::size_t n = origins.size();
+    order.resize(n);
+    if (n == 0) return;
+    // An orthonormal basis (u, v) of the plane perpendicular to the direction (Duff et al., "Building an
+    // Orthonormal Basis, Revisited", JCGT 6(1), 2017): no branch on the direction but its z sign.
+    const glm::dvec3 d = glm::normalize(glm::dvec3(direction));
+    const double sign = std::copysign(1.0, d.z);
+    const double a = -1.0 / (sign + d.z);
+    const double b = d.x * d.y * a;
+    const glm::dvec3 u(1.0 + sign * d.x * d.x * a, sign * b, -sign * d.x);
+    const glm::dvec3 v(b, sign + d.y * d.y * a, -d.y);
+
+    auto& entries = scratch.entries;
+    entries.resize(n);
+    double lo[2] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
+    double hi[2] = {-lo[0], -lo[1]};
+    for (const glm::vec3& o : origins) {
+        const double p[2] = {glm::dot(glm::dvec3(o), u), glm::dot(glm::dvec3(o), v)};
+        for (int k = 0; k < 2; ++k) {
+            lo[k] = std::min(lo[k], p[k]);
+            hi[k] = std::max(hi[k], p[k]);
+        }
+    }
+    double scale[2];
+    for (int k = 0; k < 2; ++k) scale[k] = hi[k] > lo[k] ? kLastCell / (hi[k] - lo[k]) : 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+        const glm::dvec3 o(origins[i]);
+        const double p[2] = {glm::dot(o, u), glm::dot(o, v)};
+        std::uint32_t q[2];
+        for (int k = 0; k < 2; ++k) q[k] = static_cast<std::uint32_t>(std::min(kLastCell, (p[k] - lo[k]) * scale[k]));
+        entries[i] = {spread_bits(q[0]) | (spread_bits(q[1]) << 1), static_cast<std::uint32_t>(i)};
+    }
+    scratch.sorted.resize(n);
+    radix_sort(std::span(entries), std::span(scratch.sorted),
+               [](const BundleOrderScratch::Entry& e) { return e.code; });
+    for (std::size_t i = 0; i < n; ++i) order[i] = entries[i].index;
+}
+
+}  // namespace smoketrace

@@ -1,0 +1,814 @@
+// Scene files (see scene_file.hpp for the format and the defaults).
+//
+// Validation is one pass over the JSON tree with a Node (value + JSON pointer) per visited value; each
+// reader checks type, range and single-precision representability and fails with the node's path.
+#include <smoketrace/io/scene_file.hpp>
+
+#include <smoketrace/render/camera.hpp>
+#include <smoketrace/core/memory_budget.hpp>
+
+#include <nlohmann/json.hpp>
+
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
+#include <glm/vec3.hpp>
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <initializer_list>
+#include <limits>
+#include <set>
+#include <sstream>
+
+namespace smoketrace {
+
+namespace {
+
+using nlohmann::json;
+
+// ---- Named tolerances --------------------------------------------------------------------------------
+
+// A ground quad whose area is below this fraction of (longest edge)² is a sliver without a usable normal:
+// float corners carry ~1e-7 relative error, so 1e-6 is ten times that noise.
+constexpr double kMinRelativeGroundArea = 1e-6;
+// Corners may lie off their common plane by this fraction of the longest edge. Float coordinates are good
+// to ~1e-7 relative and typed decimals with 5 significant digits to ~1e-5; a lifted corner is far above 1e-4.
+constexpr double kGroundPlanarityTolerance = 1e-4;
+// Each corner's turn (cross product of adjacent edges along the normal) must exceed this fraction of
+// (longest edge)²; a smaller turn means three corners are collinear (a triangle, not a quad) or the
+// winding folds back (not convex).
+constexpr double kMinRelativeGroundTurn = 1e-6;
+// The camera's up vector must make at least this sine with the view direction; below it the camera's
+// right vector is float noise.
+constexpr double kMinUpViewSine = 1e-6;
+// Default camera: elevation of the view above the horizon and the margin around the framed sphere.
+constexpr double kDefaultCameraElevationDeg = 20.0;  // "from the front, a bit above"
+constexpr double kDefaultCameraMargin = 1.1;         // 10 % empty border around the smoke
+// Smallest framed radius, relative to the distance of the framed centre from the origin (and at least this
+// absolute): 1e-6 is ~10 float steps, enough for the camera position to differ from the point it looks at.
+constexpr double kMinDefaultFramingRadius = 1e-6;
+
+constexpr double kRadiansPerDegree = 3.14159265358979323846 / 180.0;
+
+constexpr std::uint32_t kMaxGroups = 1u << 20;     // one update spread over 2^20 frames is ~5 h at 60 fps
+constexpr std::uint32_t kMaxFrames = 1'000'000;    // ~4.6 h at 60 fps: anything more is a typo
+constexpr std::size_t kMaxShownValueChars = 60;    // "(got …)" shows at most this much of a value
+
+// ---- Paths and messages ------------------------------------------------------------------------------
+
+// A JSON pointer token (RFC 6901): "~" → "~0", "/" → "~1".
+std::string pointer_token(std::string_view key) {
+    std::string out;
+    for (char c : key) {
+        if (c == '~') out += "~0";
+        else if (c == '/') out += "~1";
+        else out += c;
+    }
+    return out;
+}
+
+std::string shown_path(const std::string& path) { return path.empty() ? "(document root)" : path; }
+
+// The value as the file wrote it (nlohmann prints numbers round-trip), shortened.
+std::string shown_value(const json& j) {
+    if (j.is_number_float() && !std::isfinite(j.get<double>()))
+        return "a number beyond the double range";
+    std::string s = j.dump();
+    if (s.size() > kMaxShownValueChars) s = s.substr(0, kMaxShownValueChars - 3) + "...";
+    return s;
+}
+
+std::string shown_number(double v) {
+    char buffer[64];
+    const auto result = std::to_chars(buffer, buffer + sizeof buffer, v);
+    return std::string(buffer, result.ptr);
+}
+// A float as its shortest round-trip decimal (1.1754944e-38, not the double's 1.1754943508222875e-38).
+std::string shown_number(float v) {
+    char buffer[64];
+    const auto result = std::to_chars(buffer, buffer + sizeof buffer, v);
+    return std::string(buffer, result.ptr);
+}
+
+struct Node {
+    const json* value;
+    std::string path;
+
+    [[nodiscard]] Node child(std::string_view key) const { return {&(*value)[std::string(key)], path + "/" + pointer_token(key)}; }
+    [[nodiscard]] Node element(std::size_t i) const { return {&(*value)[i], path + "/" + std::to_string(i)}; }
+};
+
+// Allowed range of a number, with its wording for messages.
+struct Bounds {
+    double lo = -std::numeric_limits<double>::infinity();
+    bool lo_open = false;
+    double hi = std::numeric_limits<double>::infinity();
+    bool hi_open = false;
+    // Name only the side that was violated ("must be > 0", "must be <= 1e+15"): for a natural lower bound
+    // with a sanity limit on top, where the interval would read oddly.
+    bool sided = false;
+
+    [[nodiscard]] bool contains(double v) const {
+        return (lo_open ? v > lo : v >= lo) && (hi_open ? v < hi : v <= hi);
+    }
+    [[nodiscard]] std::string describe(double v) const {
+        if (sided) {
+            if (!(lo_open ? v > lo : v >= lo)) return Bounds{lo, lo_open}.describe(v);
+            return Bounds{-std::numeric_limits<double>::infinity(), false, hi, hi_open}.describe(v);
+        }
+        const bool has_lo = std::isfinite(lo), has_hi = std::isfinite(hi);
+        if (has_lo && !has_hi) return std::string(lo_open ? "must be > " : "must be >= ") + shown_number(lo);
+        if (!has_lo && has_hi) return std::string(hi_open ? "must be < " : "must be <= ") + shown_number(hi);
+        return std::string("must be in ") + (lo_open ? "(" : "[") + shown_number(lo) + ", " + shown_number(hi) +
+               (hi_open ? ")" : "]");
+    }
+};
+constexpr Bounds kAny{};
+constexpr Bounds kPositive{0.0, true};
+constexpr Bounds kNonNegative{0.0, false};
+constexpr Bounds kUnit{0.0, false, 1.0, false};
+constexpr Bounds kCoordinate{-kMaxSceneCoordinate, false, kMaxSceneCoordinate, false};
+constexpr Bounds kRadius{0.0, true, kMaxSceneCoordinate, false, true};
+constexpr Bounds kColor{0.0, false, kMaxSceneColor, false, true};
+
+class Reader {
+public:
+    explicit Reader(std::string source) : source_(std::move(source)) {}
+
+    [[noreturn]] void fail(const std::string& path, const std::string& problem) const {
+        throw SceneFileError(source_ + ": " + shown_path(path) + ": " + problem);
+    }
+    [[noreturn]] void fail(const Node& n, const std::string& problem) const { fail(n.path, problem); }
+    [[noreturn]] void wrong_type(const Node& n, std::string_view expected) const {
+        fail(n, "must be " + std::string(expected) + " (got " + n.value->type_name() + " " + shown_value(*n.value) + ")");
+    }
+
+    void require_object(const Node& n, std::initializer_list<std::string_view> allowed) const {
+        if (!n.value->is_object()) wrong_type(n, "an object");
+        for (const auto& [key, value] : n.value->items()) {
+            if (std::find(allowed.begin(), allowed.end(), key) != allowed.end()) continue;
+            std::string list;
+            for (std::string_view a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
+            fail(n.path + "/" + pointer_token(key), "unknown key (allowed here: " + list + ")");
+        }
+    }
+
+    [[nodiscard]] static std::optional<Node> optional(const Node& n, std::string_view key) {
+        if (!n.value->contains(std::string(key))) return std::nullopt;
+        return n.child(key);
+    }
+    [[nodiscard]] Node required(const Node& n, std::string_view key) const {
+        if (!n.value->contains(std::string(key))) fail(n.path + "/" + pointer_token(key), "required key is missing");
+        return n.child(key);
+    }
+
+    [[nodiscard]] double number(const Node& n) const {
+        if (!n.value->is_number()) wrong_type(n, "a number");
+        const double v = n.value->get<double>();
+        if (!std::isfinite(v)) fail(n, "must be finite (got " + shown_value(*n.value) + ")");
+        return v;
+    }
+
+    // A finite number within the float range, within `bounds` as written and once rounded to float.
+    // Subnormal floats (below 1.2e-38, down to 1.4e-45) are accepted: they are floats like any other. A
+    // nonzero number that rounds to 0 in float (|v| <= 2^-150 ≈ 7e-46, e.g. 1e-50) reads as 0 where 0 is
+    // allowed (a coordinate, a speed, a colour: 0 is that value to any precision a float scene holds), and
+    // is an error saying so where it is not (sizes, radii and the field of view must be > 0; read as 0,
+    // 1e-50 would fail with "must be > 0 (got 1e-50)", which reads as a contradiction).
+    [[nodiscard]] float real(const Node& n, const Bounds& bounds = kAny) const {
+        const double v = number(n);
+        if (std::abs(v) > static_cast<double>(std::numeric_limits<float>::max()))
+            fail(n, "too large for single precision (got " + shown_value(*n.value) + ")");
+        if (!bounds.contains(v)) fail(n, bounds.describe(v) + " (got " + shown_value(*n.value) + ")");
+        const auto f = static_cast<float>(v);
+        if (f == 0.0f && v != 0.0) {
+            if (!bounds.contains(0.0))
+                fail(n, "too close to 0 for single precision (got " + shown_value(*n.value) + ", which rounds to 0; " +
+                            bounds.describe(0.0) + ")");
+            return 0.0f;  // +0 for -1e-50 too
+        }
+        if (!bounds.contains(f))
+            fail(n, bounds.describe(f) + " (got " + shown_value(*n.value) + ", which rounds to " + shown_number(f) +
+                        " in single precision)");
+        return f;
+    }
+
+    // A particle radius: a float in `bounds` and at least kMinParticleRadius, the smallest normal float.
+    // Below it a particle's object space (scaled by 1/radius) overflows single precision, and the particle
+    // system keeps every radius there anyway (particle_system.hpp).
+    [[nodiscard]] float radius(const Node& n, const Bounds& bounds) const {
+        const float r = real(n, bounds);
+        if (!(r >= kMinParticleRadius))
+            fail(n, "must be at least " + shown_number(kMinParticleRadius) + ", the smallest normal float (got " +
+                        shown_value(*n.value) + "): the particle is scaled by 1/radius, which would overflow");
+        return r;
+    }
+
+    // A direction: 3 numbers within the float range, not all 0, normalised in double from the values as
+    // written. So [1e-50, 0, 0] is +x (rounding each number to float first would make it the zero vector), and
+    // a component that is tiny next to the others is as exact as they are.
+    [[nodiscard]] glm::dvec3 direction(const Node& n) const {
+        if (!n.value->is_array() || n.value->size() != 3) wrong_type(n, "an array of 3 numbers");
+        glm::dvec3 d(0.0);
+        for (std::size_t a = 0; a < 3; ++a) {
+            const Node c = n.element(a);
+            d[int(a)] = number(c);
+            if (std::abs(d[int(a)]) > static_cast<double>(std::numeric_limits<float>::max()))
+                fail(c, "too large for single precision (got " + shown_value(*c.value) + ")");
+        }
+        // Scaled to its largest component first: |d|² of [1e-200, 1e-200, 0] underflows even in double.
+        const double largest = std::max({std::abs(d.x), std::abs(d.y), std::abs(d.z)});
+        if (largest == 0.0) fail(n, "must not be the zero vector");
+        return glm::normalize(d / largest);
+    }
+
+    [[nodiscard]] glm::vec3 vec3(const Node& n, const Bounds& bounds = kAny) const {
+        if (!n.value->is_array() || n.value->size() != 3) wrong_type(n, "an array of 3 numbers");
+        return {real(n.element(0), bounds), real(n.element(1), bounds), real(n.element(2), bounds)};
+    }
+
+    [[nodiscard]] std::uint64_t integer(const Node& n, std::uint64_t lo, std::uint64_t hi) const {
+        if (!n.value->is_number_integer()) wrong_type(n, "an integer");
+        const std::string range = hi == std::numeric_limits<std::uint64_t>::max()
+                                      ? "must be >= " + std::to_string(lo)
+                                      : "must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+        if (n.value->is_number_unsigned()) {
+            const auto v = n.value->get<std::uint64_t>();
+            if (v < lo || v > hi) fail(n, range + " (got " + shown_value(*n.value) + ")");
+            return v;
+        }
+        const auto v = n.value->get<std::int64_t>();  // a signed integer in nlohmann is always negative
+        if (v < 0 || static_cast<std::uint64_t>(v) < lo || static_cast<std::uint64_t>(v) > hi)
+            fail(n, range + " (got " + shown_value(*n.value) + ")");
+        return static_cast<std::uint64_t>(v);
+    }
+    [[nodiscard]] std::uint32_t u32(const Node& n, std::uint32_t lo, std::uint32_t hi) const {
+        return static_cast<std::uint32_t>(integer(n, lo, hi));
+    }
+
+    [[nodiscard]] bool boolean(const Node& n) const {
+        if (!n.value->is_boolean()) wrong_type(n, "true or false");
+        return n.value->get<bool>();
+    }
+
+    [[nodiscard]] std::string string(const Node& n) const {
+        if (!n.value->is_string()) wrong_type(n, "a string");
+        return n.value->get<std::string>();
+    }
+
+private:
+    std::string source_;
+};
+
+// ---- Paths during parsing ----------------------------------------------------------------------------
+
+// The deepest nesting a scene file needs is 3 levels (/ground/corners/0); a document nested deeper than
+// this is refused while it is scanned, before recursive code (nlohmann's dump() in messages) meets it.
+constexpr std::size_t kMaxNestingDepth = 64;
+
+// Why `count` particles are too many ("" when they are not). `at_least`: the file holds more than
+// `count` - 1 and the scan stopped counting there.
+std::string particle_count_problem(std::uint64_t count, bool at_least) {
+    const std::string shown = at_least ? "more than " + std::to_string(count - 1) : std::to_string(count);
+    if (count > kMaxSceneParticles)
+        return "too many particles (" + shown + (at_least ? ", " : " > " + std::to_string(kMaxSceneParticles) + ", ") +
+               "the most a scene may hold)";
+    const std::uint64_t limit = scene_particle_limit();
+    if (count > limit)
+        return "too many particles for this machine's memory (" + shown + "; at " + std::to_string(kPeakBytesPerParticle) +
+               " bytes each, its " + format_bytes(machine_memory_bytes()) + " hold at most " + std::to_string(limit) + ")";
+    return {};
+}
+
+// nlohmann keeps the last of two equal keys silently, it reports a number that overflows a double (1e999)
+// without saying where, and it reads a particle list of any length into memory before the reader could
+// count it. So the text is first scanned with this SAX handler, which builds nothing: it follows the JSON
+// path itself, fails on a duplicate key on the spot, reports an overflow at the path of the value being
+// read, stops counting particles at the limit, and refuses absurd nesting. Only a document that passes
+// is parsed into a tree. (The parser-callback interface would do the same in one pass, but nlohmann
+// 3.11's callback parser rescans the parent container after every object, which is quadratic: a 10^6-
+// particle list (52 MB) took 168 s to read; the two linear passes take 3.5 s.)
+class ScanHandler {
+public:
+    ScanHandler(const Reader& reader, std::uint64_t particle_limit) : reader_(reader), particle_limit_(particle_limit) {}
+
+    bool null() { return value(); }
+    bool boolean(bool) { return value(); }
+    bool number_integer(json::number_integer_t) { return value(); }
+    bool number_unsigned(json::number_unsigned_t) { return value(); }
+    bool number_float(json::number_float_t, const json::string_t&) { return value(); }
+    bool string(json::string_t&) { return value(); }
+    bool binary(json::binary_t&) { return value(); }
+
+    bool start_object(std::size_t) { return open(false); }
+    bool start_array(std::size_t) { return open(true); }
+    bool end_object() { return close(); }
+    bool end_array() { return close(); }
+
+    bool key(json::string_t& key) {
+        Frame& top = stack_.back();
+        top.key = key;
+        if (!top.keys.insert(key).second) reader_.fail(path_of_next_value(), "duplicate key");
+        return true;
+    }
+
+    // The parser's own exception (json::parse_error, or json::out_of_range 406 for a number beyond the
+    // double range), thrown as json::parse would throw it; parse_json() turns it into a SceneFileError.
+    template <class Exception>
+    bool parse_error(std::size_t /*position*/, const std::string& /*last_token*/, const Exception& e) {
+        throw e;
+    }
+
+    // The JSON pointer of the value the parser is reading now (the member after the last key, or the
+    // next array element).
+    [[nodiscard]] std::string path_of_next_value() const {
+        std::string p;
+        for (const Frame& f : stack_) p += f.segment;
+        return p + next_segment();
+    }
+
+private:
+    struct Frame {
+        bool array;
+        bool particle_list;          // this is /smoke/particles
+        std::string segment;         // how the parent addresses this container ("" for the root)
+        std::string key;             // objects: the current key
+        std::set<std::string> keys;  // objects: the keys seen so far
+        std::uint64_t next_index;    // arrays: index of the next element
+    };
+
+    // A value or container begins: one more element of the enclosing array.
+    void count_element() {
+        if (stack_.empty() || !stack_.back().array) return;
+        Frame& top = stack_.back();
+        if (top.particle_list && top.next_index >= particle_limit_)
+            reader_.fail("/smoke/particles", particle_count_problem(particle_limit_ + 1, true));
+        ++top.next_index;
+    }
+
+    bool value() {
+        count_element();
+        return true;
+    }
+
+    bool open(bool array) {
+        if (stack_.size() >= kMaxNestingDepth)
+            reader_.fail(path_of_next_value(), "nested deeper than " + std::to_string(kMaxNestingDepth) + " levels");
+        std::string segment = next_segment();
+        const bool particle_list = array && stack_.size() == 2 && !stack_[0].array && !stack_[1].array &&
+                                   stack_[1].segment == "/smoke" && stack_[1].key == "particles";
+        count_element();
+        stack_.push_back(Frame{array, particle_list, std::move(segment), {}, {}, 0});
+        return true;
+    }
+
+    bool close() {
+        stack_.pop_back();
+        return true;
+    }
+
+    [[nodiscard]] std::string next_segment() const {
+        if (stack_.empty()) return {};
+        const Frame& top = stack_.back();
+        std::string segment(1, '/');  // appended, not "/" + …: GCC 12 warns falsely (-Wrestrict) on that
+        segment += top.array ? std::to_string(top.next_index) : pointer_token(top.key);
+        return segment;
+    }
+
+    const Reader& reader_;
+    std::uint64_t particle_limit_;
+    std::vector<Frame> stack_;
+};
+
+json parse_json(std::string_view text, const Reader& reader, const std::string& source) {
+    ScanHandler scan(reader, scene_particle_limit());
+    try {
+        json::sax_parse(text.begin(), text.end(), &scan);
+        return json::parse(text.begin(), text.end());  // cannot fail: the scan accepted the same text
+    } catch (const json::parse_error& e) {
+        // e.byte is 1-based; n+1 means "at the end of the input" (truncated file).
+        const std::size_t offset = std::min<std::size_t>(e.byte == 0 ? 0 : e.byte - 1, text.size());
+        const auto before = text.substr(0, offset);
+        const std::size_t line = 1 + static_cast<std::size_t>(std::count(before.begin(), before.end(), '\n'));
+        const std::size_t line_start = before.rfind('\n');
+        const std::size_t column = offset - (line_start == std::string_view::npos ? 0 : line_start + 1) + 1;
+        std::string reason = e.what();
+        if (const auto p = reason.find("parse error"); p != std::string::npos)
+            if (const auto colon = reason.find(": ", p); colon != std::string::npos) reason = reason.substr(colon + 2);
+        std::string where = offset >= text.size() ? "at the end of the input (byte " + std::to_string(offset + 1) + ")"
+                                                  : "at byte " + std::to_string(offset + 1);
+        throw SceneFileError(source + ": malformed JSON " + where + ", line " + std::to_string(line) + ", column " +
+                             std::to_string(column) + ": " + reason);
+    } catch (const json::out_of_range& e) {
+        // 406 "number overflow parsing '1e999'": the literal is between the quotes.
+        std::string literal = e.what();
+        const auto open = literal.find('\''), close = literal.rfind('\'');
+        literal = open != std::string::npos && close > open ? literal.substr(open + 1, close - open - 1) : "?";
+        reader.fail(scan.path_of_next_value(), "must be finite (got " + literal + ", beyond the double range)");
+    }
+}
+
+// ---- Extent and motion ---------------------------------------------------------------------------------
+
+// Empty when the particle stays within ±kMaxSceneCoordinate with a radius <= kMaxSceneCoordinate over
+// `steps` frame steps of ParticleSystem::advance(), else what goes wrong (bounds in double: the float
+// steps' rounding is relative 2^-24 per step, nowhere near the factor of 10^4 between the bound and the
+// first overflow).
+std::string particle_extent_problem(const Particle& p, std::uint64_t steps) {
+    const double n = double(steps);
+    for (int a = 0; a < 3; ++a) {
+        const double reach = std::abs(double(p.center[a])) + n * std::abs(double(p.velocity[a]));
+        if (!(reach <= kMaxSceneCoordinate)) {
+            const std::string where = steps == 0 ? "lies" : "moves";
+            return where + " beyond the coordinate range +-" + shown_number(kMaxSceneCoordinate) +
+                   (steps == 0 ? "" : " within " + std::to_string(steps + 1) + " frames") + " (" + "xyz"[a] +
+                   " reaches " + shown_number(reach) + ")";
+        }
+    }
+    if (p.growth > 0.0f && steps > 0 &&
+        !(std::log(double(p.radius)) + n * std::log1p(double(p.growth)) <= std::log(kMaxSceneCoordinate)))
+        return "grows beyond a radius of " + shown_number(kMaxSceneCoordinate) + " within " + std::to_string(steps + 1) +
+               " frames";
+    if (!(double(p.radius) <= kMaxSceneCoordinate))
+        return "has a radius beyond " + shown_number(kMaxSceneCoordinate);
+    return {};
+}
+
+// ---- The default camera -------------------------------------------------------------------------------
+
+// Where default_camera() puts the camera, in double (before rounding to float, so that a position beyond
+// the float range can be reported rather than turned into inf).
+struct DefaultView {
+    glm::dvec3 position, look_at;
+};
+DefaultView default_view(const std::vector<Particle>& particles, const std::optional<GroundDescription>& ground,
+                         float fov_deg, std::uint32_t width, std::uint32_t height) {
+    // Bounding sphere: centre of the box, radius to the farthest surface point.
+    glm::dvec3 center(0.0);
+    double radius = 1.0;
+    if (!particles.empty()) {
+        glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+        for (const Particle& p : particles) {
+            lo = glm::min(lo, glm::dvec3(p.center) - double(p.radius));
+            hi = glm::max(hi, glm::dvec3(p.center) + double(p.radius));
+        }
+        center = 0.5 * (lo + hi);
+        radius = 0.0;
+        for (const Particle& p : particles) radius = std::max(radius, glm::length(glm::dvec3(p.center) - center) + p.radius);
+    } else if (ground) {
+        for (const glm::vec3& c : ground->corners) center += 0.25 * glm::dvec3(c);
+        radius = 0.0;
+        for (const glm::vec3& c : ground->corners) radius = std::max(radius, glm::length(glm::dvec3(c) - center));
+    }
+
+    const double half_vertical = 0.5 * fov_deg * kRadiansPerDegree;
+    const double half_horizontal = std::atan(std::tan(half_vertical) * double(width) / double(height));
+    const double half = std::min(half_vertical, half_horizontal);
+    // Never closer than float resolution at the centre allows: a lone particle of radius 1e-38 at (1, 1, 1)
+    // would otherwise put the camera on the point it looks at.
+    radius = std::max(radius, kMinDefaultFramingRadius * std::max(1.0, glm::length(center)));
+    const double distance = kDefaultCameraMargin * radius / std::sin(half);
+    const double elevation = kDefaultCameraElevationDeg * kRadiansPerDegree;
+    const glm::dvec3 toward_camera(0.0, std::sin(elevation), std::cos(elevation));
+
+    return {center + distance * toward_camera, center};
+}
+
+// v rounded up to 3 significant digits, for "at least v" in messages.
+std::string shown_rounded_up(double v) {
+    const double step = std::pow(10.0, std::floor(std::log10(v)) - 2.0);
+    char buffer[32];
+    std::snprintf(buffer, sizeof buffer, "%.3g", std::ceil(v / step) * step);
+    return buffer;
+}
+
+std::string shown_3_digits(double v) {
+    char buffer[32];
+    std::snprintf(buffer, sizeof buffer, "%.3g", v);
+    return buffer;
+}
+
+// A field of view so small that neighbouring pixels' rays are closer than kMinPixelAngle is refused at
+// fov_deg (n): the float camera would accept it and render blocks of equal pixels (1e-20 even failed there,
+// blamed on camera.up).
+void check_fov_resolution(const Reader& r, const Node& n, float fov_deg, std::uint32_t height) {
+    const double half = 0.5 * double(fov_deg) * kRadiansPerDegree;
+    if (2.0 * std::tan(half) / double(height) >= kMinPixelAngle) return;
+    const double smallest = 2.0 * std::atan(0.5 * kMinPixelAngle * double(height)) / kRadiansPerDegree;
+    r.fail(n, "too small for a usable camera (got " + shown_value(*n.value) + "): at " + std::to_string(height) +
+                  " pixels high, neighbouring pixels' rays would be less than 2^-20 radians apart, within a few "
+                  "roundings of their direction, and the image would fall apart into blocks; at this height "
+                  "fov_deg must be at least " + shown_rounded_up(smallest));
+}
+
+// The default camera must stand within ±kMaxDefaultCameraCoordinate. `path`: /camera/fov_deg when the file
+// gave the field of view (it is what backs the camera off), else /camera.
+void check_default_position(const Reader& r, const DefaultView& v, const std::string& path, bool fov_given) {
+    const double reach = std::max({std::abs(v.position.x), std::abs(v.position.y), std::abs(v.position.z)});
+    if (reach <= kMaxDefaultCameraCoordinate) return;
+    const std::string where = "(to fit the smoke into this view it would stand at (" + shown_3_digits(v.position.x) +
+                              ", " + shown_3_digits(v.position.y) + ", " + shown_3_digits(v.position.z) + "))";
+    if (fov_given)
+        r.fail(path, "pushes the default camera beyond the coordinate limit of " +
+                         shown_number(kMaxDefaultCameraCoordinate) + " " + where +
+                         ": give camera.position, or a larger fov_deg");
+    r.fail(path, "the default camera would stand beyond the coordinate limit of " +
+                     shown_number(kMaxDefaultCameraCoordinate) + " " + where +
+                     ": give camera.position, a larger fov_deg, or a less narrow image");
+}
+
+// ---- Sections ----------------------------------------------------------------------------------------
+
+LightDescription read_light(const Reader& r, const Node& n) {
+    r.require_object(n, {"direction", "color", "rotation_per_frame_deg"});
+    LightDescription light;
+    light.direction = glm::vec3(r.direction(r.required(n, "direction")));
+    if (auto c = Reader::optional(n, "color")) light.color = r.vec3(*c, kColor);
+    if (auto a = Reader::optional(n, "rotation_per_frame_deg")) light.rotation_per_frame_deg = r.real(*a);
+    return light;
+}
+
+Particle read_particle(const Reader& r, const Node& n) {
+    r.require_object(n, {"center", "radius", "velocity", "spin", "growth", "rotation"});
+    Particle p;
+    p.center = r.vec3(r.required(n, "center"), kCoordinate);
+    p.radius = r.radius(r.required(n, "radius"), kRadius);
+    if (auto v = Reader::optional(n, "velocity")) p.velocity = r.vec3(*v);
+    if (auto s = Reader::optional(n, "spin")) p.spin = r.real(*s);
+    if (auto g = Reader::optional(n, "growth")) p.growth = r.real(*g, Bounds{-1.0, true});
+    if (auto a = Reader::optional(n, "rotation")) p.rotation = r.real(*a);
+    return p;
+}
+
+TubeSettings read_tubes(const Reader& r, const Node& n) {
+    r.require_object(n, {"count", "seed", "tube_radius", "tube_length", "separation", "particle_radius", "drift",
+                         "jitter_speed", "spin_speed", "growth", "random_rotation"});
+    TubeSettings t;
+    if (auto v = Reader::optional(n, "count")) {
+        const std::uint64_t count = r.integer(*v, 0, std::numeric_limits<std::uint64_t>::max());
+        if (const std::string problem = particle_count_problem(count, false); !problem.empty()) r.fail(*v, problem);
+        t.particles = static_cast<std::uint32_t>(count);
+    }
+    if (auto v = Reader::optional(n, "seed")) t.seed = r.integer(*v, 0, std::numeric_limits<std::uint64_t>::max());
+    if (auto v = Reader::optional(n, "tube_radius")) t.tube_radius = r.real(*v, kPositive);
+    if (auto v = Reader::optional(n, "tube_length")) t.tube_length = r.real(*v, kPositive);
+    if (auto v = Reader::optional(n, "separation")) t.separation = r.real(*v, kNonNegative);
+    if (auto v = Reader::optional(n, "particle_radius")) t.particle_radius = r.radius(*v, kPositive);
+    if (auto v = Reader::optional(n, "drift")) t.drift = r.vec3(*v);
+    if (auto v = Reader::optional(n, "jitter_speed")) t.jitter_speed = r.real(*v, kNonNegative);
+    if (auto v = Reader::optional(n, "spin_speed")) t.spin_speed = r.real(*v, kNonNegative);
+    if (auto v = Reader::optional(n, "growth")) t.growth = r.real(*v, Bounds{-1.0, true});
+    if (auto v = Reader::optional(n, "random_rotation")) t.random_rotation = r.boolean(*v);
+    return t;
+}
+
+SmokeDescription read_smoke(const Reader& r, const Node& n) {
+    r.require_object(n, {"particles", "tubes", "sigma_t", "alpha", "shape"});
+    SmokeDescription smoke;
+    const auto list = Reader::optional(n, "particles");
+    const auto tubes = Reader::optional(n, "tubes");
+    if (list && tubes) r.fail(n, "has both \"particles\" and \"tubes\"; give exactly one");
+    if (!list && !tubes) r.fail(n, "needs \"particles\" (a list) or \"tubes\" (the generator)");
+    if (list) {
+        if (!list->value->is_array()) r.wrong_type(*list, "an array of particles");
+        if (const std::string problem = particle_count_problem(list->value->size(), false); !problem.empty())
+            r.fail(*list, problem);  // (the scan already stopped longer lists)
+        smoke.particles.reserve(list->value->size());
+        for (std::size_t i = 0; i < list->value->size(); ++i) smoke.particles.push_back(read_particle(r, list->element(i)));
+    } else {
+        smoke.tubes = read_tubes(r, *tubes);
+        smoke.particles = generate_tubes(*smoke.tubes);
+        for (std::size_t i = 0; i < smoke.particles.size(); ++i)
+            if (const std::string problem = particle_extent_problem(smoke.particles[i], 0); !problem.empty())
+                r.fail(*tubes, "generated particle " + std::to_string(i) + " " + problem);
+    }
+    if (auto v = Reader::optional(n, "sigma_t")) smoke.sigma_t = r.real(*v, kNonNegative);
+    if (auto v = Reader::optional(n, "alpha")) smoke.alpha = r.real(*v, kUnit);
+    if (auto v = Reader::optional(n, "shape")) {
+        const std::string text = r.string(*v);
+        const auto shape = parse_stand_in_shape(text);
+        if (!shape) r.fail(*v, "unknown shape \"" + text + "\" (use \"sphere\", \"icosahedron\" or \"icosphere:1\"…\"icosphere:4\")");
+        smoke.shape = *shape;
+    }
+    return smoke;
+}
+
+GroundDescription read_ground(const Reader& r, const Node& n) {
+    r.require_object(n, {"corners", "color"});
+    GroundDescription ground;
+    const Node corners = r.required(n, "corners");
+    if (!corners.value->is_array() || corners.value->size() != 4) r.wrong_type(corners, "an array of 4 points");
+    std::array<glm::dvec3, 4> v;
+    for (std::size_t i = 0; i < 4; ++i) {
+        ground.corners[i] = r.vec3(corners.element(i), kCoordinate);
+        v[i] = glm::dvec3(ground.corners[i]);
+    }
+
+    // Newell's normal: twice the vector area, robust for any planar polygon and pointing to the side from
+    // which the corners run counter-clockwise.
+    glm::dvec3 newell(0.0);
+    double longest_edge = 0.0;
+    for (std::size_t i = 0; i < 4; ++i) {
+        newell += glm::cross(v[i], v[(i + 1) % 4]);
+        longest_edge = std::max(longest_edge, glm::length(v[(i + 1) % 4] - v[i]));
+    }
+    const double area = 0.5 * glm::length(newell);
+    if (!(area > kMinRelativeGroundArea * longest_edge * longest_edge))
+        r.fail(corners, "degenerate quad (area " + shown_number(area) + ")");
+    const glm::dvec3 normal = newell / (2.0 * area);
+
+    // Off-plane distances from the plane through the centroid with Newell's normal (the least-squares-like
+    // plane of the four corners); one lifted corner moves all four off it, so the quad as a whole is named.
+    const glm::dvec3 centroid = 0.25 * (v[0] + v[1] + v[2] + v[3]);
+    double off = 0.0;
+    for (std::size_t i = 0; i < 4; ++i) off = std::max(off, std::abs(glm::dot(v[i] - centroid, normal)));
+    if (off > kGroundPlanarityTolerance * longest_edge)
+        r.fail(corners, "not planar: the corners are up to " + shown_number(off) + " off their common plane (tolerance " +
+                            shown_number(kGroundPlanarityTolerance * longest_edge) + ")");
+    for (std::size_t i = 0; i < 4; ++i) {
+        const glm::dvec3 a = v[(i + 3) % 4], b = v[i], c = v[(i + 1) % 4];
+        const double turn = glm::dot(glm::cross(b - a, c - b), normal);
+        if (!(turn > kMinRelativeGroundTurn * longest_edge * longest_edge))
+            r.fail(corners.element(i), "the quad is not convex at this corner (corners must go around the quad in "
+                                       "order, and no three may be collinear)");
+    }
+    ground.normal = glm::vec3(normal);
+    if (auto c = Reader::optional(n, "color")) ground.color = r.vec3(*c, kColor);
+    return ground;
+}
+
+// The renderer's camera (camera.hpp) redoes these checks in float: it must agree, or a scene that reads
+// fine would fail at render time with a message that names no file.
+void check_renderer_accepts(const Reader& r, const CameraDescription& c, const std::string& path) {
+    try {
+        (void)Camera(c.position, c.look_at, c.up, c.fov_deg, int(c.width), int(c.height));
+    } catch (const std::invalid_argument& e) {
+        r.fail(path, std::string("the camera is unusable: ") + e.what());
+    }
+}
+
+CameraDescription read_camera(const Reader& r, const Node& n, const SceneDescription& scene) {
+    r.require_object(n, {"position", "look_at", "up", "fov_deg", "width", "height"});
+    float fov = CameraDescription{}.fov_deg;
+    std::uint32_t width = CameraDescription{}.width, height = CameraDescription{}.height;
+    const auto fov_node = Reader::optional(n, "fov_deg");
+    if (fov_node) fov = r.real(*fov_node, Bounds{0.0, true, 180.0, true});
+    if (auto v = Reader::optional(n, "width")) width = r.u32(*v, 1, std::uint32_t(kMaxImageSide));
+    if (auto v = Reader::optional(n, "height")) height = r.u32(*v, 1, std::uint32_t(kMaxImageSide));
+    if (std::uint64_t{width} * height > kMaxImagePixels)
+        r.fail(n, "image too large (" + std::to_string(width) + "x" + std::to_string(height) + " > " +
+                      std::to_string(kMaxImagePixels) + " pixels)");
+    if (fov_node) check_fov_resolution(r, *fov_node, fov, height);
+
+    CameraDescription camera = default_camera(scene.smoke.particles, scene.ground, fov, width, height);
+    if (auto v = Reader::optional(n, "position")) {
+        camera.position = r.vec3(*v, kCoordinate);
+    } else {
+        check_default_position(r, default_view(scene.smoke.particles, scene.ground, fov, width, height),
+                               fov_node ? fov_node->path : n.path, fov_node.has_value());
+    }
+    if (auto v = Reader::optional(n, "look_at")) camera.look_at = r.vec3(*v, kCoordinate);
+    const auto up = Reader::optional(n, "up");
+    // Unit length (normalised in double from the file's numbers): the renderer's camera then sees |forward ×
+    // up| = the sine checked below, whatever length the file gave (up = [0, 1e-30, 0] underflowed there; up =
+    // [3e38, 3e38, 0] overflowed to a zero right vector).
+    const glm::dvec3 up_d = up ? r.direction(*up) : glm::dvec3(camera.up);
+
+    const glm::dvec3 view = glm::dvec3(camera.look_at) - glm::dvec3(camera.position);
+    if (glm::length(view) == 0.0) r.fail(n, "position and look_at are the same point");
+    const std::string up_path = up ? up->path : n.path + "/up";
+    const double sine = glm::length(glm::cross(glm::normalize(view), up_d));
+    if (!(sine >= kMinUpViewSine)) r.fail(up_path, "is parallel to the view direction (look_at - position)");
+    camera.up = glm::vec3(up_d);
+    check_renderer_accepts(r, camera, up_path);
+    return camera;
+}
+
+RenderSettings read_render(const Reader& r, const Node& n) {
+    r.require_object(n, {"mode", "cutoff", "groups", "frames", "softness", "transmittance_threshold", "compositing"});
+    RenderSettings s;
+    if (auto v = Reader::optional(n, "mode")) {
+        const std::string m = r.string(*v);
+        if (m == "basic") s.mode = RenderMode::basic;
+        else if (m == "simple-shadow") s.mode = RenderMode::simple_shadow;
+        else if (m == "full") s.mode = RenderMode::full;
+        else r.fail(*v, "unknown mode \"" + m + "\" (use \"basic\", \"simple-shadow\" or \"full\")");
+    }
+    if (auto v = Reader::optional(n, "cutoff")) s.cutoff = r.u32(*v, 0, std::numeric_limits<std::uint32_t>::max());
+    if (auto v = Reader::optional(n, "groups")) s.groups = r.u32(*v, 1, kMaxGroups);
+    if (auto v = Reader::optional(n, "frames")) s.frames = r.u32(*v, 1, kMaxFrames);
+    if (auto v = Reader::optional(n, "softness")) s.softness = r.real(*v, kNonNegative);
+    if (auto v = Reader::optional(n, "transmittance_threshold"))
+        s.transmittance_threshold = r.real(*v, Bounds{0.0, false, 1.0, true});
+    if (auto v = Reader::optional(n, "compositing")) {
+        const std::string c = r.string(*v);
+        if (c == "over") s.compositing = Compositing::over;
+        else if (c == "thesis") s.compositing = Compositing::thesis;
+        else r.fail(*v, "unknown compositing \"" + c + "\" (use \"over\" or \"thesis\")");
+    }
+    return s;
+}
+
+}  // namespace
+
+// ---- Public API --------------------------------------------------------------------------------------
+
+glm::vec3 LightDescription::direction_at_frame(std::int64_t frame) const {
+    if (rotation_per_frame_deg == 0.0f || frame == 0) return direction;
+    // Reduce in degrees first (exact for fmod) so that large frame numbers keep full precision.
+    const double degrees = std::fmod(static_cast<double>(rotation_per_frame_deg) * static_cast<double>(frame), 360.0);
+    const double radians = degrees * (3.14159265358979323846 / 180.0);
+    const double c = std::cos(radians), s = std::sin(radians);
+    const glm::dvec3 d(direction);
+    return glm::vec3(glm::dvec3(c * d.x - s * d.y, s * d.x + c * d.y, d.z));
+}
+
+void check_scene_motion(const SceneDescription& scene, std::uint32_t frames) {
+    if (frames <= 1) return;
+    const Reader r(scene.source);
+    for (std::size_t i = 0; i < scene.smoke.particles.size(); ++i) {
+        const std::string problem = particle_extent_problem(scene.smoke.particles[i], frames - 1);
+        if (problem.empty()) continue;
+        if (scene.smoke.tubes) r.fail("/smoke/tubes", "generated particle " + std::to_string(i) + " " + problem);
+        r.fail("/smoke/particles/" + std::to_string(i), problem);
+    }
+}
+
+std::uint64_t scene_particle_limit() {
+    return std::min(kMaxSceneParticles, machine_memory_bytes() / kPeakBytesPerParticle);
+}
+
+const char* to_string(RenderMode m) {
+    switch (m) {
+        case RenderMode::basic: return "basic";
+        case RenderMode::simple_shadow: return "simple-shadow";
+        case RenderMode::full: return "full";
+    }
+    return "?";
+}
+
+const char* to_string(Compositing c) {
+    switch (c) {
+        case Compositing::over: return "over";
+        case Compositing::thesis: return "thesis";
+    }
+    return "?";
+}
+
+CameraDescription default_camera(const std::vector<Particle>& particles, const std::optional<GroundDescription>& ground,
+                                 float fov_deg, std::uint32_t width, std::uint32_t height) {
+    const DefaultView view = default_view(particles, ground, fov_deg, width, height);
+    CameraDescription camera;
+    camera.position = glm::vec3(view.position);
+    camera.look_at = glm::vec3(view.look_at);
+    camera.up = {0.0f, 1.0f, 0.0f};
+    camera.fov_deg = fov_deg;
+    camera.width = width;
+    camera.height = height;
+    return camera;
+}
+
+SceneDescription parse_scene(std::string_view json_text, std::string_view source_name) {
+    const std::string source(source_name);
+    const Reader r(source);
+    const json document = parse_json(json_text, r, source);
+    const Node root{&document, ""};
+    r.require_object(root, {"light", "ambient", "background", "smoke", "ground", "camera", "render"});
+
+    SceneDescription scene;
+    scene.source = source;
+    scene.light = read_light(r, r.required(root, "light"));
+    if (auto v = Reader::optional(root, "ambient")) scene.ambient = r.vec3(*v, kColor);
+    if (auto v = Reader::optional(root, "background")) scene.background = r.vec3(*v, kColor);
+    scene.smoke = read_smoke(r, r.required(root, "smoke"));
+    if (auto v = Reader::optional(root, "ground")) scene.ground = read_ground(r, *v);
+    if (auto v = Reader::optional(root, "render")) scene.render = read_render(r, *v);
+    check_scene_motion(scene, scene.render.frames);
+    if (auto v = Reader::optional(root, "camera")) {
+        scene.camera = read_camera(r, *v, scene);
+    } else {
+        const CameraDescription d;
+        scene.camera = default_camera(scene.smoke.particles, scene.ground, d.fov_deg, d.width, d.height);
+        check_default_position(r, default_view(scene.smoke.particles, scene.ground, d.fov_deg, d.width, d.height),
+                               "/camera", false);
+        check_renderer_accepts(r, scene.camera, "/camera");
+    }
+    return scene;
+}
+
+SceneDescription load_scene_file(const std::filesystem::path& path) {
+    const std::string name = path.string();
+    std::error_code ec;
+    if (std::filesystem::is_directory(path, ec)) throw SceneFileError(name + ": is a directory, not a scene file");
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw SceneFileError(name + ": cannot open the file for reading");
+    std::ostringstream text;
+    text << in.rdbuf();
+    if (in.bad()) throw SceneFileError(name + ": read error");
+    return parse_scene(text.str(), name);
+}
+
+}  // namespace smoketrace

@@ -1,0 +1,99 @@
+#include <smoketrace/render/frame_renderer.hpp>
+#include <smoketrace/smoke/particle_groups.hpp>
+
+#include <stdexcept>
+
+namespace smoketrace {
+
+RenderOptions RenderOptions::from_scene(const SceneDescription& scene) {
+    RenderOptions o;
+    o.render = scene.render;
+    o.shape = scene.smoke.shape;
+    o.width = int(scene.camera.width);
+    o.height = int(scene.camera.height);
+    return o;
+}
+
+namespace {
+std::optional<GroundQuad> ground_of(const SceneDescription& d) {
+    if (!d.ground) return std::nullopt;
+    return GroundQuad{d.ground->corners};
+}
+}  // namespace
+
+FrameRenderer::FrameRenderer(const SceneDescription& scene, const RenderOptions& options, const SixwayTexture& texture)
+    : desc_(scene), options_(options), texture_(texture), particles_(scene.smoke.particles),
+      smoke_(particles_.particles(), options.shape, ground_of(scene), /*billboards=*/true),
+      camera_(scene.camera.position, scene.camera.look_at, scene.camera.up, scene.camera.fov_deg, options.width,
+              options.height),
+      depths_(particles_.size()) {
+    if (options.render.groups < 1) throw std::invalid_argument("render: groups must be >= 1");
+}
+
+FrameReport FrameRenderer::render(std::uint64_t frame, ImageRgba& image) {
+    if (std::int64_t(frame) != last_frame_ + 1) throw std::logic_error("FrameRenderer: frames must be rendered in order");
+    FrameReport report;
+    FrameTimings& t = report.timings;
+    StageClock total;
+    StageClock clock;
+
+    const bool first = frame == 0;
+    const bool moved = !first && particles_.moving();
+    if (moved) particles_.advance(1);
+    const glm::vec3 light = desc_.light.direction_at_frame(std::int64_t(frame));
+    const bool light_turned = first || light != last_light_;
+    last_frame_ = std::int64_t(frame);
+    last_light_ = light;
+
+    // Work is skipped only where its inputs did not change. Still particles and a still light leave the
+    // TLAS and the optical depths as they were; the view is redrawn unless its flipbook frame is also the
+    // one already in `image` (the billboards animate even when nothing moves).
+    const int flipbook_frame = int(frame % std::uint64_t(texture_.frame_count()));
+    const bool still = !first && !moved && !light_turned;
+    if (still && flipbook_frame == last_flipbook_frame_ && image.width == options_.width &&
+        image.height == options_.height) {
+        report.reused_previous = true;
+        t.total = total.lap_ms();
+        return report;
+    }
+
+    if (!still) {
+        report.tlas = smoke_.update(particles_.particles(), camera_.position());
+        t.tlas_update = clock.lap_ms();
+
+        const bool optical_depth = options_.render.mode != RenderMode::basic;
+        if (optical_depth) {
+            // The first frame traces every particle so that none starts without a value; after that, one
+            // group per frame (thesis 4.4.2).
+            const std::uint32_t groups = first ? 1 : options_.render.groups;
+            const auto which = particle_group(particles_.size(), groups, frame);
+            OpticalDepthSettings ods;
+            ods.cutoff = options_.render.cutoff;
+            depths_.update(smoke_, particles_.particles(), which, light, ods, options_.sort, t);
+            report.depths_updated = which.size();
+        }
+    }
+    clock.lap_ms();
+
+    ViewSettings v;
+    v.mode = options_.render.mode;
+    v.compositing = options_.render.compositing;
+    v.compositor = options_.compositor;
+    v.sigma_t = desc_.smoke.sigma_t;
+    v.alpha = desc_.smoke.alpha;
+    v.softness = options_.render.softness;
+    v.transmittance_threshold = options_.render.transmittance_threshold;
+    v.to_light = light;
+    v.light_color = desc_.light.color;
+    v.ambient = desc_.ambient;
+    v.background = desc_.background;
+    if (desc_.ground) v.ground_color = desc_.ground->color;
+    v.flipbook_frame = flipbook_frame;
+    render_view(smoke_, particles_.particles(), depths_.lengths(), texture_, camera_, v, image);
+    t.view = clock.lap_ms();
+    last_flipbook_frame_ = flipbook_frame;
+    t.total = total.lap_ms();
+    return report;
+}
+
+}  // namespace smoketrace

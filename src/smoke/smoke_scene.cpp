@@ -1,0 +1,97 @@
+// Particles, billboards and ground as instances of a two-level scene (see smoke_scene.hpp).
+#include <smoketrace/smoke/smoke_scene.hpp>
+
+#include <glm/geometric.hpp>
+#include <cmath>
+
+namespace smoketrace {
+
+glm::vec3 GroundQuad::normal() const {
+    const glm::dvec3 a(corners[0]), b(corners[1]), c(corners[2]), d(corners[3]);
+    // Newell-style: the cross product of the diagonals is twice the quad's vector area.
+    return glm::vec3(glm::normalize(glm::cross(c - a, d - b)));
+}
+
+namespace {
+bool same(const AffineTransform& a, const AffineTransform& b) {
+    return a.linear == b.linear && a.translation == b.translation;
+}
+
+AffineTransform stand_in_transform(const Particle& p) {
+    return AffineTransform::translate_scale(glm::dvec3(p.center), double(p.radius));
+}
+
+BottomLevel stand_in_blas(StandInShape shape) {
+    // Non-opaque: every crossing must reach the optical-depth any-hit (thesis 4.3.2).
+    switch (shape.kind) {
+        case StandInKind::sphere: return BottomLevel::from_spheres({Sphere{glm::vec3(0.0f), 1.0f}}, false);
+        case StandInKind::icosahedron: return BottomLevel::from_mesh(make_icosahedron(1.0f), false);
+        case StandInKind::icosphere: return BottomLevel::from_mesh(make_icosphere(shape.level, 1.0f), false);
+    }
+    return {};
+}
+
+BottomLevel billboard_blas() {
+    TriangleMesh quad;
+    quad.vertices = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
+    quad.triangles = {{0, 1, 2}, {0, 2, 3}};  // counter-clockwise seen from +z: the front faces the eye
+    return BottomLevel::from_mesh(quad, false);
+}
+}  // namespace
+
+AffineTransform SmokeScene::billboard_transform(const Particle& p, const glm::vec3& eye) {
+    const glm::dvec3 c(p.center);
+    glm::dvec3 n = glm::dvec3(eye) - c;
+    const double len = glm::length(n);
+    n = len > 0.0 ? n / len : glm::dvec3(0, 0, 1);
+    // Right and up from the world up (+y, thesis 4.1), or from +z when looking straight up or down.
+    const glm::dvec3 ref = std::abs(n.y) < 0.999 ? glm::dvec3(0, 1, 0) : glm::dvec3(0, 0, 1);
+    glm::dvec3 right = glm::normalize(glm::cross(ref, n));
+    glm::dvec3 up = glm::cross(n, right);
+    // The particle's own spin turns the quad in its plane.
+    const double cs = std::cos(double(p.rotation)), sn = std::sin(double(p.rotation));
+    const glm::dvec3 r2 = cs * right + sn * up, u2 = -sn * right + cs * up;
+    const double s = p.radius;
+    AffineTransform m;
+    m.linear = glm::dmat3(r2 * s, u2 * s, n * s);
+    m.translation = c;
+    return m;
+}
+
+SmokeScene::SmokeScene(std::span<const Particle> particles, StandInShape shape, const std::optional<GroundQuad>& ground,
+                       bool billboards)
+    : count_(particles.size()), shape_(shape), billboards_(billboards) {
+    const std::uint32_t stand_in = scene_.add_bottom_level(stand_in_blas(shape));
+    for (std::size_t i = 0; i < particles.size(); ++i)
+        scene_.add_instance(Instance{stand_in, stand_in_transform(particles[i]), kStandInMask, std::uint32_t(i)});
+    if (billboards) {
+        const std::uint32_t quad = scene_.add_bottom_level(billboard_blas());
+        for (std::size_t i = 0; i < particles.size(); ++i)
+            // Identity until update() turns it toward the eye.
+            scene_.add_instance(Instance{quad, stand_in_transform(particles[i]), kBillboardMask, std::uint32_t(i)});
+    }
+    if (ground) {
+        TriangleMesh quad;
+        quad.vertices.assign(ground->corners.begin(), ground->corners.end());
+        quad.triangles = {{0, 1, 2}, {0, 2, 3}};
+        const std::uint32_t g = scene_.add_bottom_level(BottomLevel::from_mesh(quad, true));
+        ground_normal_ = ground->normal();
+        ground_instance_ = scene_.add_instance(Instance{g, AffineTransform{}, kGroundMask, kGroundUserId});
+    }
+}
+
+TlasUpdate SmokeScene::update(std::span<const Particle> particles, const glm::vec3& eye) {
+    for (std::size_t i = 0; i < count_; ++i) {
+        const auto idx = static_cast<std::uint32_t>(i);
+        const AffineTransform s = stand_in_transform(particles[i]);
+        if (!same(scene_.instance(idx).object_to_world, s)) scene_.set_transform(idx, s);
+        if (billboards_) {
+            const auto b_idx = static_cast<std::uint32_t>(count_ + i);
+            const AffineTransform b = billboard_transform(particles[i], eye);
+            if (!same(scene_.instance(b_idx).object_to_world, b)) scene_.set_transform(b_idx, b);
+        }
+    }
+    return scene_.commit();
+}
+
+}  // namespace smoketrace
