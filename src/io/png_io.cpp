@@ -128,9 +128,8 @@ void check_png_structure(const fs::path& path, const std::vector<std::uint8_t>& 
 // A PNG is the signature, then chunks: IHDR (size and pixel format), one IDAT (the zlib stream of the
 // filtered rows), IEND. Each row is Paeth-filtered (filter type 4: every byte minus the prediction from
 // its left, upper and upper-left neighbours), which on rendered smoke and sky leaves long runs of small
-// values; zlib's run-length strategy compresses those well and fast. Measured on a 1024² `full` frame:
-// 9.4 ms and 195 KB, against 39 ms and 182 KB for zlib's default strategy and 66-95 ms and 250 KB for
-// stb_image_write (all five filters tried per row, its own deflate).
+// values; zlib's run-length strategy compresses those well and several times faster than its default
+// strategy (bench section "output"; docs/performance-log.md, 2026-11-24).
 
 // Paeth's predictor (PNG specification, 9.4): the neighbour closest to left + up − upper-left.
 std::uint8_t paeth(int left, int up, int upper_left) {

@@ -6,10 +6,8 @@
 //       particles x 120 hits) with a 512-1024-way scatter, then one walk per particle;
 //   (b) one small sort per particle (a sorting network up to 128 hits with AVX-512, a rank sort below
 //       kRadixSortMinItems, radix above), each list staying in L1 (or registers) until the walk that follows.
-// Measured in bench section "resolver" (table "segmented vs per-particle", one thread, 750 particles):
-// (b) is 1.25-1.55x faster at every list length from 20 to 300 hits with the rank sort (120 hits: 7.9 vs
-// 11.5 ns per hit, sort and walk), 3.2x at 20 hits to 6.4x at 120 with the network and the gap walk, and
-// it parallelises over particles with no shared histogram, so HitSort::radix is (b).
+// (b) is the faster at every list length the bench tries (section "resolver", table "segmented vs
+// per-particle"), and it parallelises over particles with no shared histogram, so HitSort::radix is (b).
 #include <smoketrace/smoke/hit_resolver.hpp>
 #include <smoketrace/core/radix_sort.hpp>
 #include <smoketrace/core/sorting_network.hpp>
@@ -240,7 +238,7 @@ void resolve_optical_path_lengths(HitLists& lists, std::span<const DepthStatus> 
                                     std::to_string(lists.hits.size()) + " hits");
     }
     // Each particle writes only its own list and length: deterministic for any partitioning. Tasks of at
-    // least kParticlesPerTask particles: a list takes ~0.1 µs, a task's hand-over several times that.
+    // least kParticlesPerTask particles: one list takes far less time than handing a task to a thread.
     constexpr std::size_t kParticlesPerTask = 64;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, particles, kParticlesPerTask),
                       [&](const tbb::blocked_range<std::size_t>& r) {

@@ -20,9 +20,7 @@ namespace {
 // Particles per parallel task: one bundle. The rays come in bundle order, so neighbouring particles
 // share a task and tasks differ in work as much as the smoke is uneven (a ray rising through both tubes
 // crosses twice the surfaces of one rising through the upper tube only); small tasks keep the threads
-// balanced. Measured at 750 particles on 2 threads (bench optical_depth), with bundles of 8: 64 particles
-// per task 0.39 ms, 32 0.33-0.37, 16 0.33; with bundles of 16, 16 to 64 within noise (0.33-0.38); with
-// bundles of 32, one bundle per task (24 tasks for two threads).
+// balanced (at 750 particles, 24 tasks for two threads).
 // Fixed task boundaries (simple_partitioner) make the bundles, and so every hit, independent of the
 // thread count.
 constexpr std::size_t kParticlesPerChunk = 32;
@@ -123,9 +121,7 @@ void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> 
             Scratch& sc = scratch_.local();
             // The rays of one pass reach every particle: each thread first asks its caches for the whole
             // top level at once (Scene::prefetch_top_level), once per pass. Between two passes a frame's
-            // other work evicts it, and walked from L3, pointer chase by pointer chase, the pass took
-            // ~18 % longer: two threads, an icosahedron pass between two passes over spheres,
-            // 0.212-0.216 -> 0.179-0.182 ms with the sweep; nothing in between, 0.177 -> 0.172-0.175.
+            // other work evicts it, and a walk from L3 waits at every node, pointer chase by pointer chase.
             if (sc.warmed_in_trace != trace_id) {
                 sc.warmed_in_trace = trace_id;
                 scene.prefetch_top_level();

@@ -63,8 +63,8 @@ inline constexpr std::uint32_t kMaxWorldTriangles = 4;
 // first cache line only (up to sphere_radius, kept on one line by alignas) until it reports a hit; a world-
 // triangles visit reads the first bytes and the triangle fields of the second line; world_to_object_linear
 // comes last, needed by the general path and for a sphere hit's object_point. A bundle's walk meets the
-// records in leaf order, scattered over memory: with a sphere's fields spread over two or three lines (152-
-// byte records), the first read of a record was the optical-depth pass's costliest line.
+// records in leaf order, scattered over memory, so each record's first line is likely a cache miss: a
+// world sphere must not need a second one.
 struct alignas(64) InstanceRecord {
     std::uint8_t mask;
     // Rule 2 as far as the instance decides it: the geometry's opacity after the instance's FORCE_OPAQUE /

@@ -24,11 +24,8 @@ struct TriangleMesh {
 // How mesh BLASes are built unless told otherwise: a triangle test priced at an eighth of a node step,
 // since the block test (ray_triangle_block.hpp) shears and rejects eight triangles for about the
 // instructions of one scalar test, and leaves of up to three blocks (a 20-triangle icosahedron stand-in
-// becomes one leaf, no traversal). Against 1:1 costs and 4-triangle leaves, measured side by side with
-// Embree (bench "bvh", 133k triangles): closest hit 0.51 → 0.59 of Embree's rays/s, all hits 0.47 → 0.55;
-// an optical-depth pass over icosahedra 151.7M → 93.4M instructions (callgrind, 750 particles × 10;
-// 87.9M with the float straddle decision and the world-sphere path of trace()). Two-triangle
-// billboards never reach it: they take trace()'s world-triangles path (scene.hpp).
+// becomes one leaf, no traversal). Two-triangle billboards never reach it: they take trace()'s
+// world-triangles path (scene.hpp). What these settings gained: docs/performance-log.md, 2026-11-23.
 inline constexpr BvhBuildSettings kMeshBuildSettings{SahCosts{1.0f, 1.0f / 8.0f}, 24};
 
 // A BVH over a mesh's triangles. Triangles are copied into leaf order, once as records (three vertices

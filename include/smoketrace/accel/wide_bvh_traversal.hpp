@@ -6,11 +6,9 @@
 // children the first next and the others pushed with their entry distances, so that one popped after a
 // hit has shrunk tmax is skipped.
 //
-// Not strictly near to far, on purpose. Measured on the optical-depth pass (750 particles, one thread,
-// side by side): ordering by entry distance and pushing leaves like inner nodes cost 17 % more time on
-// spheres than this, and a branch-free sorting network more still; this walk is 35 % (spheres) and 18 %
-// (icosahedra) faster than the binary tree's. For camera rays over overlapping billboards, whose commits
-// and early termination need the strict order, the binary walk stays the faster (by 35 %).
+// Not strictly near to far, on purpose: a ray that collects every hit gains nothing from the order, and
+// sorting the children by entry distance costs more than it saves. Camera rays, whose commits and early
+// termination need the strict order, keep the binary walk (docs/design.md, "Two walks of the top level").
 #include <smoketrace/geometry/aabb.hpp>
 #include <smoketrace/accel/bvh_traversal.hpp>
 #include <smoketrace/accel/wide_bvh.hpp>

@@ -11,10 +11,10 @@ namespace smoketrace {
 // (assets/scenes/two_tubes_right.json with 10^6 tube particles, a 64x64 image, cutoff 1; /usr/bin/time's
 // max RSS): the particle itself (40 B), its stand-in and billboard instances with double transforms, the
 // billboard's two triangles kept in world space (72 B), the binary TLAS and its 4-wide copy (~85 B), and
-// the per-particle arrays of the optical-depth pass and the view pass (1,038 B before the world-space
-// billboards and the 4-wide copy). `depths` needs about half of it (no billboards); reading a scene file
-// peaks at about 530 B per particle (the JSON document), which is freed before the pipeline starts. Hit
-// lists are not in it: they depend on the scene's density, see kPeakBytesPerStoredHit.
+// the per-particle arrays of the optical-depth pass and the view pass. `depths` needs about half of it
+// (no billboards); reading a scene file peaks at about 530 B per particle (the JSON document), which is
+// freed before the pipeline starts. Hit lists are not in it: they depend on the scene's density, see
+// kPeakBytesPerStoredHit.
 inline constexpr std::uint64_t kPeakBytesPerParticle = 1280;
 
 // Peak memory per hit kept by the optical-depth pass: 8 B in its chunk buffer (up to 16 B while the

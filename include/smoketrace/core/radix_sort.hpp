@@ -34,14 +34,11 @@ namespace smoketrace {
     return bits ^ flip;
 }
 
-// Lists shorter than this are rank-sorted, longer ones radix-sorted: the measured crossover (bench section
-// "resolver", table "sort crossover": shuffled t values of one ray; 2-core AMD EPYC with AVX-512,
-// -march=native). With the AVX-512 rank sort (blocks of 16 keys), rank sort wins clearly below it (128
-// items: 5.1 vs 10.0 ns/item, 192: 6.9 vs 8.7), the two tie at 256, radix wins from 320 (7.4 vs 9.7) and
-// its cost per item keeps falling while rank sort's grows. On the optical-depth pass's own lists (any-hit
-// order, lengths varying from list to list) the rank sort's lead is larger (65-128 items, mean 88: 4.1 vs
-// 9.2). Without AVX-512 the rank sort compares fewer keys per instruction: re-measure there (it was
-// 160 with the auto-vectorised loops).
+// Lists shorter than this are rank-sorted, longer ones radix-sorted: where the two cost the same per item
+// with the AVX-512 rank sort (bench section "resolver", table "sort crossover"); past it the rank sort's
+// O(n^2) compares grow while the radix sort's cost per item keeps falling. Without AVX-512 the rank sort
+// compares fewer keys per instruction, so the crossover moves: re-measure there. Figures:
+// docs/performance-log.md, 2026-11-24.
 inline constexpr std::size_t kRadixSortMinItems = 256;
 // rank_sort() keeps the keys of its list on the stack: its longest list (beyond the crossover, so that
 // the benchmark can show where it loses).
@@ -50,10 +47,9 @@ static_assert(kRadixSortMinItems <= kRankSortMaxItems + 1);
 
 // The radix sort's digit width adapts to the list: the widest digit with at most this many histogram
 // buckets per item (so zeroing and scanning the histograms never outweighs scattering the items), then
-// narrowed as far as the same number of passes allows. Measured (bench "resolver", "sort crossover"):
-// 2, 4 and 16 buckets per item are within noise of each other from 128 items up; 1 costs 40% more at
-// 64-112 items (too many passes); fixed 8-bit digits cost 10-60% more, fixed 11-bit digits 2-4x more
-// below 512 items (24 KiB of histograms to clear and scan) and the same from 2048.
+// narrowed as far as the same number of passes allows. Fewer buckets per item means too many passes on
+// short lists, fixed wide digits mean histograms larger than the list (bench "resolver", "sort crossover";
+// docs/performance-log.md, 2026-11-23).
 inline constexpr std::size_t kRadixBucketsPerItem = 4;
 inline constexpr unsigned kRadixMinDigitBits = 4;   // below this the passes multiply for nothing
 inline constexpr unsigned kRadixMaxDigitBits = 11;  // 2048 buckets: 3 passes cover any 32-bit key
@@ -208,10 +204,8 @@ inline void stable_ranks(const std::uint32_t* keys, std::size_t n, std::uint32_t
 
 // Stable rank sort: item i goes to slot #{j : key_j < key_i, or key_j == key_i and j < i}. O(n^2) compares,
 // but branch-free over a contiguous, padded key array, 16 keys per AVX-512 compare, where insertion sort
-// mispredicts its loop exit once per item. Measured on the optical-depth pass's own hit lists (two tubes,
-// any-hit order, lengths varying from list to list), ns per item, one thread: 3.3 against insertion
-// sort's 10.2 at 9-16 items and 2.9 against 12.4 at 17-32; plain loops, which GCC vectorises with a
-// remainder whose trip count changes with every list and item, took 7.0 and 7.8.
+// mispredicts its loop exit once per item. The loops are written in fixed blocks: plain loops, which GCC
+// vectorises with a remainder whose trip count changes with every list, mispredict in the same way.
 // key(item) -> std::uint32_t; `scratch`: at least items.size() elements. Lists longer than kRankSortMaxItems
 // (whose keys would not fit its stack array) are handed to radix_sort, which gives the same order.
 template <class T, class KeyFn>

@@ -4,9 +4,8 @@
 // default cutoff of 60 no list has more than 60 hits, with its largest, 120, no more than 120: hence 128
 // keys) and a network sorts them with no branch, no memory
 // traffic and a fixed number of compare-exchange steps, where rank_sort() (radix_sort.hpp) compares every
-// key with every other and scatters through memory. Measured in bench section "resolver" (table "sort
-// crossover", column "resolver", one thread): 0.8-1.4 ns per hit from 8 to 128 hits, the rank sort
-// 2.2-4.7; the 750-particle resolve at two threads 0.043 -> 0.030 ms.
+// key with every other and scatters through memory. Bench section "resolver", table "sort crossover",
+// compares the two.
 //
 // Batcher's bitonic sort of 8R keys, viewed as one array i = 8r + lane: for k = 2, 4, …, 8R and
 // j = k/2, …, 1, key i is compare-exchanged with key i ^ j, ascending where i & k == 0, descending

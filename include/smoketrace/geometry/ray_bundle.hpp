@@ -6,12 +6,9 @@
 // Why bundles: every optical-depth ray of a frame goes the same way, and rays from neighbouring
 // particles cross the same part of the scene. Traced one by one, each walks nearly the same top-level
 // nodes again; traced thirty-two together, a node is fetched and decided once for all of them and its
-// boxes tested for the thirty-two in two AVX-512 operations per step. On the 750-particle two-tube scene
-// lit from above, the nodes and instances a bundle's walk visits, per ray: 18.4 wide nodes and 13.6
-// instance visits for a ray alone, 4.9 and 4.9 in bundles of 8, 3.3 and 3.7 in bundles of 16, 2.3 and
-// 2.7 in bundles of 32 (taken in bundle_order()). The decisions at a node or an instance are the walk's
-// mispredicted branches, paid once per bundle: going from 8 to 16 rays took 10 % off the pass over
-// spheres, 3.5 % over icosahedra; from 16 to 32, 9 % and 3 % (two threads, alternating runs).
+// boxes tested for the thirty-two in two AVX-512 operations per step. The decisions at a node or an
+// instance (where to go next) are the walk's mispredicted branches, and a bundle pays them once for all
+// its rays: the wider the bundle, the fewer nodes and instance visits per ray (docs/design.md).
 #include <smoketrace/geometry/ray.hpp>
 
 #include <glm/vec3.hpp>

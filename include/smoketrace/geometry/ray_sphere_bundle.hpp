@@ -2,8 +2,7 @@
 // sphere_roots() (ray_sphere.hpp) for the rays of a bundle (ray_bundle.hpp) against one sphere: its
 // origins, one direction, in lanes of doubles (simd_lanes.hpp: eight per AVX-512 operation, four per
 // AVX2 one; a group with no ray entering the sphere's box is skipped); and which of the crossings found
-// lie in each ray's [tmin, tmax], the candidates trace_bundle() hands to the rays' searches. AVX-512
-// against AVX2 on the optical-depth pass over spheres: 3 % faster (one thread, alternating runs).
+// lie in each ray's [tmin, tmax], the candidates trace_bundle() hands to the rays' searches.
 //
 // Same answers, bit for bit: each lane performs sphere_roots()'s operations in its order and precision
 // (the build disables FMA contraction, CMakeLists.txt), copysign and negation are exact bit operations,

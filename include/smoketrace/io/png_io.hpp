@@ -17,10 +17,9 @@ enum class PngChannels { rgb = 3, rgba = 4 };
 
 // Writes PNG files (the functions below), keeping its working memory from one image to the next: the
 // 8-bit samples, the filtered rows, zlib's stream and the file's bytes, ~2.5x the image in 8-bit. Fresh
-// memory costs a page fault per 4 KiB on first touch, which on this machine took as long as the encoding
-// itself (1024² frame, bench section "output"); a frame sequence written through one writer pays that
-// once. The free functions use a writer of their own. One writer per thread; a moved-from writer
-// starts over with fresh memory.
+// memory costs a page fault per 4 KiB on first touch, about as much as the encoding itself (bench section
+// "output"); a frame sequence written through one writer pays that once. The free functions use a
+// writer of their own. One writer per thread; a moved-from writer starts over with fresh memory.
 class PngWriter {
 public:
     PngWriter();

@@ -134,9 +134,8 @@ private:
     [[gnu::always_inline]] bool report_sphere_side(std::uint32_t index, const InstanceRecord& inst, bool opaque, float t,
                                                    unsigned side) {
         // Inlined at both of report()'s calls: left out of line (it is large, for the commit path), it
-        // made the compiler build the closure, pointers to t, index and side, in memory for every
-        // crossing: the bundle's entry loop in the optical-depth pass went from 55 instructions (eight
-        // of them stores to the stack) to 42.
+        // makes the compiler build the closure, pointers to t, index and side, in memory for every
+        // crossing, in the optical-depth pass's innermost loop.
         return report(opaque, [&]() __attribute__((always_inline)) {
             TraceHit h;
             h.t = t;

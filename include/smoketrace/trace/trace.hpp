@@ -53,17 +53,17 @@ namespace smoketrace {
 // Embree's coherent / incoherent context flags. The hits and the committed result are the same either
 // way; what differs is the order any-hit sees candidates in, the counters and the speed. A template
 // argument, not a field of TraceLimits: a call site then holds one traversal loop, with the instance
-// visit and the sphere test inlined into it (with both loops behind a run-time choice, the compiler
-// inlined neither, and the optical-depth pass lost 6-8 %).
+// visit and the sphere test inlined into it; behind a run-time choice of two loops the compiler inlines
+// neither (docs/performance-log.md, 2026-11-23).
 enum class TlasWalk : std::uint8_t {
     // The binary TLAS, strictly near to far: the nearer child first at every node. For rays that stop
     // early or shrink tmax (closest hit, shadow rays, the compositor's layers with early termination).
     nearest_first,
     // The 4-wide TLAS (wide_bvh.hpp), each node's children in the ray's order along the node's axis,
-    // leaves before inner children: half the nodes and a third fewer branch mispredictions, at the cost
-    // of a looser order. For a lone ray that collects every hit: on the optical-depth rays 18 % faster
-    // over icosahedra and 35 % over spheres, but camera rays over billboards 35 % slower. (Rays that share
-    // a direction are faster still traced together: trace_bundle.hpp.)
+    // leaves before inner children: half the nodes and fewer mispredicted branches, at the cost of a
+    // looser order. For a lone ray that collects every hit, where order does not matter; camera rays,
+    // which commit and stop early, lose more to the looser order than they gain (docs/design.md). Rays
+    // that share a direction are faster still traced together: trace_bundle.hpp.
     all_hits,
 };
 
