@@ -129,7 +129,7 @@ void check_png_structure(const fs::path& path, const std::vector<std::uint8_t>& 
 // filtered rows), IEND. Each row is Paeth-filtered (filter type 4: every byte minus the prediction from
 // its left, upper and upper-left neighbours), which on rendered smoke and sky leaves long runs of small
 // values; zlib's run-length strategy compresses those well and several times faster than its default
-// strategy (bench section "output"; docs/performance-log.md, 2026-11-24).
+// strategy (bench section "output"; docs/performance-log.md, "Writing the frames").
 
 // Paeth's predictor (PNG specification, 9.4): the neighbour closest to left + up − upper-left.
 std::uint8_t paeth(int left, int up, int upper_left) {

@@ -10,8 +10,8 @@ void OpticalDepths::update(const SmokeScene& scene, std::span<const Particle> pa
     StageClock clock;
     pass_.trace(scene, particles, which, to_light, settings);
     timings.od_pass = clock.lap_ms();
-    // The hits resolved where the pass kept them, still in the tracing thread's cache: gathering them into
-    // one buffer first (pass_.gather(), then resolve_optical_path_lengths()) gives the same lengths, later.
+    // The hits resolved where the pass kept them: gathering them into one buffer first (pass_.gather(),
+    // then resolve_optical_path_lengths()) gives the same lengths after copying every hit once more.
     group_lengths_.resize(which.size());
     pass_.resolve(sort, group_lengths_);
     for (std::size_t i = 0; i < which.size(); ++i) {
