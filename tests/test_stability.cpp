@@ -10,7 +10,7 @@
 //    for one ahead, each hit's t within the tolerance of its surface: a leak (a missed surface), a duplicate
 //    (a surface reported twice) or a face of the wrong sign breaks one of them.
 // Measured numbers (error growth far from the origin, scale invariance) are printed with WARN, and copied into
-// the README's "Numerical stability" section.
+// docs/accuracy.md ("The stress suite").
 #include "support/fixtures.hpp"
 #include "support/sphere_reference.hpp"
 
