@@ -1,4 +1,5 @@
-// Section "output": writing a rendered frame, the step after the compositor (README, "Writing the frames").
+// Section "output": writing a rendered frame, the step after the compositor (docs/performance-log.md,
+// "Writing the frames").
 // A 1024×1024 `full` frame of the animated two-tube scene (bench_util.hpp), then, side by side in
 // interleaved rounds:
 //   * sRGB encoding: to_srgb8() (exact decision thresholds, one comparison per channel, parallel over

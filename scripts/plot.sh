@@ -18,7 +18,7 @@
 #   grid.png      the reference render, the thesis's configuration, the best configuration and the
 #                 best one's error heat map (images/, section "error")
 # A plot whose input is missing (its section was not run) is skipped with a note.
-# --assets also copies the plots the README shows into assets/plots/.
+# --assets also copies the plots docs/performance.md shows into assets/plots/.
 set -euo pipefail
 
 root="$(cd "$(dirname "$0")/.." && pwd)"
