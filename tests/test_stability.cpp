@@ -20,6 +20,7 @@
 #include <smoketrace/core/prng.hpp>
 #include <smoketrace/io/scene_file.hpp>
 #include <smoketrace/smoke/stand_in_shapes.hpp>
+#include <smoketrace/io/sixway_files.hpp>
 
 #include <catch2/catch.hpp>
 #include <tbb/global_control.h>
@@ -269,15 +270,14 @@ double inside_margin(const std::vector<Plane>& planes, glm::dvec3 x) {
 // moved by less than `eps` = 1e-5: between the body shrunk and grown by eps, so each of its hits lies between
 // the two chords' endpoints, give or take the rounding of t (kRoundingsPerRay·u·t). False when that leaves a
 // body's surfaces uncertain: crossed when grown but not when shrunk (a graze), or an endpoint's bracket
-// reaching t <= TMin.
-bool convex_surfaces(const std::vector<std::vector<Plane>>& bodies, glm::dvec3 o, glm::dvec3 d,
+// reaching t <= tmin (the ray's own, optical_depth_tmin() of its particle's radius).
+bool convex_surfaces(const std::vector<std::vector<Plane>>& bodies, glm::dvec3 o, glm::dvec3 d, double tmin,
                      std::vector<Surface>& surfaces) {
     constexpr double eps = 1e-5;
     auto moved = [](std::vector<Plane> body, double by) {
         for (Plane& f : body) f.d += by * glm::length(f.n);
         return body;
     };
-    const double tmin = double(kOpticalDepthTmin);
     for (const auto& body : bodies) {
         double grown_in = 0.0, grown_out = 0.0, shrunk_in = 0.0, shrunk_out = 0.0;
         if (!convex_chord(moved(body, eps), o, d, grown_in, grown_out)) continue;  // missed by eps at least
@@ -321,7 +321,7 @@ std::string fixed(double v, int digits = 3) {
 
 const SixwayTexture& texture() {
     static const SixwayTexture t =
-        SixwayTexture::load(std::filesystem::path(SMOKETRACE_ASSET_DIR) / std::string(kSixwayLayoutFile));
+        load_sixway_texture(std::filesystem::path(SMOKETRACE_ASSET_DIR) / std::string(kSixwayLayoutFile));
     return t;
 }
 
@@ -768,7 +768,7 @@ TEST_CASE("stability: hundreds of particles covering one ray origin", "[stabilit
             REQUIRE(w.start <= covering + ambiguous);
             REQUIRE(w.lowest >= 0);
             std::vector<Surface> exact;
-            if (ambiguous == 0 && convex_surfaces(bodies, o, d, exact)) {
+            if (ambiguous == 0 && convex_surfaces(bodies, o, d, double(optical_depth_tmin(ps[i].radius)), exact)) {
                 const std::string problem = pairing_problem(got.lists.of(i), exact);
                 INFO(problem);
                 REQUIRE(problem.empty());
