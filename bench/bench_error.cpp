@@ -36,6 +36,7 @@
 #include <smoketrace/render/frame_renderer.hpp>
 #include <smoketrace/io/png_io.hpp>
 #include <smoketrace/render/sixway_texture.hpp>
+#include <smoketrace/io/sixway_files.hpp>
 
 #include <tbb/info.h>
 #include <tbb/task_arena.h>
@@ -211,7 +212,7 @@ RenderOptions options_of(const SceneDescription& scene, const Config& c) {
 }
 
 const SixwayTexture& textures() {
-    static const SixwayTexture t = SixwayTexture::load(std::filesystem::path(SMOKETRACE_ASSET_DIR) / "sixway.json");
+    static const SixwayTexture t = load_sixway_texture(std::filesystem::path(SMOKETRACE_ASSET_DIR) / "sixway.json");
     return t;
 }
 

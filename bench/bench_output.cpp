@@ -22,6 +22,7 @@
 #include <smoketrace/core/image.hpp>
 #include <smoketrace/io/png_io.hpp>
 #include <smoketrace/render/sixway_texture.hpp>
+#include <smoketrace/io/sixway_files.hpp>
 
 #include <stb_image_write.h>
 #include <tbb/info.h>
@@ -87,7 +88,7 @@ void run_output(const BenchOptions& options) {
     o.render.mode = RenderMode::full;
     o.width = o.height = kSize;
     const SixwayTexture texture =
-        SixwayTexture::load(fs::path(SMOKETRACE_ASSET_DIR) / "sixway.json");
+        load_sixway_texture(fs::path(SMOKETRACE_ASSET_DIR) / "sixway.json");
     FrameRenderer renderer(scene, o, texture);
     ImageRgba frame;
     renderer.render(0, frame);

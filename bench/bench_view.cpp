@@ -10,6 +10,8 @@
 
 #include <smoketrace/render/frame_renderer.hpp>
 #include <smoketrace/render/sixway_texture.hpp>
+#include <smoketrace/io/scene_file.hpp>
+#include <smoketrace/io/sixway_files.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -23,7 +25,7 @@ namespace {
 constexpr int kSize = 1024;
 
 const SixwayTexture& texture() {
-    static const SixwayTexture t = SixwayTexture::load(std::filesystem::path(SMOKETRACE_ASSET_DIR) / "sixway.json");
+    static const SixwayTexture t = load_sixway_texture(std::filesystem::path(SMOKETRACE_ASSET_DIR) / "sixway.json");
     return t;
 }
 

@@ -9,6 +9,7 @@
 #include <smoketrace/io/png_io.hpp>
 #include <smoketrace/render/sixway_baker.hpp>
 #include <smoketrace/render/sixway_texture.hpp>
+#include <smoketrace/io/sixway_files.hpp>
 
 #include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
@@ -456,7 +457,7 @@ TEST_CASE("sixway files: a written bake loads back texel for texel", "[sixway]")
     s.frames = 3;  // 2x2 grid with one empty tile
     const SixwayBake b = bake_sixway(s);
     write_sixway_bake(dir.path, b);
-    const SixwayTexture t = SixwayTexture::load(dir.path / std::string(kSixwayLayoutFile));
+    const SixwayTexture t = load_sixway_texture(dir.path / std::string(kSixwayLayoutFile));
     REQUIRE(t.frame_count() == 3);
     REQUIRE(t.tile_width() == s.tile);
     REQUIRE(t.tile_height() == s.tile);
@@ -492,26 +493,26 @@ TEST_CASE("sixway files: loading errors name the file and the problem", "[sixway
         std::ofstream(json) << doc.dump();
     };
 
-    CHECK_THAT(message_of([&] { (void)SixwayTexture::load(dir.path / "none.json"); }), Catch::Contains("none.json"));
+    CHECK_THAT(message_of([&] { (void)load_sixway_texture(dir.path / "none.json"); }), Catch::Contains("none.json"));
     edited([](nlohmann::json& d) { d["frames"] = 5; });
-    CHECK_THAT(message_of([&] { (void)SixwayTexture::load(json); }), Catch::Contains(json.string()) && Catch::Contains("/frames"));
+    CHECK_THAT(message_of([&] { (void)load_sixway_texture(json); }), Catch::Contains(json.string()) && Catch::Contains("/frames"));
     edited([](nlohmann::json& d) { d["columns"] = "two"; });
-    CHECK_THAT(message_of([&] { (void)SixwayTexture::load(json); }), Catch::Contains(json.string()) && Catch::Contains("/columns"));
+    CHECK_THAT(message_of([&] { (void)load_sixway_texture(json); }), Catch::Contains(json.string()) && Catch::Contains("/columns"));
     edited([](nlohmann::json& d) { d.erase("rows"); });
-    CHECK_THAT(message_of([&] { (void)SixwayTexture::load(json); }), Catch::Contains("/rows") && Catch::Contains("missing"));
+    CHECK_THAT(message_of([&] { (void)load_sixway_texture(json); }), Catch::Contains("/rows") && Catch::Contains("missing"));
     edited([](nlohmann::json& d) { d["format"] = "something else"; });
-    CHECK_THAT(message_of([&] { (void)SixwayTexture::load(json); }), Catch::Contains("/format"));
+    CHECK_THAT(message_of([&] { (void)load_sixway_texture(json); }), Catch::Contains("/format"));
     std::ofstream(json) << "{ not json";
-    CHECK_THAT(message_of([&] { (void)SixwayTexture::load(json); }), Catch::Contains(json.string()) && Catch::Contains("JSON"));
+    CHECK_THAT(message_of([&] { (void)load_sixway_texture(json); }), Catch::Contains(json.string()) && Catch::Contains("JSON"));
 
     edited([](nlohmann::json&) {});  // restore
-    REQUIRE(SixwayTexture::load(json).frame_count() == 2);
+    REQUIRE(load_sixway_texture(json).frame_count() == 2);
     // A negative atlas of another size is named.
     write_png_rgba8(neg, Rgba8Image(16, 16));
-    CHECK_THAT(message_of([&] { (void)SixwayTexture::load(json); }), Catch::Contains(neg.string()) && Catch::Contains("expected 64x32"));
+    CHECK_THAT(message_of([&] { (void)load_sixway_texture(json); }), Catch::Contains(neg.string()) && Catch::Contains("expected 64x32"));
     // A missing positive atlas is named.
     fs::remove(pos);
-    CHECK_THAT(message_of([&] { (void)SixwayTexture::load(json); }), Catch::Contains(pos.string()) && Catch::Contains("No such file"));
+    CHECK_THAT(message_of([&] { (void)load_sixway_texture(json); }), Catch::Contains(pos.string()) && Catch::Contains("No such file"));
 }
 
 TEST_CASE("sixway files: the committed assets are the baker's output for their recorded settings", "[sixway]") {
@@ -520,7 +521,7 @@ TEST_CASE("sixway files: the committed assets are the baker's output for their r
     // on another CPU or libm build, which can move a value across an 8-bit rounding boundary.
     constexpr int kMaxCodeDifference = 1;
     const fs::path json = fs::path(SMOKETRACE_ASSET_DIR) / std::string(kSixwayLayoutFile);
-    const SixwayTexture assets = SixwayTexture::load(json);
+    const SixwayTexture assets = load_sixway_texture(json);
     std::ifstream in(json);
     const nlohmann::json doc = nlohmann::json::parse(in);
     const nlohmann::json& bake = doc.at("bake");
@@ -560,7 +561,7 @@ TEST_CASE("sixway cli: bake-sixway writes loadable atlases, bad input exits 2 an
     TempDir dir;
     const CliRun ok = run_cli("bake-sixway -o " + dir.path.string() + " --frames 2 --tile 16 --seed 7");
     REQUIRE(ok.exit_code == 0);
-    const SixwayTexture t = SixwayTexture::load(dir.path / std::string(kSixwayLayoutFile));
+    const SixwayTexture t = load_sixway_texture(dir.path / std::string(kSixwayLayoutFile));
     CHECK(t.frame_count() == 2);
     CHECK(t.tile_width() == 16);
 

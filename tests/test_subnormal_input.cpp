@@ -10,6 +10,7 @@
 #include <smoketrace/smoke/optical_depths.hpp>
 #include <smoketrace/io/scene_file.hpp>
 #include <smoketrace/render/sixway_texture.hpp>
+#include <smoketrace/io/sixway_files.hpp>
 
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
@@ -56,7 +57,7 @@ bool same_bits(float a, float b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 
 const SixwayTexture& texture() {
     static const SixwayTexture t =
-        SixwayTexture::load(std::filesystem::path(SMOKETRACE_ASSET_DIR) / std::string(kSixwayLayoutFile));
+        load_sixway_texture(std::filesystem::path(SMOKETRACE_ASSET_DIR) / std::string(kSixwayLayoutFile));
     return t;
 }
 

@@ -3,7 +3,9 @@
 
 #include <smoketrace/render/frame_renderer.hpp>
 #include <smoketrace/io/png_io.hpp>
+#include <smoketrace/io/scene_file.hpp>
 #include <smoketrace/trace/trace.hpp>
+#include <smoketrace/io/sixway_files.hpp>
 
 #include <tbb/global_control.h>
 
@@ -17,7 +19,7 @@ namespace {
 
 const SixwayTexture& texture() {
     static const SixwayTexture t =
-        SixwayTexture::load(std::filesystem::path(SMOKETRACE_ASSET_DIR) / std::string(kSixwayLayoutFile));
+        load_sixway_texture(std::filesystem::path(SMOKETRACE_ASSET_DIR) / std::string(kSixwayLayoutFile));
     return t;
 }
 

@@ -5,6 +5,7 @@
 #include "output_arg.hpp"
 
 #include <smoketrace/render/sixway_baker.hpp>
+#include <smoketrace/io/sixway_files.hpp>
 
 #include <chrono>
 #include <cstdint>

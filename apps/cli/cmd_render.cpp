@@ -8,6 +8,8 @@
 #include <smoketrace/render/frame_renderer.hpp>
 #include <smoketrace/io/output_path.hpp>
 #include <smoketrace/io/png_io.hpp>
+#include <smoketrace/io/scene_file.hpp>
+#include <smoketrace/io/sixway_files.hpp>
 
 #include <cstdio>
 #include <filesystem>
@@ -118,7 +120,7 @@ int run_render(const Args& args) {
         if (checked_output(frame_path(out, f, frame_count), inputs).kind == OutputKind::standard_output)
             timings_to_stderr = true;
     std::ostream& report = timings_to_stderr ? std::cerr : std::cout;
-    const SixwayTexture texture = SixwayTexture::load(layout.positive, layout.negative, layout.grid);
+    const SixwayTexture texture = load_sixway_texture(layout.positive, layout.negative, layout.grid);
 
     FrameRenderer renderer(scene, options, texture);
     ProgressBar progress(options.render.frames);

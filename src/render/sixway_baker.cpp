@@ -1,10 +1,6 @@
 // The six-way flipbook baker (see sixway_baker.hpp for the model).
 #include <smoketrace/render/sixway_baker.hpp>
 
-#include <smoketrace/io/output_path.hpp>
-#include <smoketrace/io/png_io.hpp>
-
-#include <nlohmann/json.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -256,14 +252,6 @@ void bake_frame(const SixwayBakeSettings& s, const Grid& g, int frame, SixwayAtl
     });
 }
 
-// A float as the shortest decimal that reads back as the same float, so the sidecar says 0.68, not
-// 0.6800000071525574 (nlohmann prints the double the float widens to).
-double shortest_decimal(float value) {
-    char buffer[32];
-    const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
-    return std::strtod(std::string(buffer, result.ptr).c_str(), nullptr);
-}
-
 [[noreturn]] void settings_error(const std::string& field, const std::string& problem) {
     throw std::invalid_argument("six-way bake settings: " + field + ": " + problem);
 }
@@ -315,36 +303,6 @@ SixwayBake bake_sixway(const SixwayBakeSettings& settings) {
     std::vector<float> density(voxels), up(voxels), down(voxels);
     for (int f = 0; f < settings.frames; ++f) bake_frame(settings, g, f, bake.grid, density, up, down, bake);
     return bake;
-}
-
-void write_sixway_bake(const std::filesystem::path& folder, const SixwayBake& bake) {
-    write_png_rgba8(folder / kSixwayPositiveFile, bake.positive);
-    write_png_rgba8(folder / kSixwayNegativeFile, bake.negative);
-    const SixwayBakeSettings& s = bake.settings;
-    nlohmann::ordered_json doc;
-    doc["format"] = kSixwayFormatName;
-    doc["version"] = kSixwayFormatVersion;
-    doc["frames"] = bake.grid.frames;
-    doc["columns"] = bake.grid.columns;
-    doc["rows"] = bake.grid.rows;
-    doc["positive"] = kSixwayPositiveFile;
-    doc["negative"] = kSixwayNegativeFile;
-    doc["encoding"] = "linear 8-bit light-map data (not sRGB), straight alpha; positive RGB = lit from +x, +y, +z, "
-                      "negative RGB = lit from -x, -y, -z (tangent space: x right, y up, z toward the viewer)";
-    doc["bake"] = {{"tile", s.tile},
-                   {"depth_samples", s.depth_samples},
-                   {"seed", s.seed},
-                   {"radius", shortest_decimal(s.radius)},
-                   {"noise_amplitude", shortest_decimal(s.noise_amplitude)},
-                   {"noise_frequency", shortest_decimal(s.noise_frequency)},
-                   {"noise_octaves", s.noise_octaves},
-                   {"edge_softness", shortest_decimal(s.edge_softness)},
-                   {"extinction", shortest_decimal(s.extinction)},
-                   {"drift", shortest_decimal(s.drift)},
-                   {"scattering_octaves", s.scattering_octaves},
-                   {"scattering_octave_weight", shortest_decimal(s.scattering_octave_weight)}};
-    const std::string text = doc.dump(2) + "\n";
-    write_output(folder / kSixwayLayoutFile, [&](std::ostream& out) { out << text; });
 }
 
 }  // namespace smoketrace

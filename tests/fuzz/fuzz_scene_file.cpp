@@ -14,6 +14,7 @@
 // Build and run: scripts/fuzz.sh (clang, -DSMOKETRACE_FUZZ=ON, build-fuzz/); seed corpus: tests/fuzz/corpus/.
 #include <smoketrace/render/frame_renderer.hpp>
 #include <smoketrace/io/scene_file.hpp>
+#include <smoketrace/io/sixway_files.hpp>
 
 #include <glm/geometric.hpp>
 
@@ -95,7 +96,7 @@ void check_format(const SceneDescription& s) {
 
 const SixwayTexture& texture() {
     static const SixwayTexture t =
-        SixwayTexture::load(std::filesystem::path(SMOKETRACE_ASSET_DIR) / std::string(kSixwayLayoutFile));
+        load_sixway_texture(std::filesystem::path(SMOKETRACE_ASSET_DIR) / std::string(kSixwayLayoutFile));
     return t;
 }
 

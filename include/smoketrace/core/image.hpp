@@ -15,6 +15,8 @@ namespace smoketrace {
 // Largest width or height accepted anywhere an image is made or read: bounds the pixel count so that
 // width·height·4 bytes never overflows and a corrupt header cannot ask for gigabytes.
 inline constexpr int kMaxImageSide = 16384;
+// Largest pixel count: 2^26 pixels of RGBA float are 1 GiB, the most a render may take.
+inline constexpr std::uint64_t kMaxImagePixels = std::uint64_t{1} << 26;
 
 // Allocator of the float image's pixels. A 1024² frame is 16 MB: with 4 KB pages that is 4,096 page
 // faults on first touch, which cost tens of milliseconds in a virtual machine. The buffer is aligned

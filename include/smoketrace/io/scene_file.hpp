@@ -4,9 +4,8 @@
 // Conventions: y is up, every speed is per frame. A SceneDescription from parse_scene() holds only checked
 // values (finite, within kMaxSceneCoordinate / kMaxSceneColor, at most scene_particle_limit() particles);
 // every problem is a SceneFileError reading "FILE: /json/path: problem".
+#include <smoketrace/render/scene_description.hpp>
 #include <smoketrace/smoke/particle_system.hpp>
-#include <smoketrace/smoke/stand_in_shapes.hpp>
-#include <smoketrace/smoke/tube_generator.hpp>
 
 #include <glm/vec3.hpp>
 
@@ -55,69 +54,6 @@ inline constexpr double kMaxSceneColor = 1e6;
 // The most particles a scene may hold on this machine: kMaxSceneParticles, or machine_memory_bytes() /
 // kPeakBytesPerParticle (memory_budget.hpp) when that is fewer.
 [[nodiscard]] std::uint64_t scene_particle_limit();
-// Largest image side: kMaxImageSide (image.hpp). Largest pixel count: 2^26 pixels of RGBA float are 1 GiB, the most a render may take.
-inline constexpr std::uint64_t kMaxImagePixels = std::uint64_t{1} << 26;
-
-struct LightDescription {
-    glm::vec3 direction{0.0f, 1.0f, 0.0f};  // unit vector, scene → light
-    glm::vec3 color{1.0f};
-    float rotation_per_frame_deg = 0.0f;
-
-    // The direction at frame `frame` (frame 0 = `direction`): rotated about +z by frame ·
-    // rotation_per_frame_deg degrees, computed from the frame number in double (no drift accumulates).
-    [[nodiscard]] glm::vec3 direction_at_frame(std::int64_t frame) const;
-};
-
-struct SmokeDescription {
-    std::vector<Particle> particles;   // tubes already expanded; file order
-    std::optional<TubeSettings> tubes; // set when the particles came from "tubes"
-    float sigma_t = 1.0f;
-    float alpha = 0.5f;
-    StandInShape shape{};              // sphere
-};
-
-struct GroundDescription {
-    std::array<glm::vec3, 4> corners{};  // counter-clockwise seen from the side `normal` points to
-    glm::vec3 normal{0.0f, 1.0f, 0.0f};  // unit, derived from the corners' winding
-    glm::vec3 color{0.8f, 0.1f, 0.1f};
-};
-
-struct CameraDescription {
-    glm::vec3 position{0.0f, 0.0f, 10.0f};
-    glm::vec3 look_at{0.0f};
-    glm::vec3 up{0.0f, 1.0f, 0.0f};
-    float fov_deg = 45.0f;  // vertical
-    std::uint32_t width = 512;
-    std::uint32_t height = 512;
-};
-
-enum class RenderMode : std::uint8_t { basic, simple_shadow, full };
-enum class Compositing : std::uint8_t { over, thesis };
-
-struct RenderSettings {
-    RenderMode mode = RenderMode::full;
-    std::uint32_t cutoff = 0;  // 0 = no cutoff
-    std::uint32_t groups = 1;
-    std::uint32_t frames = 1;
-    float softness = 0.3f;
-    float transmittance_threshold = 1.0f / 255.0f;
-    Compositing compositing = Compositing::over;
-};
-
-struct SceneDescription {
-    std::string source;  // the file name (or source name) it was read from, for messages
-    LightDescription light;
-    glm::vec3 ambient{0.05f};
-    glm::vec3 background{0.53f, 0.81f, 0.92f};
-    SmokeDescription smoke;
-    std::optional<GroundDescription> ground;
-    CameraDescription camera;
-    RenderSettings render;
-};
-
-[[nodiscard]] const char* to_string(RenderMode m);    // "basic", "simple-shadow", "full"
-[[nodiscard]] const char* to_string(Compositing c);   // "over", "thesis"
-
 // The camera a scene gets without a "camera" object: looking at the centre of the particles' bounding
 // sphere (of the ground's when there are no particles; the origin when there is neither) from the front
 // (+z) and a little above, at the distance where that sphere fits the narrower field of view with a margin.

@@ -11,7 +11,7 @@
 #include <smoketrace/core/image.hpp>
 #include <smoketrace/smoke/optical_depths.hpp>
 #include <smoketrace/smoke/particle_system.hpp>
-#include <smoketrace/io/scene_file.hpp>
+#include <smoketrace/render/scene_description.hpp>
 #include <smoketrace/render/sixway_texture.hpp>
 #include <smoketrace/render/view_compositor.hpp>
 

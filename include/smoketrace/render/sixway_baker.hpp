@@ -75,8 +75,6 @@ struct SixwayBake {
 
 [[nodiscard]] SixwayBake bake_sixway(const SixwayBakeSettings& settings);
 
-// Writes kSixwayPositiveFile, kSixwayNegativeFile and the kSixwayLayoutFile sidecar (grid and bake
-// settings) into an existing folder, each file all-or-nothing, the sidecar last.
-void write_sixway_bake(const std::filesystem::path& folder, const SixwayBake& bake);
+// Files: write_sixway_bake() (io/sixway_files.hpp).
 
 }  // namespace smoketrace

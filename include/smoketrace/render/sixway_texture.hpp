@@ -28,6 +28,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -59,16 +60,9 @@ struct SixwaySample {
     float alpha = 0.0f;
 };
 
-// What a sidecar (kSixwayLayoutFile) says: the grid and the two PNGs (names resolved against the
-// sidecar's folder), read without loading the images.
-struct SixwayLayout {
-    SixwayAtlasGrid grid;
-    std::filesystem::path positive;
-    std::filesystem::path negative;
-};
-
-// Throws std::runtime_error naming the file and the JSON path and the problem.
-[[nodiscard]] SixwayLayout read_sixway_layout(const std::filesystem::path& layout_json);
+// Empty when the grid is usable (1 <= frames <= columns·rows, frames <= kSixwayMaxFrames, columns and rows
+// in [1, kMaxImageSide]), else what is wrong with it.
+[[nodiscard]] std::string sixway_grid_problem(SixwayAtlasGrid grid);
 
 class SixwayTexture {
 public:
@@ -77,12 +71,7 @@ public:
     // valid (1 <= frames <= columns·rows, frames <= kSixwayMaxFrames) and the size divides by the grid.
     SixwayTexture(const Rgba8Image& positive, const Rgba8Image& negative, SixwayAtlasGrid grid);
 
-    // From the two PNGs and a grid. Throws std::runtime_error naming the file and the problem.
-    [[nodiscard]] static SixwayTexture load(const std::filesystem::path& positive_png,
-                                            const std::filesystem::path& negative_png, SixwayAtlasGrid grid);
-    // From a sidecar (kSixwayLayoutFile, read_sixway_layout()) and the PNGs it names. Errors name the file
-    // and the JSON path.
-    [[nodiscard]] static SixwayTexture load(const std::filesystem::path& layout_json);
+    // Files: load_sixway_texture() (io/sixway_files.hpp).
 
     [[nodiscard]] int frame_count() const { return grid_.frames; }
     [[nodiscard]] SixwayAtlasGrid grid() const { return grid_; }

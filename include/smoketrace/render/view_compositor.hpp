@@ -14,7 +14,7 @@
 //    composite, and trace again from just behind it, until the ground, the sky or the threshold.
 #include <smoketrace/render/camera.hpp>
 #include <smoketrace/core/image.hpp>
-#include <smoketrace/io/scene_file.hpp>
+#include <smoketrace/render/scene_description.hpp>
 #include <smoketrace/render/sixway_texture.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>
 

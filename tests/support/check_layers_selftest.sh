@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# The layer check must catch what it is for: run on a small tree with one upward include, one flat header
+# and one include into a folder that is no layer, it must fail and name each; on the same tree mended, pass.
+set -euo pipefail
+check="$1"
+tree="$(mktemp -d)"
+trap 'rm -rf "$tree"' EXIT
+mkdir -p "$tree/include/smoketrace/core" "$tree/include/smoketrace/io" "$tree/src/geometry"
+echo '#include <smoketrace/io/png_io.hpp>' > "$tree/include/smoketrace/core/image.hpp"
+echo '#include <smoketrace/core/image.hpp>' > "$tree/include/smoketrace/io/png_io.hpp"
+echo '#include <smoketrace/util/misc.hpp>' > "$tree/src/geometry/ray.cpp"
+echo '#pragma once' > "$tree/include/smoketrace/flat.hpp"
+if out=$(bash "$check" "$tree"); then echo "the check passed a tree that breaks the rule:"; echo "$out"; exit 1; fi
+for expect in "core/image.hpp:1 (core) includes smoketrace/io/" "flat.hpp is not in a layer folder" \
+              "ray.cpp:1 includes smoketrace/util/, which is not a layer"; do
+  grep -qF "$expect" <<<"$out" || { echo "missing: $expect"; echo "$out"; exit 1; }
+done
+echo '#pragma once' > "$tree/include/smoketrace/core/image.hpp"
+echo '#include <smoketrace/core/image.hpp>' > "$tree/src/geometry/ray.cpp"
+rm "$tree/include/smoketrace/flat.hpp"
+bash "$check" "$tree"
