@@ -6,6 +6,7 @@
 #include <smoketrace/trace/trace_bundle.hpp>
 
 #include <glm/geometric.hpp>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -70,6 +71,15 @@ RayOutcome outcome_of(const Scene& scene, const Ray& ray, const TraceResult& r, 
 
 }  // namespace
 
+struct OpticalDepthPass::ThreadScratch {
+    tbb::enumerable_thread_specific<Scratch> threads;
+};
+
+OpticalDepthPass::OpticalDepthPass() : scratch_(std::make_unique<ThreadScratch>()) {}
+OpticalDepthPass::~OpticalDepthPass() = default;
+OpticalDepthPass::OpticalDepthPass(OpticalDepthPass&&) noexcept = default;
+OpticalDepthPass& OpticalDepthPass::operator=(OpticalDepthPass&&) noexcept = default;
+
 std::uint64_t default_max_total_hits() {
     return std::min<std::uint64_t>(std::numeric_limits<std::uint32_t>::max(),
                                    machine_memory_bytes() / 2 / kPeakBytesPerStoredHit);
@@ -112,13 +122,15 @@ void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> 
     TraceLimits limits;
     if (settings.cutoff > 0) limits.max_any_hit_invocations = settings.cutoff;  // a (K+1)-th surface cuts off
 
-    for (Scratch& sc : scratch_) sc.kept.clear();
+    if (!scratch_) scratch_ = std::make_unique<ThreadScratch>();  // a moved-from pass starts over
+    tbb::enumerable_thread_specific<Scratch>& threads = scratch_->threads;
+    for (Scratch& sc : threads) sc.kept.clear();
     const std::uint64_t trace_id = ++traces_;
 
     tbb::parallel_for(
         tbb::blocked_range<std::size_t>(0, chunk_count, 1),
         [&](const tbb::blocked_range<std::size_t>& r) {
-            Scratch& sc = scratch_.local();
+            Scratch& sc = threads.local();
             // The rays of one pass reach every particle: each thread first asks its caches for the whole
             // top level at once (Scene::prefetch_top_level), once per pass. Between two passes a frame's
             // other work evicts it, and a walk from L3 waits at every node, pointer chase by pointer chase.

@@ -26,10 +26,9 @@
 #include <smoketrace/geometry/ray_bundle.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>
 
-#include <tbb/enumerable_thread_specific.h>
-
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <stdexcept>
 #include <vector>
@@ -79,6 +78,12 @@ struct OpticalDepthHits {
 
 class OpticalDepthPass {
 public:
+    OpticalDepthPass();
+    ~OpticalDepthPass();
+    // Movable, not copyable: the rays of the last trace() point into this pass's per-thread buffers.
+    OpticalDepthPass(OpticalDepthPass&&) noexcept;
+    OpticalDepthPass& operator=(OpticalDepthPass&&) noexcept;
+
     // Traces the rays of `which` (particle indices) toward `to_light` (need not be unit length) in
     // parallel over bundles (TBB). The result does not depend on the number of threads. Throws
     // OpticalDepthBudgetError (leaving `out` unspecified) when the hits exceed settings.max_total_hits.
@@ -121,7 +126,10 @@ private:
         std::uint32_t hits;
         DepthStatus status;
     };
-    tbb::enumerable_thread_specific<Scratch> scratch_;
+    // Every thread's Scratch: a tbb::enumerable_thread_specific, defined in the .cpp so that no public header
+    // needs TBB. Reached once per task (its local()), never per ray; moving the pass keeps it where it is.
+    struct ThreadScratch;
+    std::unique_ptr<ThreadScratch> scratch_;
     std::vector<glm::vec3> origins_;        // the rays' origins, in the order of `which`
     std::vector<float> tmins_;              // and their tmin (optical_depth_tmin of the particle's radius)
     std::vector<std::uint32_t> ray_order_;  // bundle_order() of origins_
