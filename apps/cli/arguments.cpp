@@ -19,6 +19,7 @@ std::string ArgReader::positional(const std::string& what) {
 }
 
 bool ArgReader::flag(const std::string& flag) {
+    asked_.push_back(flag);
     bool found = false;
     for (std::size_t i = 0; i < args_.size(); ++i)
         if (!used_[i] && args_[i] == flag) used_[i] = found = true;
@@ -26,6 +27,7 @@ bool ArgReader::flag(const std::string& flag) {
 }
 
 std::optional<std::string> ArgReader::take_value(const std::string& flag) {
+    asked_.push_back(flag);
     std::optional<std::string> value;
     for (std::size_t i = 0; i < args_.size(); ++i) {
         if (used_[i]) continue;
@@ -98,7 +100,11 @@ std::optional<std::pair<int, int>> ArgReader::size(const std::string& flag, int 
 void ArgReader::finish() const {
     for (std::size_t i = 0; i < args_.size(); ++i) {
         if (used_[i]) continue;
-        if (args_[i].size() > 1 && args_[i][0] == '-') throw CliError("unknown option '" + args_[i] + "'");
+        if (args_[i].size() > 1 && args_[i][0] == '-') {
+            std::string known;
+            for (const std::string& f : asked_) known += (known.empty() ? "" : ", ") + f;
+            throw CliError("unknown option '" + args_[i] + "' (the options: " + known + ")");
+        }
         throw CliError("unexpected argument '" + args_[i] + "'");
     }
 }

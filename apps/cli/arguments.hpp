@@ -29,13 +29,15 @@ public:
     std::optional<double> number(const std::string& flag, double min, double max);  // finite only
     // "WxH" with both in [1, max_side].
     std::optional<std::pair<int, int>> size(const std::string& flag, int max_side);
-    // Errors out on anything not consumed: an unknown flag or a stray positional argument.
+    // Errors out on anything not consumed: an unknown flag (the message lists the flags asked for) or a
+    // stray positional argument.
     void finish() const;
 
 private:
     std::optional<std::string> take_value(const std::string& flag);
     std::vector<std::string> args_;
     std::vector<bool> used_;
+    std::vector<std::string> asked_;  // every flag looked for, in order: the known options
 };
 
 // Parses a whole string as a number; throws CliError naming `what` otherwise.

@@ -1,6 +1,8 @@
 // smoketrace bake-sixway: bakes the six-way lighting flipbook (sixway_baker.hpp) and writes the two atlases
-// and their sidecar. With no -o it regenerates the committed assets in the source tree's assets/ folder.
+// and their sidecar. With no -o it regenerates them in the assets folder the other commands read
+// (assets.hpp): from the build tree, the source tree's assets/.
 #include "arguments.hpp"
+#include "assets.hpp"
 #include "command.hpp"
 #include "output_arg.hpp"
 
@@ -19,13 +21,13 @@ namespace {
 int run_bake_sixway(const Args& args) {
     ArgReader reader(args);
     SixwayBakeSettings settings;
-    std::filesystem::path folder = SMOKETRACE_ASSET_DIR;
-    if (const auto o = reader.string("-o")) folder = *o;
+    const auto out = reader.string("-o");
     if (const auto f = reader.integer("--frames", 1, kSixwayMaxBakeFrames)) settings.frames = int(*f);
     if (const auto t = reader.integer("--tile", 4, kSixwayMaxBakeTile)) settings.tile = int(*t);
     if (const auto s = reader.integer("--seed", 0, std::numeric_limits<std::uint32_t>::max()))
         settings.seed = std::uint32_t(*s);
     reader.finish();
+    const std::filesystem::path folder = out ? std::filesystem::path(*out) : find_assets(std::nullopt, "-o");
     std::error_code ec;
     if (!std::filesystem::is_directory(folder, ec)) throw CliError("-o: '" + folder.string() + "' is not an existing folder");
     // Before baking: each of the three files can be written (none is a folder, the folder takes new files).
@@ -43,10 +45,17 @@ int run_bake_sixway(const Args& args) {
     return 0;
 }
 
+constexpr OptionHelp kOptions[] = {
+    {"-o", "DIR", "the assets folder (as render --assets finds it)", "existing folder to write the three files into"},
+    {"--frames", "N", "16", "flipbook frames, 1…256"},
+    {"--tile", "PX", "128", "side of one frame's tile in texels, 4…256"},
+    {"--seed", "S", "1", "noise seed: another seed bakes another puff"},
+};
+
 const RegisterCommand reg{{"bake-sixway", "bake-sixway [-o DIR] [--frames N] [--tile PX] [--seed S]",
                            "Bake the six-way lighting flipbook (sixway_pos.png, sixway_neg.png, sixway.json) into DIR "
-                           "(default: the source tree's assets/).",
-                           &run_bake_sixway}};
+                           "(default: the assets folder).",
+                           &run_bake_sixway, kOptions}};
 
 }  // namespace
 }  // namespace smoketrace::cli

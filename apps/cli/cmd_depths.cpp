@@ -95,11 +95,25 @@ int run_depths(const Args& args) {
     return 0;
 }
 
-const RegisterCommand registration{
-    {"depths",
-     "depths SCENE.json -o OUT.csv|- [--shape sphere|icosahedron|icosphere:L] [--cutoff K] [--threads T] "
-     "[--repeat R] [--timings] [--sort radix|std|bubble]",
-     "optical path length of every particle toward the light, as CSV (-o -: on standard output)", &run_depths}};
+constexpr OptionHelp kOptions[] = {
+    {"-o", "OUT.csv|-", "", "the CSV to write (-: standard output): particle,optical_path_length,hits,status, one row "
+                            "per particle"},
+    {"--shape", "sphere|icosahedron|icosphere:L", "the scene's smoke.shape (sphere)",
+     "particle stand-in the light rays meet; icosphere level L = 1…4"},
+    {"--cutoff", "K", "the scene's render.cutoff (0: none)",
+     "a particle whose light ray meets more than K surfaces is fully dark (cutoff)"},
+    {"--threads", "T", "all cores", "worker threads; the output is the same for any T"},
+    {"--repeat", "R", "1", "run the pass R times (for --timings)"},
+    {"--timings", "", "off", "print the median stage times in ms (tlas_update, od_pass, resolve, total); on standard "
+                            "error with -o -"},
+    {"--sort", "radix|std|bubble", "radix", "how each particle's hits are sorted (radix: the fastest sorts)"},
+};
+
+const RegisterCommand registration{{"depths",
+                                    "depths SCENE.json -o OUT.csv|- [--shape sphere|icosahedron|icosphere:L] [--cutoff K] "
+                                    "[--threads T] [--repeat R] [--timings] [--sort radix|std|bubble]",
+                                    "optical path length of every particle toward the light, as CSV (-o -: on standard output)", &run_depths,
+                                    kOptions}};
 
 }  // namespace
 }  // namespace smoketrace::cli

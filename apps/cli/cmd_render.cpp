@@ -1,5 +1,6 @@
 // smoketrace render: frames and sequences of the smoke scene (thesis 4.3, 5.2.2).
 #include "arguments.hpp"
+#include "assets.hpp"
 #include "command.hpp"
 #include "output_arg.hpp"
 #include "progress_bar.hpp"
@@ -55,6 +56,7 @@ int run_render(const Args& args) {
     const auto threads = in.integer("--threads", 1, 4096);
     const auto compositing = in.string("--compositing");
     const auto compositor = in.string("--compositor");
+    const auto assets = in.string("--assets");
     const auto textures = in.string("--textures");
     const bool timings = in.flag("--timings");
     // After every flag has taken its value, so that "-o OUT" is never mistaken for the scene file.
@@ -110,7 +112,9 @@ int run_render(const Args& args) {
                        " (--frames or the scene's render.frames); write a sequence with -o OUT.png");
     if (frame_count > 1 && out.extension() != ".png")
         throw CliError("-o: '" + out.string() + "' must end in .png (it names the files of a sequence)");
-    const std::filesystem::path texture_dir = textures ? std::filesystem::path(*textures) : SMOKETRACE_ASSET_DIR;
+    if (assets && textures) throw CliError("--assets and --textures name the same folder: give one");
+    const std::filesystem::path texture_dir =
+        textures ? find_assets(textures, "--textures") : find_assets(assets, "--assets");
     const SixwayLayout layout = read_sixway_layout(texture_dir / kSixwayLayoutFile);
     // Before any work: no frame may be written onto an input, a folder or into a missing folder.
     const std::vector<std::filesystem::path> inputs{scene_path, texture_dir / kSixwayLayoutFile, layout.positive,
@@ -148,12 +152,37 @@ int run_render(const Args& args) {
     return 0;
 }
 
+constexpr OptionHelp kOptions[] = {
+    {"-o", "OUT.png|-", "", "the PNG to write (8-bit sRGB; -: standard output, one frame); with N > 1 frames "
+                            "OUT_0000.png, OUT_0001.png, …"},
+    {"--mode", "basic|simple-shadow|full", "the scene's render.mode (full)",
+     "basic: no optical depths, no shadows; simple-shadow: ground shadows 0 or 1; full: eq. 4.3 shadows"},
+    {"--size", "WxH", "the scene's camera.width x height (512x512)", "image size in pixels, each side 1…16384"},
+    {"--frames", "N", "the scene's render.frames (1)", "frames to render, particles moving one step per frame"},
+    {"--groups", "G", "the scene's render.groups (1)", "particle groups: 1/G of the optical depths updated per frame"},
+    {"--cutoff", "K", "the scene's render.cutoff (0: none)",
+     "a particle whose light ray meets more than K surfaces is fully dark"},
+    {"--shape", "sphere|icosahedron|icosphere:L", "the scene's smoke.shape (sphere)",
+     "particle stand-in for optical-depth and shadow rays; icosphere level L = 1…4"},
+    {"--threads", "T", "all cores", "worker threads; the image is the same for any T"},
+    {"--compositing", "over|thesis", "the scene's render.compositing (over)",
+     "over: front-to-back over operator; thesis: eq. 4.1 as published"},
+    {"--compositor", "one-traversal|retrace", "one-traversal",
+     "one-traversal: one billboard traversal per pixel; retrace: the thesis's closest-hit loop (the same image)"},
+    {"--assets", "DIR", "SMOKETRACE_ASSETS, else <prefix>/share/smoketrace or assets/ beside the binary",
+     "folder of the six-way textures (sixway.json, sixway_pos.png, sixway_neg.png)"},
+    {"--textures", "DIR", "as --assets", "the same as --assets (its older name)"},
+    {"--timings", "", "off",
+     "print each frame's stage times in ms, and their medians over a sequence (on standard error with -o -)"},
+};
+
 const RegisterCommand registration{
     {"render",
      "render SCENE.json -o OUT.png|- [--mode basic|simple-shadow|full] [--size WxH] [--frames N] [--groups G] "
      "[--cutoff K] [--shape S] [--threads T] [--timings] [--compositing over|thesis] "
-     "[--compositor one-traversal|retrace] [--textures DIR]",
-     "render a frame (-o -: on standard output), or N frames OUT_0000.png …, of the smoke scene", &run_render}};
+     "[--compositor one-traversal|retrace] [--assets DIR]",
+     "render a frame (-o -: on standard output), or N frames OUT_0000.png …, of the smoke scene", &run_render,
+     kOptions}};
 
 }  // namespace
 }  // namespace smoketrace::cli
