@@ -1,0 +1,25 @@
+# cmake -DPROGRAM=render_frame -DSCENE=… -DASSETS=… -DOUT=x.png -DWIDTH=w -DHEIGHT=h -P check_png.cmake
+# Runs the render_frame example and checks what it wrote: a PNG (its 8-byte signature) whose header chunk
+# (IHDR, the first chunk) says WIDTH x HEIGHT. An old file from an earlier run is removed first.
+file(REMOVE "${OUT}")
+execute_process(COMMAND "${PROGRAM}" "${SCENE}" "${ASSETS}" "${OUT}" "${WIDTH}x${HEIGHT}" RESULT_VARIABLE code)
+if(NOT code EQUAL 0)
+  message(FATAL_ERROR "render_frame exited with ${code}")
+endif()
+if(NOT EXISTS "${OUT}")
+  message(FATAL_ERROR "render_frame wrote no ${OUT}")
+endif()
+# Signature 89 50 4E 47 0D 0A 1A 0A, then IHDR's length (13) and type, then width and height, big-endian.
+file(READ "${OUT}" header HEX LIMIT 24)
+string(SUBSTRING "${header}" 0 32 signature)
+string(SUBSTRING "${header}" 32 8 width_hex)
+string(SUBSTRING "${header}" 40 8 height_hex)
+if(NOT signature STREQUAL "89504e470d0a1a0a0000000d49484452")
+  message(FATAL_ERROR "${OUT} is not a PNG starting with its IHDR chunk (first bytes ${header})")
+endif()
+math(EXPR width "0x${width_hex}")
+math(EXPR height "0x${height_hex}")
+if(NOT width EQUAL WIDTH OR NOT height EQUAL HEIGHT)
+  message(FATAL_ERROR "${OUT} is ${width}x${height}, expected ${WIDTH}x${HEIGHT}")
+endif()
+message(STATUS "${OUT}: a ${width}x${height} PNG")
