@@ -6,6 +6,7 @@
 // <prefix>/share/smoketrace once installed.
 #include <smoketrace/io/png_io.hpp>
 #include <smoketrace/io/scene_file.hpp>
+#include <smoketrace/io/sixway_files.hpp>
 #include <smoketrace/render/frame_renderer.hpp>
 #include <smoketrace/render/sixway_texture.hpp>
 
@@ -25,7 +26,7 @@ int main(int argc, char** argv) {
         // The scene file: particles, light, ground, camera and render settings (see the README's schema).
         const SceneDescription scene = load_scene_file(argv[1]);
         // The billboards' six-way lit smoke puff, baked by `smoketrace bake-sixway`.
-        const SixwayTexture texture = SixwayTexture::load(std::filesystem::path(argv[2]) / kSixwayLayoutFile);
+        const SixwayTexture texture = load_sixway_texture(std::filesystem::path(argv[2]) / kSixwayLayoutFile);
 
         // The scene's own settings, with the image size from the command line.
         RenderOptions options = RenderOptions::from_scene(scene);

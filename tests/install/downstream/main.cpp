@@ -1,6 +1,7 @@
 // A downstream program: the installed headers, the static library and every library it needs at link
 // time (oneTBB for the parallel passes, stb to read the installed textures, zlib to write a PNG).
 #include <smoketrace/io/png_io.hpp>
+#include <smoketrace/io/sixway_files.hpp>
 #include <smoketrace/render/sixway_texture.hpp>
 #include <smoketrace/smoke/optical_depths.hpp>
 #include <smoketrace/smoke/particle_groups.hpp>
@@ -37,7 +38,7 @@ int main() {
     const float l = depths.lengths()[0];
 
     // The installed textures (stb), and a PNG written (zlib).
-    const SixwayTexture texture = SixwayTexture::load(std::filesystem::path(SMOKETRACE_DATA_DIR) / kSixwayLayoutFile);
+    const SixwayTexture texture = load_sixway_texture(std::filesystem::path(SMOKETRACE_DATA_DIR) / kSixwayLayoutFile);
     write_png_srgb("downstream.png", ImageRgba(4, 3, glm::vec4(0.5f)));
     const Rgba8Image back = read_png_rgba8("downstream.png", 4, 3);
 
