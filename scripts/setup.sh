@@ -6,7 +6,7 @@ packages=(
   build-essential cmake pkg-config
   libglm-dev          # vector maths
   libstb-dev          # stb_image (PNG in)
-  zlib1g-dev          # deflate for PNG out (7x faster than stb_image_write's, 22 % smaller files)
+  zlib1g-dev          # deflate for PNG out (src/io/png_io.cpp: our PNG encoder over zlib)
   catch2              # Catch2 2.13, the test framework
   libtbb-dev          # oneTBB: parallel passes and builds
   libembree-dev       # Embree 3: reference for tests and benchmarks only
