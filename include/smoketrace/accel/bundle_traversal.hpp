@@ -11,16 +11,12 @@
 #include <smoketrace/geometry/aabb.hpp>
 #include <smoketrace/accel/bvh_traversal.hpp>
 #include <smoketrace/geometry/ray_bundle.hpp>
-#include <smoketrace/core/simd_lanes.hpp>
+#include <smoketrace/core/simd/lanes.hpp>
 #include <smoketrace/accel/wide_bvh.hpp>
 #include <smoketrace/accel/wide_bvh_traversal.hpp>
 
 #include <bit>
 #include <cstdint>
-
-#if defined(__AVX2__)
-#include <immintrin.h>
-#endif
 
 namespace smoketrace {
 
@@ -32,41 +28,40 @@ struct BundleStats {
 
 // One child box of a wide node against every ray of a bundle: bit i of the result set when lane i's ray
 // meets the box in [tmin_i, tmax_i]. Lane by lane exactly intersect() of aabb.hpp: the shared direction
-// gives every lane the same reciprocal and near / far planes, and maxps / minps keep the accumulator
-// (their second operand) where a slab distance is NaN, as the scalar test does. In lanes of floats
-// (simd_lanes.hpp): sixteen per AVX-512 operation, eight per AVX2 one; one at a time without.
+// gives every lane the same reciprocal and near / far planes, and max / min keep the accumulator (their
+// second operand) where a slab distance is NaN, as the scalar test does. Written over lanes of floats
+// (core/simd/lanes.hpp): sixteen per AVX-512 operation, eight per AVX2 one, one at a time without.
 class BundleBoxTest {
+    using Floats = simd::Floats<simd::kFloatLanes>;
+
 public:
-    explicit BundleBoxTest(const RayBundle& b) : shared_(Ray{glm::vec3(0.0f), 0.0f, b.direction, 0.0f}), bundle_(b) {
-#if defined(SMOKETRACE_SIMD_LANES)
+    static constexpr unsigned kBlocks = kBundleWidth / simd::kFloatLanes;  // one register of lanes each
+
+    explicit BundleBoxTest(const RayBundle& b) : shared_(Ray{glm::vec3(0.0f), 0.0f, b.direction, 0.0f}) {
         for (unsigned k = 0; k < kBlocks; ++k) {
-            origin_[0][k] = simd::load(b.x + simd::kFloatLanes * k);
-            origin_[1][k] = simd::load(b.y + simd::kFloatLanes * k);
-            origin_[2][k] = simd::load(b.z + simd::kFloatLanes * k);
-            tmin_[k] = simd::load(b.tmin + simd::kFloatLanes * k);
+            origin_[0][k] = Floats::load(b.x + simd::kFloatLanes * k);
+            origin_[1][k] = Floats::load(b.y + simd::kFloatLanes * k);
+            origin_[2][k] = Floats::load(b.z + simd::kFloatLanes * k);
+            tmin_[k] = Floats::load(b.tmin + simd::kFloatLanes * k);
         }
         for (int a = 0; a < 3; ++a) {
-            inv_dir_[a] = simd::broadcast(shared_.inv_dir[a]);
-            inv_far_[a] = simd::broadcast(shared_.inv_far[a]);
+            inv_dir_[a] = Floats::broadcast(shared_.inv_dir[a]);
+            inv_far_[a] = Floats::broadcast(shared_.inv_far[a]);
         }
-#endif
     }
 
     // The plane index entered first on axis a, shared by every lane (BoxRay::near).
     [[nodiscard]] int near_plane(int a) const { return shared_.near[a]; }
 
-#if defined(SMOKETRACE_SIMD_LANES)
-    static constexpr unsigned kBlocks = kBundleWidth / simd::kFloatLanes;  // one register of lanes each
     struct FarLimits {
-        simd::Floats block[kBlocks];
+        Floats block[kBlocks];
     };
     // `far`: each lane's tmax · kSlabFarScale (far_limits()).
     [[gnu::always_inline]] unsigned test(const WideBvhNode& n, unsigned slot, const FarLimits& far) const {
-        using namespace simd;
         Floats near_plane[3], far_plane[3];
         for (int a = 0; a < 3; ++a) {
-            near_plane[a] = broadcast(n.bounds[shared_.near[a]][slot]);
-            far_plane[a] = broadcast(n.bounds[shared_.far[a]][slot]);
+            near_plane[a] = Floats::broadcast(n.bounds[shared_.near[a]][slot]);
+            far_plane[a] = Floats::broadcast(n.bounds[shared_.far[a]][slot]);
         }
         unsigned hits = 0;
 #pragma GCC unroll 4
@@ -77,59 +72,31 @@ public:
                 t0 = max((near_plane[a] - origin_[a][k]) * inv_dir_[a], t0);
                 t1 = min((far_plane[a] - origin_[a][k]) * inv_far_[a], t1);
             }
-            hits |= less_equal_bits(t0, t1) << (kFloatLanes * k);
+            hits |= bits(t0 <= t1) << (simd::kFloatLanes * k);
         }
         return hits;
     }
     [[gnu::always_inline]] static FarLimits far_limits(const float* tmax) {
         FarLimits f;
         for (unsigned k = 0; k < kBlocks; ++k)
-            f.block[k] = simd::load(tmax + simd::kFloatLanes * k) * simd::broadcast(kSlabFarScale);
+            f.block[k] = Floats::load(tmax + simd::kFloatLanes * k) * Floats::broadcast(kSlabFarScale);
         return f;
     }
-#else
-    using FarLimits = const float*;
-    [[gnu::always_inline]] unsigned test(const WideBvhNode& n, unsigned slot, FarLimits tmax) const {
-        Aabb box;
-        box.lo = {n.bounds[0][slot], n.bounds[1][slot], n.bounds[2][slot]};
-        box.hi = {n.bounds[3][slot], n.bounds[4][slot], n.bounds[5][slot]};
-        unsigned hits = 0;
-        float t_enter;
-        for (unsigned i = 0; i < kBundleWidth; ++i)
-            hits |= unsigned(intersect(box, BoxRay(bundle_.ray(i)), tmax[i], t_enter)) << i;
-        return hits;
-    }
-    [[gnu::always_inline]] static FarLimits far_limits(const float* tmax) { return tmax; }
-#endif
 
 private:
     BoxRay shared_;  // the direction's part of the slab test
-    const RayBundle& bundle_;
-#if defined(SMOKETRACE_SIMD_LANES)
-    simd::Floats origin_[3][kBlocks], inv_dir_[3], inv_far_[3], tmin_[kBlocks];
-#endif
+    Floats origin_[3][kBlocks], inv_dir_[3], inv_far_[3], tmin_[kBlocks];
 };
 
-// Adds 1 to the counter of every lane in `lanes`.
+// Adds `times` to the counter of every lane in `lanes` (kBundleWidth counters, 64-byte aligned).
 [[gnu::always_inline]] inline void count_lanes(std::uint32_t* counters, unsigned lanes, unsigned times = 1) {
-#if defined(__AVX512F__)
-    for (unsigned k = 0; k < kBundleWidth / 16; ++k) {  // the lane bits are the add's write mask
-        __m512i* at = reinterpret_cast<__m512i*>(counters + 16 * k);
-        const __m512i v = _mm512_load_si512(at);
-        const __m512i times_v = _mm512_set1_epi32(int(times));
-        _mm512_store_si512(at, _mm512_mask_add_epi32(v, __mmask16(lanes >> (16 * k)), v, times_v));
+    using UInts = simd::UInts<simd::kUIntLanes>;
+    using Mask = simd::Mask<std::uint32_t, simd::kUIntLanes>;
+    for (unsigned k = 0; k < kBundleWidth / simd::kUIntLanes; ++k) {
+        std::uint32_t* at = counters + simd::kUIntLanes * k;
+        const Mask in = Mask::from_bits(lanes >> (simd::kUIntLanes * k));
+        store(at, masked_add(UInts::load(at), in, UInts::broadcast(times)));
     }
-#elif defined(__AVX2__)
-    const __m256i bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-    for (unsigned k = 0; k < kBundleWidth / 8; ++k) {
-        const __m256i in = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(int(lanes >> (8 * k))), bits), bits);
-        const __m256i add = _mm256_and_si256(in, _mm256_set1_epi32(int(times)));
-        __m256i* at = reinterpret_cast<__m256i*>(counters + 8 * k);
-        _mm256_store_si256(at, _mm256_add_epi32(_mm256_load_si256(at), add));
-    }
-#else
-    for (unsigned m = lanes; m != 0; m &= m - 1) counters[std::countr_zero(m)] += times;
-#endif
 }
 
 // Calls leaf(first, count, lanes) for every leaf whose mask meets `inclusion_mask` and whose box the

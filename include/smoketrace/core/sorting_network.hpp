@@ -12,7 +12,7 @@
 // elsewhere. A step with j >= 8 pairs whole registers (one min and one max each); one with j < 8 pairs
 // lanes of the same register (a shuffle, a min and a masked max). Every loop below has a trip count known
 // at compile time and is fully unrolled, so each mask is a constant. Unmasked operations are written in
-// their maskz form with every lane set (see simd_lanes.hpp: GCC bug 105593); the same instructions.
+// their maskz form with every lane set (see core/simd/lanes_avx512.hpp: GCC bug 105593); the same instructions.
 #include <cstdint>
 
 #if defined(__AVX512F__)

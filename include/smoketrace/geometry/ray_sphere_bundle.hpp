@@ -1,25 +1,24 @@
 #pragma once
 // sphere_roots() (ray_sphere.hpp) for the rays of a bundle (ray_bundle.hpp) against one sphere: its
-// origins, one direction, in lanes of doubles (simd_lanes.hpp: eight per AVX-512 operation, four per
-// AVX2 one; a group with no ray entering the sphere's box is skipped); and which of the crossings found
-// lie in each ray's [tmin, tmax], the candidates trace_bundle() hands to the rays' searches.
+// origins, one direction, in lanes of doubles (core/simd/lanes.hpp: eight per AVX-512 operation, four per
+// AVX2 one, one at a time without; a group with no ray entering the sphere's box is skipped); and which
+// of the crossings found lie in each ray's [tmin, tmax], the candidates trace_bundle() hands to the rays'
+// searches.
 //
 // Same answers, bit for bit: each lane performs sphere_roots()'s operations in its order and precision
 // (the build disables FMA contraction, CMakeLists.txt), copysign and negation are exact bit operations,
-// "swap if t0 > t1" is a blend on the same comparison, and the conversion to float rounds to nearest like
+// "swap if t0 > t1" is a select on the same comparison, and the conversion to float rounds to nearest like
 // static_cast<float>. So a sphere hit has the same t whether its ray was traced alone or in a bundle; a
 // test (test_trace_bundle.cpp) holds the two against each other, in each of the three builds CI makes
-// (AVX-512 natively, AVX2 and plain x86-64 under the sanitizers). Without AVX2 the lanes run
-// sphere_roots() itself.
+// (AVX-512 natively, AVX2 and plain x86-64, where this is the lanes' scalar twin, under the sanitizers).
+#include <smoketrace/core/simd/lanes.hpp>
 #include <smoketrace/geometry/ray_bundle.hpp>
 #include <smoketrace/geometry/ray_sphere.hpp>
-#include <smoketrace/core/simd_lanes.hpp>
 
 #include <glm/vec3.hpp>
 
 #include <bit>
 #include <limits>
-
 
 namespace smoketrace {
 
@@ -42,17 +41,21 @@ inline void sphere_crossings_bundle(const RayBundle& b, unsigned lanes, const fl
                                     BundleSphereCrossings& out) {
     const glm::dvec3 d(b.direction);
     out.enter = out.exit = 0;
-#if defined(SMOKETRACE_SIMD_LANES)
-    using namespace simd;
+    using simd::kDoubleLanes;
+    using Doubles = simd::Doubles<kDoubleLanes>;
+    using Floats = simd::Floats<kDoubleLanes>;
     const double a_scalar = d.x * d.x + d.y * d.y + d.z * d.z;
     if (!(a_scalar > 0.0)) return;
-    const Doubles dx = broadcast(d.x), dy = broadcast(d.y), dz = broadcast(d.z);
-    const Doubles a = broadcast(a_scalar);
-    const Doubles inv_a = broadcast(1.0 / a_scalar);  // as sphere_roots() divides, once per ray
-    const Doubles r2 = broadcast(radius * radius);
-    const Doubles tx = broadcast(translation.x), ty = broadcast(translation.y), tz = broadcast(translation.z);
-    const Doubles cx = broadcast(center.x), cy = broadcast(center.y), cz = broadcast(center.z);
-    const Doubles zero = broadcast(0.0), infinity = broadcast(std::numeric_limits<double>::infinity());
+    const Doubles dx = Doubles::broadcast(d.x), dy = Doubles::broadcast(d.y), dz = Doubles::broadcast(d.z);
+    const Doubles a = Doubles::broadcast(a_scalar);
+    const Doubles inv_a = Doubles::broadcast(1.0 / a_scalar);  // as sphere_roots() divides, once per ray
+    const Doubles r2 = Doubles::broadcast(radius * radius);
+    const Doubles tx = Doubles::broadcast(translation.x), ty = Doubles::broadcast(translation.y),
+                  tz = Doubles::broadcast(translation.z);
+    const Doubles cx = Doubles::broadcast(center.x), cy = Doubles::broadcast(center.y),
+                  cz = Doubles::broadcast(center.z);
+    const Doubles zero = Doubles::broadcast(0.0);
+    const Doubles infinity = Doubles::broadcast(std::numeric_limits<double>::infinity());
     // The groups of kDoubleLanes lanes with a ray to test, as a bit set walked in one loop: a test per
     // group whether to skip it was a branch on data, mispredicted often enough to cost more than it saved.
     constexpr unsigned kGroupBits = (1u << kDoubleLanes) - 1u;
@@ -62,45 +65,38 @@ inline void sphere_crossings_bundle(const RayBundle& b, unsigned lanes, const fl
     for (; groups != 0; groups &= groups - 1) {
         const unsigned first = kDoubleLanes * unsigned(std::countr_zero(groups));  // the group's first lane
         // f = (o − T) − c, each lane's origin widened exactly to double.
-        const Doubles fx = widen(b.x + first) - tx - cx;
-        const Doubles fy = widen(b.y + first) - ty - cy;
-        const Doubles fz = widen(b.z + first) - tz - cz;
+        const Doubles fx = Doubles::widen(b.x + first) - tx - cx;
+        const Doubles fy = Doubles::widen(b.y + first) - ty - cy;
+        const Doubles fz = Doubles::widen(b.z + first) - tz - cz;
         // b = f·d, perp = f − (b·(1/a))·d, h² = r² − |perp|²: sphere_roots()'s lines, term by term.
         const Doubles bq = fx * dx + fy * dy + fz * dz;
         const Doubles b_over_a = bq * inv_a;
         const Doubles px = fx - b_over_a * dx, py = fy - b_over_a * dy, pz = fz - b_over_a * dz;
         const Doubles h2 = r2 - (px * px + py * py + pz * pz);
         // No early exit when no lane has h² > 0: as a branch on data it cost more than the roots it saved.
-        const DoubleMask positive = h2 > zero;
+        const auto positive = h2 > zero;
         const Doubles c = (fx * fx + fy * fy + fz * fz) - r2;
         // q = −(b + copysign(√(a·h²), b)); lanes with h² ≤ 0 compute a NaN that is masked out below.
         const Doubles q = -(bq + copysign(sqrt(a * h2), bq));
         const Doubles t0 = c / q;
         const Doubles t1 = q * inv_a;
         // std::isfinite of both roots (|t| < ∞, false for NaN), then "swap if t0 > t1".
-        const DoubleMask finite = (abs(t0) < infinity) & (abs(t1) < infinity);
-        const DoubleMask swap = t0 > t1;
+        const auto finite = (abs(t0) < infinity) & (abs(t1) < infinity);
+        const auto swap = t0 > t1;
         const Doubles near = select(swap, t1, t0), far = select(swap, t0, t1);
         store(out.t_enter + first, near);
         store(out.t_exit + first, far);
+        // The lanes whose root t, rounded to float (to nearest, as static_cast<float>), lies in [lo, hi].
+        auto in_float_range = [](Doubles t, const float* lo, const float* hi) {
+            const Floats tf = narrow(t);
+            return bits((tf >= Floats::load(lo)) & (tf <= Floats::load(hi)));
+        };
         const unsigned crosses = bits(positive & finite);
-        out.enter |= (crosses & in_float_range_bits(near, b.tmin + first, tmax + first)) << first;
-        out.exit |= (crosses & in_float_range_bits(far, b.tmin + first, tmax + first)) << first;
+        out.enter |= (crosses & in_float_range(near, b.tmin + first, tmax + first)) << first;
+        out.exit |= (crosses & in_float_range(far, b.tmin + first, tmax + first)) << first;
     }
     out.enter &= lanes;
     out.exit &= lanes;
-#else
-    for (unsigned m = lanes; m != 0; m &= m - 1) {
-        const unsigned i = unsigned(__builtin_ctz(m));
-        SphereRoots r;
-        if (!sphere_roots(glm::dvec3(b.origin(i)) - translation, d, center, radius, r)) continue;
-        out.t_enter[i] = r.t_enter;
-        out.t_exit[i] = r.t_exit;
-        const float te = static_cast<float>(r.t_enter), tx = static_cast<float>(r.t_exit);
-        out.enter |= unsigned(te >= b.tmin[i] && te <= tmax[i]) << i;
-        out.exit |= unsigned(tx >= b.tmin[i] && tx <= tmax[i]) << i;
-    }
-#endif
 }
 
 }  // namespace smoketrace
