@@ -4,6 +4,7 @@
 #include <smoketrace/accel/bvh.hpp>
 #include <smoketrace/accel/bvh_builder.hpp>
 #include <smoketrace/accel/bvh_traversal.hpp>
+#include <smoketrace/accel/wide_bvh_traversal.hpp>
 #include <smoketrace/core/prng.hpp>
 #include <smoketrace/smoke/stand_in_shapes.hpp>
 #include <smoketrace/accel/triangle_mesh.hpp>
@@ -13,6 +14,7 @@
 #include <tbb/global_control.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <iomanip>
@@ -899,4 +901,57 @@ TEST_CASE("BVH traversal: the paired child test equals the scalar slab test on e
     // The generator really produces both (about 7 % of the boxes are hit: many are flat or missed).
     CHECK(hits > checked / 20);
     CHECK(hits < checked * 2 - checked / 4);
+}
+
+// WideBoxTest (four lanes of floats: SSE2 on x86-64, the lanes' scalar definition elsewhere) against the
+// scalar slab test, child by child: the same hit bits and, where a child is hit, the same entry distance
+// bit for bit (the same operations in the same order, so not even the sign of a zero may differ). And
+// admitted_children() against the mask bytes one by one.
+TEST_CASE("Wide BVH traversal: the four-child box test equals the scalar slab test on every ray", "[bvh]") {
+    Pcg32 rng(78);
+    const float planes[] = {-1.0f, -0.5f, 0.0f, 0.5f, 1.0f};
+    auto pick = [&](std::span<const float> v) { return v[rng.next_u32() % v.size()]; };
+    std::uint64_t checked = 0, hits = 0;
+    for (int i = 0; i < 100000; ++i) {
+        WideBvhNode n{};
+        for (unsigned c = 0; c < kWideBvhWidth; ++c) {
+            for (int k = 0; k < 3; ++k) {
+                const float a = rng.next_u32() % 4 ? pick(planes) : rng.uniform(-1.0f, 1.0f);
+                const float b = rng.next_u32() % 4 ? pick(planes) : rng.uniform(-1.0f, 1.0f);
+                n.bounds[k][c] = std::min(a, b);
+                n.bounds[k + 3][c] = std::max(a, b);
+            }
+            n.mask[c] = std::uint8_t(rng.next_u32() % 3 == 0 ? 0u : rng.next_u32());
+        }
+        Ray r;
+        for (int k = 0; k < 3; ++k) {
+            r.origin[k] = rng.next_u32() % 3 ? pick(planes) : rng.uniform(-2.0f, 2.0f);
+            const std::uint32_t kind = rng.next_u32() % 5;
+            r.direction[k] = kind == 0 ? 0.0f : kind == 1 ? -0.0f : rng.uniform(-1.0f, 1.0f);
+        }
+        if (r.direction == glm::vec3(0.0f)) r.direction.x = 1.0f;
+        r.tmin = rng.next_u32() % 2 ? 0.0f : rng.uniform(0.0f, 1.0f);
+        const float tmax = rng.next_u32() % 3 ? kInf : rng.uniform(0.0f, 2.0f);
+        const BoxRay br(r);
+        alignas(16) float t[kWideBvhWidth];
+        const unsigned bits = WideBoxTest(br).test(n, tmax, t);
+        const auto inclusion = std::uint8_t(rng.next_u32());
+        const unsigned admitted = admitted_children(n, inclusion);
+        INFO("ray " << i);
+        for (unsigned c = 0; c < kWideBvhWidth; ++c) {
+            Aabb box;
+            box.lo = {n.bounds[0][c], n.bounds[1][c], n.bounds[2][c]};
+            box.hi = {n.bounds[3][c], n.bounds[4][c], n.bounds[5][c]};
+            float t_scalar = -1.0f;
+            const bool hit = intersect(box, br, tmax, t_scalar);
+            REQUIRE(((bits >> c) & 1u) == unsigned(hit));
+            if (hit) REQUIRE(std::bit_cast<std::uint32_t>(t[c]) == std::bit_cast<std::uint32_t>(t_scalar));
+            REQUIRE(((admitted >> c) & 1u) == unsigned((n.mask[c] & inclusion) != 0));
+            hits += hit;
+            ++checked;
+        }
+        REQUIRE((admitted >> kWideBvhWidth) == 0u);
+    }
+    CHECK(hits > checked / 20);  // both outcomes well represented
+    CHECK(hits < checked - checked / 4);
 }

@@ -9,6 +9,7 @@
 // Not strictly near to far, on purpose: a ray that collects every hit gains nothing from the order, and
 // sorting the children by entry distance costs more than it saves. Camera rays, whose commits and early
 // termination need the strict order, keep the binary walk (docs/design.md, "Two walks of the top level").
+#include <smoketrace/core/simd/lanes.hpp>
 #include <smoketrace/geometry/aabb.hpp>
 #include <smoketrace/accel/bvh_traversal.hpp>
 #include <smoketrace/accel/wide_bvh.hpp>
@@ -18,78 +19,55 @@
 #include <cstring>
 #include <limits>
 
-#if defined(__SSE2__)
-#include <immintrin.h>
-#endif
-
 namespace smoketrace {
 
 // The four child boxes of a node against one ray: bit i of the result set when the ray meets child i's
-// box in [tmin, tmax], with its entry distance in t_enter[i]. Lane by lane exactly the scalar
-// intersect() of aabb.hpp: same operations and roundings, and a NaN slab distance (0·∞) is ignored the
-// same way (maxps / minps return their second operand, the accumulator, when the first is NaN).
+// box in [tmin, tmax], with its entry distance in t_enter[i] (16-byte aligned). Lane by lane exactly the
+// scalar intersect() of aabb.hpp: same operations and roundings, and a NaN slab distance (0·∞) is ignored
+// the same way (max / min return their second operand, the accumulator, when the first is NaN). Over four
+// lanes of floats (core/simd/lanes.hpp): one SSE2 operation each on every x86-64 build.
 class WideBoxTest {
+    using Floats = simd::Floats<kWideBvhWidth>;
+
 public:
-    explicit WideBoxTest(const BoxRay& r) : ray_(r) {
-#if defined(__SSE2__)
+    explicit WideBoxTest(const BoxRay& r) {
         for (int a = 0; a < 3; ++a) {
-            origin_[a] = _mm_set1_ps(r.origin[a]);
-            inv_dir_[a] = _mm_set1_ps(r.inv_dir[a]);
-            inv_far_[a] = _mm_set1_ps(r.inv_far[a]);
+            origin_[a] = Floats::broadcast(r.origin[a]);
+            inv_dir_[a] = Floats::broadcast(r.inv_dir[a]);
+            inv_far_[a] = Floats::broadcast(r.inv_far[a]);
         }
-        tmin_ = _mm_set1_ps(r.tmin);
+        tmin_ = Floats::broadcast(r.tmin);
         for (int a = 0; a < 3; ++a) {
             near_[a] = r.near[a];
             far_[a] = r.far[a];
         }
-#endif
     }
 
     [[gnu::always_inline]] unsigned test(const WideBvhNode& n, float tmax, float* t_enter) const {
-#if defined(__SSE2__)
-        __m128 t0 = tmin_, t1 = _mm_set1_ps(tmax * kSlabFarScale);
+        Floats t0 = tmin_, t1 = Floats::broadcast(tmax * kSlabFarScale);
 #pragma GCC unroll 3
         for (int a = 0; a < 3; ++a) {
-            const __m128 t_near = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(n.bounds[near_[a]]), origin_[a]), inv_dir_[a]);
-            const __m128 t_far = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(n.bounds[far_[a]]), origin_[a]), inv_far_[a]);
-            t0 = _mm_max_ps(t_near, t0);
-            t1 = _mm_min_ps(t_far, t1);
+            const Floats t_near = (Floats::load(n.bounds[near_[a]]) - origin_[a]) * inv_dir_[a];
+            const Floats t_far = (Floats::load(n.bounds[far_[a]]) - origin_[a]) * inv_far_[a];
+            t0 = max(t_near, t0);
+            t1 = min(t_far, t1);
         }
-        _mm_store_ps(t_enter, t0);
-        return unsigned(_mm_movemask_ps(_mm_cmple_ps(t0, t1)));
-#else
-        unsigned hits = 0;
-        for (unsigned i = 0; i < kWideBvhWidth; ++i) {
-            Aabb b;
-            b.lo = {n.bounds[0][i], n.bounds[1][i], n.bounds[2][i]};
-            b.hi = {n.bounds[3][i], n.bounds[4][i], n.bounds[5][i]};
-            hits |= unsigned(intersect(b, ray_, tmax, t_enter[i])) << i;
-        }
-        return hits;
-#endif
+        store(t_enter, t0);
+        return bits(t0 <= t1);
     }
 
 private:
-    const BoxRay& ray_;
-#if defined(__SSE2__)
-    __m128 origin_[3], inv_dir_[3], inv_far_[3], tmin_;
+    Floats origin_[3], inv_dir_[3], inv_far_[3], tmin_;
     int near_[3], far_[3];
-#endif
 };
 
 // Bit i set when child i's mask meets the inclusion mask: the four mask bytes at once.
 [[gnu::always_inline]] inline unsigned admitted_children(const WideBvhNode& n, std::uint8_t inclusion_mask) {
+    using Bytes = simd::Bytes<kWideBvhWidth>;
     std::uint32_t masks;
     std::memcpy(&masks, n.mask, sizeof masks);
     masks &= 0x01010101u * inclusion_mask;
-#if defined(__SSE2__)
-    const __m128i zero = _mm_cmpeq_epi8(_mm_cvtsi32_si128(int(masks)), _mm_setzero_si128());
-    return ~unsigned(_mm_movemask_epi8(zero)) & 0xFu;
-#else
-    unsigned admitted = 0;
-    for (unsigned i = 0; i < kWideBvhWidth; ++i) admitted |= unsigned(((masks >> (8 * i)) & 0xFFu) != 0) << i;
-    return admitted;
-#endif
+    return bits(Bytes::from_word(masks) != Bytes::broadcast(0));
 }
 
 // A 4-bit child set with slot i moved to slot 3 − i (the order a ray meets a node's children when it
