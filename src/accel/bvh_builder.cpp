@@ -1,5 +1,6 @@
 // Binned SAH BVH construction (see bvh_builder.hpp for the policy).
 #include <smoketrace/accel/bvh_builder.hpp>
+#include <smoketrace/core/simd/lanes.hpp>
 
 #include <tbb/parallel_invoke.h>
 #include <tbb/parallel_reduce.h>
@@ -13,8 +14,6 @@
 #include <stdexcept>
 #include <utility>
 #include <vector>
-
-#include <immintrin.h>
 
 namespace smoketrace {
 namespace {
@@ -37,30 +36,32 @@ struct alignas(32) PrimRef {
 };
 static_assert(sizeof(PrimRef) == 32);
 
-// Box bounds of bins and ranges as two 4-wide vectors (the fourth lane is ignored): growing one is a
-// min and a max instruction instead of six scalar ones, in the loop that dominates the build.
+// Box bounds of bins and ranges as two lanes of four floats (core/simd/lanes.hpp; the fourth lane is
+// ignored): growing one is a min and a max instruction instead of six scalar ones, in the loop that
+// dominates the build.
+using Floats4 = simd::Floats<4>;
 struct Bounds4 {
-    __m128 lo = _mm_set1_ps(std::numeric_limits<float>::infinity());
-    __m128 hi = _mm_set1_ps(-std::numeric_limits<float>::infinity());
+    Floats4 lo = Floats4::broadcast(std::numeric_limits<float>::infinity());
+    Floats4 hi = Floats4::broadcast(-std::numeric_limits<float>::infinity());
 
     void grow(const PrimRef& r) {
-        lo = _mm_min_ps(lo, _mm_load_ps(&r.lo.x));
-        hi = _mm_max_ps(hi, _mm_load_ps(&r.hi.x));
+        lo = min(lo, Floats4::load(&r.lo.x));
+        hi = max(hi, Floats4::load(&r.hi.x));
     }
     void grow(const Bounds4& b) {
-        lo = _mm_min_ps(lo, b.lo);
-        hi = _mm_max_ps(hi, b.hi);
+        lo = min(lo, b.lo);
+        hi = max(hi, b.hi);
     }
     [[nodiscard]] Aabb aabb() const {
         alignas(16) float l[4], h[4];
-        _mm_store_ps(l, lo);
-        _mm_store_ps(h, hi);
+        store(l, lo);
+        store(h, hi);
         return Aabb{{l[0], l[1], l[2]}, {h[0], h[1], h[2]}};
     }
     // Aabb::area() of a box known to be non-empty, same operations in the same order.
     [[nodiscard]] float area() const {
         alignas(16) float e[4];
-        _mm_store_ps(e, _mm_sub_ps(hi, lo));
+        store(e, hi - lo);
         return 2.0f * (e[0] * e[1] + e[1] * e[2] + e[2] * e[0]);
     }
 };
@@ -95,14 +96,14 @@ struct Builder {
 
     // Box and centroid bounds of refs[begin, end).
     void range_bounds_serial(std::uint32_t begin, std::uint32_t end, Bounds4& box, Bounds4& centroids) const {
-        const __m128 half = _mm_set1_ps(0.5f);
+        const Floats4 half = Floats4::broadcast(0.5f);
         for (std::uint32_t i = begin; i < end; ++i) {
-            const __m128 lo = _mm_load_ps(&refs[i].lo.x), hi = _mm_load_ps(&refs[i].hi.x);
-            box.lo = _mm_min_ps(box.lo, lo);
-            box.hi = _mm_max_ps(box.hi, hi);
-            const __m128 c = _mm_mul_ps(half, _mm_add_ps(lo, hi));  // PrimRef::centroid, all axes
-            centroids.lo = _mm_min_ps(centroids.lo, c);
-            centroids.hi = _mm_max_ps(centroids.hi, c);
+            const Floats4 lo = Floats4::load(&refs[i].lo.x), hi = Floats4::load(&refs[i].hi.x);
+            box.lo = min(box.lo, lo);
+            box.hi = max(box.hi, hi);
+            const Floats4 c = half * (lo + hi);  // PrimRef::centroid, all axes
+            centroids.lo = min(centroids.lo, c);
+            centroids.hi = max(centroids.hi, c);
         }
     }
 
