@@ -4,7 +4,11 @@
 #include <smoketrace/core/prng.hpp>
 #include <smoketrace/smoke/hit_resolver.hpp>
 #include <smoketrace/core/radix_sort.hpp>
+#include <smoketrace/core/simd/isa.hpp>
 #include <smoketrace/core/sorting_network.hpp>
+#include <smoketrace/core/stable_ranks.hpp>
+#include <smoketrace/core/stable_ranks_avx2.hpp>
+#include <smoketrace/core/stable_ranks_avx512.hpp>
 
 #include <catch2/catch.hpp>
 #include <tbb/task_arena.h>
@@ -221,6 +225,36 @@ TEST_CASE("sort_by_float_key sorts floats stably on both sides of the threshold"
             std::vector<Layer> scratch(n);
             sort_by_float_key(std::span{items}, std::span{scratch}, [](const Layer& l) { return l.depth; });
             CHECK(items == expected);
+        }
+    }
+}
+
+// The rank kernels of the build against stable_ranks_scalar(), rank for rank: every length across the
+// 16-key blocks up to kRankSortMaxItems, keys with ties and extremes (UINT32_MAX is also the padding).
+TEST_CASE("stable_ranks: each instruction-set kernel gives the scalar ranks", "[resolver]") {
+    Pcg32 rng(12);
+    for (std::size_t n = 0; n <= kRankSortMaxItems; n += n < 70 ? 1 : 37) {
+        for (int kind = 0; kind < 7; ++kind) {
+            INFO("n = " << n << ", key kind " << kind);
+            alignas(64) std::uint32_t keys[kRankSortMaxItems + detail::kRankBlock];
+            const std::vector<Keyed> input = make_keys(n, kind, rng);
+            for (std::size_t i = 0; i < n; ++i) keys[i] = input[i].key;
+            const std::size_t padded = (n + detail::kRankBlock - 1) / detail::kRankBlock * detail::kRankBlock;
+            std::fill(keys + n, keys + padded, UINT32_MAX);
+            std::vector<std::uint32_t> expected(n), got(n);
+            detail::stable_ranks_scalar(keys, n, expected.data());
+#if defined(SMOKETRACE_SIMD_AVX512)
+            detail::stable_ranks_avx512(keys, n, got.data());
+            CHECK(got == expected);
+#endif
+#if defined(SMOKETRACE_SIMD_AVX2)
+            std::fill(got.begin(), got.end(), 0u);
+            detail::stable_ranks_avx2(keys, n, got.data());
+            CHECK(got == expected);
+#endif
+            std::fill(got.begin(), got.end(), 0u);
+            detail::stable_ranks(keys, n, got.data());  // the one rank_sort() uses
+            CHECK(got == expected);
         }
     }
 }

@@ -4,6 +4,11 @@
 // them. Used for the hit lists of the optical-depth resolver (thesis 4.3.3 used bubble sort; method.md,
 // "What the thesis could not do": a sort whose cost per hit does not grow with the cutoff) and for the
 // per-pixel billboard layers of the view compositor.
+#include <smoketrace/core/simd/isa.hpp>
+#include <smoketrace/core/stable_ranks.hpp>
+#include <smoketrace/core/stable_ranks_avx2.hpp>
+#include <smoketrace/core/stable_ranks_avx512.hpp>
+
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -13,10 +18,6 @@
 #include <cstdint>
 #include <span>
 #include <utility>
-
-#if defined(__AVX2__)
-#include <immintrin.h>
-#endif
 
 namespace smoketrace {
 
@@ -134,70 +135,16 @@ void radix_sort(std::span<T> items, std::span<T> scratch, KeyFn key) {
 
 namespace detail {
 
-// The stable rank of every key: ranks[i] = #{j : keys[j] < keys[i], or keys[j] == keys[i] and j < i}.
-// `keys` holds n keys and is padded with UINT32_MAX up to the next multiple of kRankBlock: a padding lane
-// is never less than a key, and being at j >= n > i it is never an earlier equal one either, so the blocks
-// need no remainder loop. With AVX-512 a block of 16 keys is compared with one instruction per relation,
-// with AVX2 in two halves; elsewhere the two plain loops.
-inline constexpr std::size_t kRankBlock = 16;
+// The stable rank of every key (stable_ranks.hpp): with AVX-512 a block of 16 keys per instruction and
+// relation, with AVX2 in two halves, elsewhere the scalar definition.
 inline void stable_ranks(const std::uint32_t* keys, std::size_t n, std::uint32_t* ranks) {
-    const std::size_t blocks = (n + kRankBlock - 1) / kRankBlock;
-    for (std::size_t i = 0; i < n; ++i) {
-        std::uint32_t rank = 0;
-#if defined(__AVX512F__)
-        // Blocks before i's count keys <= k, blocks after it keys < k, i's own block both by lane: one
-        // compare and one popcount per block, no branch inside the loops.
-        const __m512i k = _mm512_set1_epi32(int(keys[i]));
-        const std::size_t own = i / kRankBlock;
-        for (std::size_t b = 0; b < own; ++b)
-            rank += unsigned(std::popcount(unsigned(_mm512_cmple_epu32_mask(_mm512_load_si512(keys + kRankBlock * b), k))));
-        {
-            const __m512i block = _mm512_load_si512(keys + kRankBlock * own);
-            const __mmask16 earlier = __mmask16((1u << (i % kRankBlock)) - 1u);
-            rank += unsigned(std::popcount(unsigned(_mm512_cmplt_epu32_mask(block, k) |
-                                                    _mm512_mask_cmpeq_epu32_mask(earlier, block, k))));
-        }
-        for (std::size_t b = own + 1; b < blocks; ++b)
-            rank += unsigned(std::popcount(unsigned(_mm512_cmplt_epu32_mask(_mm512_load_si512(keys + kRankBlock * b), k))));
-#elif defined(__AVX2__)
-        // The same in halves of 8 lanes, unsigned order from signed compares after flipping the sign bits.
-        // A compare gives −1 per true lane, so subtracting it counts; blocks before i's count keys > k,
-        // which the rank then subtracts from their size.
-        const __m256i flip = _mm256_set1_epi32(int(0x8000'0000u));
-        const __m256i k = _mm256_set1_epi32(int(keys[i] ^ 0x8000'0000u));
-        auto half = [&](std::size_t at) {
-            return _mm256_xor_si256(_mm256_load_si256(reinterpret_cast<const __m256i*>(keys + at)), flip);
-        };
-        const std::size_t own = i / kRankBlock;
-        __m256i greater_before = _mm256_setzero_si256(), less = _mm256_setzero_si256();
-        for (std::size_t b = 0; b < own; ++b)
-            for (std::size_t h = 0; h < kRankBlock; h += 8)
-                greater_before = _mm256_sub_epi32(greater_before, _mm256_cmpgt_epi32(half(kRankBlock * b + h), k));
-        const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-        const __m256i position = _mm256_set1_epi32(int(i % kRankBlock));
-        for (std::size_t h = 0; h < kRankBlock; h += 8) {
-            const __m256i block = half(kRankBlock * own + h);
-            const __m256i earlier = _mm256_cmpgt_epi32(position, _mm256_add_epi32(lane, _mm256_set1_epi32(int(h))));
-            const __m256i before = _mm256_or_si256(_mm256_cmpgt_epi32(k, block),
-                                                   _mm256_and_si256(_mm256_cmpeq_epi32(k, block), earlier));
-            less = _mm256_sub_epi32(less, before);
-        }
-        for (std::size_t b = own + 1; b < blocks; ++b)
-            for (std::size_t h = 0; h < kRankBlock; h += 8)
-                less = _mm256_sub_epi32(less, _mm256_cmpgt_epi32(k, half(kRankBlock * b + h)));
-        const __m256i total = _mm256_sub_epi32(less, greater_before);
-        const __m128i sum4 = _mm_add_epi32(_mm256_castsi256_si128(total), _mm256_extracti128_si256(total, 1));
-        const __m128i sum2 = _mm_add_epi32(sum4, _mm_shuffle_epi32(sum4, _MM_SHUFFLE(1, 0, 3, 2)));
-        const __m128i sum1 = _mm_add_epi32(sum2, _mm_shuffle_epi32(sum2, _MM_SHUFFLE(2, 3, 0, 1)));
-        rank = std::uint32_t(kRankBlock * own) + std::uint32_t(_mm_cvtsi128_si32(sum1));
+#if defined(SMOKETRACE_SIMD_AVX512)
+    stable_ranks_avx512(keys, n, ranks);
+#elif defined(SMOKETRACE_SIMD_AVX2)
+    stable_ranks_avx2(keys, n, ranks);
 #else
-        const std::uint32_t k = keys[i];
-        for (std::size_t j = 0; j < i; ++j) rank += keys[j] <= k;  // equal keys earlier in the input go first
-        for (std::size_t j = i + 1; j < n; ++j) rank += keys[j] < k;
-        (void)blocks;
+    stable_ranks_scalar(keys, n, ranks);
 #endif
-        ranks[i] = rank;
-    }
 }
 
 }  // namespace detail
