@@ -1,14 +1,17 @@
 // The hit resolver (thesis 4.3.3) and its sorts: float_sort_key, radix / insertion sort against
 // std::stable_sort, eq. 3.1 and the in-smoke walk against exact answers, and the three HitSort methods
-// against each other and against an independent interval-union computation.
+// against each other and against an independent interval-union computation. The kernels written for one
+// instruction set (stable_ranks_avx512 / _avx2, the sorting network, the AVX-512 walk) against their
+// scalar definitions, bit for bit, in the builds that have that set.
 #include <smoketrace/core/prng.hpp>
-#include <smoketrace/smoke/hit_resolver.hpp>
 #include <smoketrace/core/radix_sort.hpp>
 #include <smoketrace/core/simd/isa.hpp>
-#include <smoketrace/core/sorting_network.hpp>
+#include <smoketrace/core/sorting_network_avx512.hpp>
 #include <smoketrace/core/stable_ranks.hpp>
 #include <smoketrace/core/stable_ranks_avx2.hpp>
 #include <smoketrace/core/stable_ranks_avx512.hpp>
+#include <smoketrace/smoke/hit_resolver.hpp>
+#include <smoketrace/smoke/hit_resolver_avx512.hpp>
 
 #include <catch2/catch.hpp>
 #include <tbb/task_arena.h>
@@ -259,7 +262,7 @@ TEST_CASE("stable_ranks: each instruction-set kernel gives the scalar ranks", "[
     }
 }
 
-#if defined(SMOKETRACE_SORTING_NETWORK)
+#if defined(SMOKETRACE_SIMD_AVX512)
 // The network on its own, for each register count, against std::sort: random keys, few distinct keys,
 // all equal, and the extremes (UINT64_MAX is also the resolver's padding).
 template <unsigned R>
@@ -280,10 +283,7 @@ void check_bitonic_sort(Pcg32& rng) {
             }
             std::vector<std::uint64_t> expected(keys, keys + n);
             std::sort(expected.begin(), expected.end());
-            __m512i v[R];
-            for (unsigned r = 0; r < R; ++r) v[r] = _mm512_load_si512(keys + kNetworkSortLanes * r);
-            bitonic_sort<R>(v);
-            for (unsigned r = 0; r < R; ++r) _mm512_store_si512(keys + kNetworkSortLanes * r, v[r]);
+            bitonic_sort_keys<R>(keys);
             CHECK(std::vector<std::uint64_t>(keys, keys + n) == expected);
         }
     }
@@ -296,6 +296,31 @@ TEST_CASE("the bitonic sorting network sorts 8 to 128 keys like std::sort", "[re
     check_bitonic_sort<4>(rng);
     check_bitonic_sort<8>(rng);
     check_bitonic_sort<16>(rng);
+}
+
+// The network's hit lists, loaded as keys and stored back, against network_sort_hits_scalar(): every
+// length up to kNetworkSortMaxHits, with negative t, ±0, ties in t with different values, and values
+// of both signs, compared bit for bit.
+TEST_CASE("network_sort_hits_avx512 orders hits as its scalar definition does", "[resolver]") {
+    Pcg32 rng(14);
+    const float ladder[] = {-std::numeric_limits<float>::infinity(), -2.5f, -0.0f, 0.0f, 1e-30f, 0.5f, 3.0f, 1e30f};
+    for (std::size_t n = 0; n <= detail::kNetworkSortMaxHits; ++n) {
+        for (int round = 0; round < 20; ++round) {
+            std::vector<SurfaceHit> hits(n);
+            for (SurfaceHit& h : hits) {
+                h.t = round % 2 == 0 ? ladder[rng.below(8)] : std::bit_cast<float>(rng.next_u32() & 0xBFFF'FFFFu);
+                h.value = std::int32_t(rng.below(5)) - 2;
+            }
+            std::vector<SurfaceHit> expected = hits;
+            detail::network_sort_hits_scalar(expected);
+            detail::network_sort_hits_avx512(hits);
+            INFO("n = " << n << ", round " << round);
+            for (std::size_t i = 0; i < n; ++i) {
+                CHECK(same_bits(hits[i].t, expected[i].t));
+                CHECK(hits[i].value == expected[i].value);
+            }
+        }
+    }
 }
 #endif
 
@@ -423,9 +448,10 @@ TEST_CASE("optical_path_length does not depend on the order of equal-t hits", "[
     }
 }
 
-// With AVX-512, optical_path_length() runs eight hits per instruction; it must give the scalar
-// definition's bits (elsewhere it is the scalar definition). Lists of every length up to 3 registers and
-// beyond, with ties, origins inside smoke and t spread over many binades, so that the sums round.
+// With AVX-512, optical_path_length() runs eight hits per instruction (optical_path_length_avx512); it
+// must give the scalar definition's bits (elsewhere it is the scalar definition). Lists of every length
+// up to 3 registers and beyond, with ties, origins inside smoke and t spread over many binades, so that
+// the sums round.
 TEST_CASE("optical_path_length gives the bits of the scalar walk", "[resolver]") {
     Pcg32 rng(13);
     for (int round = 0; round < 4000; ++round) {
@@ -436,8 +462,12 @@ TEST_CASE("optical_path_length gives the bits of the scalar walk", "[resolver]")
         }
         std::sort(hits.begin(), hits.end(), [](const SurfaceHit& a, const SurfaceHit& b) { return a.t < b.t; });
         INFO("round " << round << ", " << hits.size() << " hits");
-        const double simd = optical_path_length(hits), scalar = detail::optical_path_length_scalar(hits);
-        CHECK(std::bit_cast<std::uint64_t>(simd) == std::bit_cast<std::uint64_t>(scalar));
+        const double scalar = detail::optical_path_length_scalar(hits);
+        CHECK(std::bit_cast<std::uint64_t>(optical_path_length(hits)) == std::bit_cast<std::uint64_t>(scalar));
+#if defined(SMOKETRACE_SIMD_AVX512)
+        const double avx512 = detail::optical_path_length_avx512(hits);
+        CHECK(std::bit_cast<std::uint64_t>(avx512) == std::bit_cast<std::uint64_t>(scalar));
+#endif
     }
 }
 

@@ -55,7 +55,7 @@ struct HitLists {
 // How resolve_optical_path_lengths() sorts each list by t. All three give bit-identical lengths.
 enum class HitSort : std::uint8_t {
     radix,     // the fast path: with AVX-512 a sorting network for lists of up to 128 hits
-               // (sorting_network.hpp); else sort_by_float_key (radix_sort.hpp), a rank sort for short
+               // (hit_resolver_avx512.hpp); else sort_by_float_key (radix_sort.hpp), a rank sort for short
                // lists and an LSD radix sort for long ones. The cost per hit stays flat as the cutoff grows
                // (method.md, thesis 6.2)
     std_sort,  // std::sort, the baseline
@@ -72,13 +72,22 @@ void sort_hits_by_t(std::span<SurfaceHit> hits, std::span<SurfaceHit> scratch, H
 // given one particle's hits sorted by t. The counter starts at -sum(values) (eq. 3.1: the number of
 // particles covering the ray origin); the ray is in smoke while the counter is > 0; gaps between separate
 // clouds are not counted. Hits with equal t act together, so their order within a tie does not matter.
-// With AVX-512 the walk runs eight hits per instruction, without a branch on the hits, and gives the bits
-// of detail::optical_path_length_scalar().
+// With AVX-512 the walk runs eight hits per instruction, without a branch on the hits
+// (hit_resolver_avx512.hpp), and gives the bits of detail::optical_path_length_scalar().
 [[nodiscard]] double optical_path_length(std::span<const SurfaceHit> sorted_hits);
 
 namespace detail {
+// The walk's running sums: gap i goes into sum i mod kWalkLanes (hit_resolver.cpp), one per lane of the
+// AVX-512 walk.
+inline constexpr std::size_t kWalkLanes = 8;
+
 // optical_path_length() one hit at a time: the definition the AVX-512 walk is tested against.
 [[nodiscard]] double optical_path_length_scalar(std::span<const SurfaceHit> sorted_hits);
+
+// What HitSort::radix's sorting network (hit_resolver_avx512.hpp) does to a list, one comparison at a
+// time: sorts it by the 64-bit key float_sort_key(t) · 2^32 + the value's bits, so ascending t, and
+// hits of equal t by their values' bits as unsigned. The definition the network is tested against.
+void network_sort_hits_scalar(std::span<SurfaceHit> hits);
 }  // namespace detail
 
 // One particle's optical path length: its hits sorted by t with `method` (in place), then

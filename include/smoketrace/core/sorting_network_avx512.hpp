@@ -12,20 +12,28 @@
 // elsewhere. A step with j >= 8 pairs whole registers (one min and one max each); one with j < 8 pairs
 // lanes of the same register (a shuffle, a min and a masked max). Every loop below has a trip count known
 // at compile time and is fully unrolled, so each mask is a constant. Unmasked operations are written in
-// their maskz form with every lane set (see core/simd/lanes_avx512.hpp: GCC bug 105593); the same instructions.
-#include <cstdint>
+// their maskz form with every lane set (see core/simd/lanes_avx512.hpp: GCC bug 105593); the same
+// instructions.
+//
+// AVX-512 only: its lane shuffles and masked min / max have no counterpart in the lanes types
+// (core/simd/lanes.hpp), and without AVX-512 the resolver sorts with rank_sort() instead. Its definition
+// is the sorted order itself: tests/test_hit_resolver.cpp holds it against std::sort.
+#include <smoketrace/core/simd/isa.hpp>
 
-#if defined(__AVX512F__)
-#include <immintrin.h>
-#define SMOKETRACE_SORTING_NETWORK 1
-#endif
+#include <cstdint>
 
 namespace smoketrace {
 
 inline constexpr unsigned kNetworkSortLanes = 8;         // 64-bit keys per AVX-512 register
 inline constexpr unsigned kNetworkSortMaxRegisters = 16;  // 128 keys
 
-#if defined(SMOKETRACE_SORTING_NETWORK)
+}  // namespace smoketrace
+
+#if defined(SMOKETRACE_SIMD_AVX512)
+#include <immintrin.h>
+
+namespace smoketrace {
+
 inline constexpr __mmask8 kEveryKey = 0xFF;
 
 namespace detail {
@@ -86,12 +94,21 @@ template <unsigned R, unsigned K>
 }  // namespace detail
 
 // Sorts the 8R unsigned 64-bit keys of v[0..R) ascending: key 8r + lane is lane `lane` of v[r].
-// R is 1, 2, 4 or 8. Pad unused lanes with UINT64_MAX to keep them at the end.
+// R is 1, 2, 4, 8 or 16. Pad unused lanes with UINT64_MAX to keep them at the end.
 template <unsigned R>
 [[gnu::always_inline]] inline void bitonic_sort(__m512i (&v)[R]) {
     static_assert(R >= 1 && R <= kNetworkSortMaxRegisters && (R & (R - 1)) == 0);
     detail::bitonic_stages<R, 2>(v);
 }
-#endif
+
+// bitonic_sort() of 8R keys in memory (64-byte aligned), in place.
+template <unsigned R>
+inline void bitonic_sort_keys(std::uint64_t* keys) {
+    __m512i v[R];
+    for (unsigned r = 0; r < R; ++r) v[r] = _mm512_load_si512(keys + kNetworkSortLanes * r);
+    bitonic_sort<R>(v);
+    for (unsigned r = 0; r < R; ++r) _mm512_store_si512(keys + kNetworkSortLanes * r, v[r]);
+}
 
 }  // namespace smoketrace
+#endif  // SMOKETRACE_SIMD_AVX512

@@ -1,0 +1,130 @@
+#pragma once
+// The hit resolver's AVX-512 kernels (hit_resolver.cpp): the sorting network for one particle's hits and
+// the walk eight hits at a time. Neither maps onto the lanes types (core/simd/lanes.hpp): the network
+// lives on lane shuffles and masked min / max (core/sorting_network_avx512.hpp), the walk on masked loads,
+// a prefix sum across lanes and 64-bit integer lanes. Each gives its scalar definition's bits
+// (hit_resolver.hpp: detail::network_sort_hits_scalar, detail::optical_path_length_scalar), which
+// tests/test_hit_resolver.cpp checks.
+#include <smoketrace/core/simd/isa.hpp>
+#include <smoketrace/core/sorting_network_avx512.hpp>
+#include <smoketrace/smoke/hit_resolver.hpp>
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+
+#if defined(SMOKETRACE_SIMD_AVX512)
+#include <immintrin.h>
+
+namespace smoketrace::detail {
+
+// Lists this short are sorted by the bitonic network rather than by rank_sort().
+inline constexpr std::size_t kNetworkSortMaxHits = kNetworkSortLanes * kNetworkSortMaxRegisters;
+
+// A hit as one 64-bit key: float_sort_key(t) in the high half, the value's bits in the low half, so that
+// the keys' unsigned order is the order of t (hits of equal t ordered by value, which the walk of
+// optical_path_length() ignores). In memory a SurfaceHit is t then value, which loads as the reverse.
+static_assert(sizeof(SurfaceHit) == sizeof(std::uint64_t) && offsetof(SurfaceHit, value) == sizeof(float));
+
+// Internal linkage (static): GCC's inliner then takes the small networks into sort_hits_by_t() and keeps
+// the walk out of line; as `inline` functions they would be weighed otherwise.
+template <unsigned R>
+static void network_sort_hits_avx512(std::span<SurfaceHit> hits) {
+    const std::size_t n = hits.size();
+    const __m512i high_half = _mm512_set1_epi64(std::int64_t(0xFFFF'FFFF'0000'0000u));
+    const __m512i sign_bit = _mm512_set1_epi64(std::int64_t(0x8000'0000'0000'0000u));
+    __m512i v[R];
+    auto lanes_of = [n](unsigned r) {  // the lanes of register r that hold a hit
+        const std::size_t first = kNetworkSortLanes * r;
+        return __mmask8(n >= first + kNetworkSortLanes ? 0xFFu : (1u << (n - first)) - 1u);
+    };
+    const unsigned used = unsigned((n + kNetworkSortLanes - 1) / kNetworkSortLanes);
+#pragma GCC unroll 16
+    for (unsigned r = 0; r < R; ++r) {
+        if (r >= used) {
+            v[r] = _mm512_set1_epi64(-1);  // padding: after every key
+            continue;
+        }
+        const __m512i x = _mm512_maskz_ror_epi64(
+            kEveryKey, _mm512_maskz_loadu_epi64(lanes_of(r), hits.data() + kNetworkSortLanes * r), 32);
+        // float_sort_key() on the high half: a negative t has all its bits flipped, any other its sign bit.
+        const __m512i negative = _mm512_maskz_srai_epi64(kEveryKey, x, 63);  // all ones where t < 0
+        const __m512i flip = _mm512_or_si512(_mm512_and_si512(negative, high_half), sign_bit);
+        v[r] = _mm512_mask_xor_epi64(_mm512_set1_epi64(-1), lanes_of(r), x, flip);
+    }
+    bitonic_sort<R>(v);
+#pragma GCC unroll 16
+    for (unsigned r = 0; r < used && r < R; ++r) {
+        // The key's top bit is set for a t that was not negative: then only the sign bit was flipped.
+        const __m512i top_bit = _mm512_maskz_srai_epi64(kEveryKey, v[r], 63);  // all ones where t >= 0
+        const __m512i flip = _mm512_or_si512(_mm512_maskz_andnot_epi64(kEveryKey, top_bit, high_half), sign_bit);
+        _mm512_mask_storeu_epi64(hits.data() + kNetworkSortLanes * r, lanes_of(r),
+                                 _mm512_maskz_ror_epi64(kEveryKey, _mm512_xor_si512(v[r], flip), 32));
+    }
+}
+
+// Sorts a list of at most kNetworkSortMaxHits hits as network_sort_hits_scalar() does, with the smallest
+// network that holds it.
+[[maybe_unused]] static void network_sort_hits_avx512(std::span<SurfaceHit> hits) {
+    const std::size_t registers = (hits.size() + kNetworkSortLanes - 1) / kNetworkSortLanes;
+    if (hits.size() < 2) return;
+    if (registers == 1) return network_sort_hits_avx512<1>(hits);
+    if (registers == 2) return network_sort_hits_avx512<2>(hits);
+    if (registers <= 4) return network_sort_hits_avx512<4>(hits);
+    if (registers <= 8) return network_sort_hits_avx512<8>(hits);
+    return network_sort_hits_avx512<16>(hits);
+}
+
+// optical_path_length() eight hits at a time: each lane i of a register holds hit 8c + i as loaded (t in
+// the low half, the value in the high half), the counters come from a prefix sum of the values across
+// the lanes, and lane i adds gap 8c + i to its running sum i where its counter is > 0: the kWalkLanes sums
+// of optical_path_length_scalar(), reduced in its order. No branch on the hits.
+[[maybe_unused]] static double optical_path_length_avx512(std::span<const SurfaceHit> sorted_hits) {
+    static_assert(kWalkLanes == 8, "one 512-bit register of hits");
+    constexpr __mmask8 kEveryLane = 0xFF;
+    const std::size_t n = sorted_hits.size();
+    if (n == 0) return 0.0;
+    const SurfaceHit* hits = sorted_hits.data();
+    auto lanes_below = [](std::size_t count) {  // the first min(count, 8) lanes
+        return __mmask8(count >= kWalkLanes ? 0xFFu : (1u << count) - 1u);
+    };
+    const __m512i zero = _mm512_setzero_si512();
+    auto values_of = [&](__m512i h) { return _mm512_maskz_srai_epi64(kEveryLane, h, 32); };
+    auto t_of = [&](__m512i h) {  // the low halves, as floats widened to double
+        return _mm512_maskz_cvtps_pd(kEveryLane, _mm256_castsi256_ps(_mm512_maskz_cvtepi64_epi32(kEveryLane, h)));
+    };
+
+    __m512i total = zero;  // eq. 3.1: counter_start = -sum of hit values
+    for (std::size_t c = 0; c < n; c += kWalkLanes)
+        total = _mm512_add_epi64(total, values_of(_mm512_maskz_loadu_epi64(lanes_below(n - c), hits + c)));
+    alignas(64) std::int64_t lane_totals[kWalkLanes];
+    _mm512_store_si512(lane_totals, total);
+    std::int64_t counter_start = 0;
+    for (const std::int64_t t : lane_totals) counter_start -= t;
+
+    __m512d sums = _mm512_setzero_pd();
+    if (counter_start > 0) sums = _mm512_mask_mov_pd(sums, 1, _mm512_set1_pd(static_cast<double>(hits[0].t)));
+    __m512i counter = _mm512_set1_epi64(counter_start);  // before the register's first hit
+    const __m512i last_lane = _mm512_set1_epi64(kWalkLanes - 1);
+    for (std::size_t c = 0; c < n; c += kWalkLanes) {
+        const __m512i h = _mm512_maskz_loadu_epi64(lanes_below(n - c), hits + c);
+        const __m512i next = _mm512_maskz_loadu_epi64(lanes_below(n - c - 1), hits + c + 1);
+        __m512i v = values_of(h);  // inclusive prefix sum over the lanes: shifted by 1, 2 and 4
+        v = _mm512_add_epi64(v, _mm512_maskz_alignr_epi64(kEveryLane, v, zero, kWalkLanes - 1));
+        v = _mm512_add_epi64(v, _mm512_maskz_alignr_epi64(kEveryLane, v, zero, kWalkLanes - 2));
+        v = _mm512_add_epi64(v, _mm512_maskz_alignr_epi64(kEveryLane, v, zero, kWalkLanes - 4));
+        const __m512i after = _mm512_add_epi64(counter, v);  // the counter after each lane's hit
+        counter = _mm512_maskz_permutexvar_epi64(kEveryLane, last_lane, after);
+        // Gaps exist up to hit n - 2.
+        const __mmask8 in_smoke = _mm512_mask_cmpgt_epi64_mask(lanes_below(n - c - 1), after, zero);
+        sums = _mm512_mask_add_pd(sums, in_smoke, sums, _mm512_sub_pd(t_of(next), t_of(h)));
+    }
+    // sum_lanes() of hit_resolver.cpp: the halves, then the quarters, then the two left.
+    const __m256d q =
+        _mm256_add_pd(_mm512_maskz_extractf64x4_pd(0xF, sums, 0), _mm512_maskz_extractf64x4_pd(0xF, sums, 1));
+    const __m128d p = _mm_add_pd(_mm256_castpd256_pd128(q), _mm256_extractf128_pd(q, 1));
+    return _mm_cvtsd_f64(_mm_add_sd(p, _mm_unpackhi_pd(p, p)));
+}
+
+}  // namespace smoketrace::detail
+#endif  // SMOKETRACE_SIMD_AVX512
