@@ -852,8 +852,9 @@ TEST_CASE("Grouped build: no node below the top mixes groups, every primitive on
     CHECK(below[0].size() == 3);
 }
 
-// ChildPairTest (the AVX2 two-box test where available, the scalar one otherwise) must agree with the
-// scalar slab test of aabb.hpp on every ray: the same hit bits and equal entry distances. The rays
+// ChildPairTest (the AVX2 two-box test of child_pair_test_avx2.hpp where available, the scalar one
+// otherwise) must agree with the scalar slab test of aabb.hpp on every ray: the same hit bits and equal
+// entry distances. The rays
 // include the cases the scalar test is careful about: direction components of +0 and −0, origins exactly
 // on slab planes (0·∞ = NaN there), tmin and tmax exactly at a box face, and boxes that are flat.
 TEST_CASE("BVH traversal: the paired child test equals the scalar slab test on every ray", "[bvh]") {
