@@ -5,10 +5,11 @@
 #  2. ThreadSanitizer over the tests of the parallel passes (optical-depth pass, resolver, view compositor,
 #     BVH and TLAS builds, six-way bake, the stress suite) in build-tsan/.
 # Both trees: no -march=native, no benchmark, -O1 -g with assertions on. They also cover the SIMD paths the
-# native build (AVX-512 here) does not take: the ASan tree is built for x86-64-v3 (AVX2, no AVX-512: the
-# AVX2 rank sort, radix_sort.hpp, and simd_lanes.hpp's AVX2 lanes in the bundles' box and sphere kernels),
-# the TSan tree for plain x86-64 (the scalar fallbacks of every kernel), and TSan also runs the kernel
-# tests of the bundles and the sorts for that reason.
+# native build (AVX-512 here) does not take (docs/simd.md): the ASan tree is built for x86-64-v3 (AVX2, no
+# AVX-512: core/simd/lanes_avx2.hpp under every lanes kernel, stable_ranks_avx2.hpp, the AVX2 child-pair
+# test), the TSan tree for plain x86-64 (the lanes' scalar twins and the scalar definitions of the other
+# kernels), and TSan also runs the kernel tests of the lanes, the bundles, the boxes and the sorts for that
+# reason.
 # Any sanitizer report fails the run: UBSan and TSan halt on the first error, ASan always does.
 # Usage: scripts/sanitize.sh [asan|tsan]   (default: both)
 set -euo pipefail
@@ -35,8 +36,8 @@ if [ "$which" = all ] || [ "$which" = tsan ]; then
   cmake --build "$root/build-tsan" --parallel "$jobs" --target smoketrace_tests
   # Test names (ctest -R): optical-depth pass, hit resolver, view compositor and frame loop, BVH/TLAS builds
   # and refits, the six-way bake's thread-count test, and the stress suite (which renders with 1 and 2 threads);
-  # and the scalar kernels: ray bundles and the sorts.
-  parallel='^(optical depth: |resolve_optical_path_lengths|the three HitSort|occluded and cutoff|view: |BVH builder: |BVH refit|Grouped build|scene: |sixway bake: same settings|stability: |trace_bundle: |bundle_order: |radix, rank and insertion|sort_by_float_key)'
+  # and the scalar kernels: the lanes, ray bundles, box tests, the triangle block and the sorts.
+  parallel='^(optical depth: |resolve_optical_path_lengths|the three HitSort|occluded and cutoff|view: |BVH builder: |BVH refit|Grouped build|scene: |sixway bake: same settings|stability: |trace_bundle: |bundle_order: |radix, rank and insertion|sort_by_float_key|simd lanes: |stable_ranks: |BVH traversal: the paired|Wide BVH traversal: |Watertight triangle: the 8-wide)'
   # No suppressions: Debian's oneTBB is not built with TSan, so tests/support/tsan_tbb.cpp (linked into this
   # build only) tells TSan about the scheduler's hand-overs instead; every report is a finding.
   (cd "$root/build-tsan" &&
