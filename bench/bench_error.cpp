@@ -207,7 +207,7 @@ RenderOptions options_of(const SceneDescription& scene, const Config& c) {
     o.render.transmittance_threshold = c.threshold;
     o.render.compositing = c.compositing;
     o.compositor = CompositorKind::one_traversal;
-    o.sort = HitSort::radix;
+    o.sort = HitSort::adaptive;
     return o;
 }
 
@@ -447,7 +447,7 @@ void run_scaling(const BenchOptions& options) {
         const float radius = scene.smoke.tubes->particle_radius;
         for (std::size_t t = 0; t < thread_counts.size(); ++t) {
             const auto s = stage_stats(samples[t]);
-            const OpticalDepths& depths = renderers[t]->depths();
+            const OpticalPathLengths& depths = renderers[t]->depths();
             std::size_t cut_off = 0;
             for (const DepthStatus st : depths.status()) cut_off += st == DepthStatus::cutoff;
             const double hits_per_ray = mean_of(depths.hit_counts());

@@ -41,7 +41,7 @@
 #include "support/embree_reference.hpp"
 #include "timing.hpp"
 
-#include <smoketrace/smoke/optical_depths.hpp>
+#include <smoketrace/smoke/optical_path_lengths.hpp>
 #include <smoketrace/geometry/ray_bundle.hpp>
 #include <smoketrace/smoke/stand_in_shapes.hpp>
 #include <smoketrace/smoke/tube_generator.hpp>
@@ -506,9 +506,9 @@ struct Disagreements {
     }
 };
 
-Disagreements disagreements(const OpticalDepths& ours, OpticalDepthHits& embree) {
+Disagreements disagreements(const OpticalPathLengths& ours, OpticalDepthHits& embree) {
     std::vector<float> lengths(embree.status.size());
-    resolve_optical_path_lengths(embree.lists, embree.status, lengths, HitSort::radix);
+    resolve_optical_path_lengths(embree.lists, embree.status, lengths, HitSort::adaptive);
     Disagreements d;
     for (std::size_t i = 0; i < lengths.size(); ++i) {
         const bool same_status = ours.status()[i] == embree.status[i];
@@ -524,11 +524,11 @@ Disagreements disagreements(const OpticalDepths& ours, OpticalDepthHits& embree)
     return d;
 }
 
-// One tracer of the comparison: ours (pass + resolve through OpticalDepths) or an Embree layout (pass).
+// One tracer of the comparison: ours (pass + resolve through OpticalPathLengths) or an Embree layout (pass).
 struct Contender {
     std::string tracer, stand_in;
     std::optional<SmokeScene> ours;
-    std::unique_ptr<OpticalDepths> depths;
+    std::unique_ptr<OpticalPathLengths> depths;
     std::unique_ptr<EmbreePass> embree;
     Layout layout = Layout::flattened;
     Query query = Query::single;
@@ -541,7 +541,7 @@ struct Contender {
         const auto t0 = std::chrono::steady_clock::now();
         if (ours) {
             FrameTimings ft;
-            depths->update(*ours, ps, all, kToLight, OpticalDepthSettings{cutoff}, HitSort::radix, ft);
+            depths->update(*ours, ps, all, kToLight, OpticalDepthSettings{cutoff}, HitSort::adaptive, ft);
             total.push_back(elapsed_ms(t0));
             pass.push_back(ft.od_pass);
             resolve.push_back(ft.resolve);
@@ -633,7 +633,7 @@ void run_optical_depth(const BenchOptions& options) {
                     c[k].ours.emplace(ps, shape, ground_quad(), false);
                     c[k].ours->update(ps, glm::vec3(0.0f, 0.0f, 10.0f));
                 }).median;
-                c[k].depths = std::make_unique<OpticalDepths>(n);
+                c[k].depths = std::make_unique<OpticalPathLengths>(n);
             }
             for (int k = kFirstEmbree; k < kContenders; ++k) {
                 const EmbreeKind kind = kEmbreeKinds[k - kFirstEmbree];
@@ -746,13 +746,13 @@ void run_optical_depth(const BenchOptions& options) {
         if (n == kLargeCount) {
             // Cold: scene (BLAS, instances, TLAS build) + pass + resolve, all threads, sphere stand-ins.
             c.clear();  // free the Embree scenes first
-            OpticalDepths od(n);
+            OpticalPathLengths od(n);
             every_thread.execute([&] {
                 large_ms = time_ms(options.quick ? 1 : options.repeats, [&] {
                     SmokeScene scene(ps, StandInShape{StandInKind::sphere, 0}, ground_quad(), false);
                     scene.update(ps, glm::vec3(0.0f, 0.0f, 10.0f));
                     FrameTimings ft;
-                    od.update(scene, ps, all, kToLight, OpticalDepthSettings{cutoff}, HitSort::radix, ft);
+                    od.update(scene, ps, all, kToLight, OpticalDepthSettings{cutoff}, HitSort::adaptive, ft);
                 }).median;
             });
             const Work w = work_of(od.status(), od.hit_counts());

@@ -133,7 +133,7 @@ void resolve_segmented(std::vector<TaggedHit>& tagged, std::vector<TaggedHit>& s
 
 const char* name_of(HitSort m) {
     switch (m) {
-        case HitSort::radix: return "radix";
+        case HitSort::adaptive: return "adaptive";
         case HitSort::std_sort: return "std_sort";
         case HitSort::bubble: return "bubble";
     }
@@ -158,7 +158,7 @@ void run_resolver(const BenchOptions& options) {
     std::cout << std::setw(6) << "k" << std::setw(10) << "method" << std::setw(14) << "1 thread cpu" << std::setw(10)
               << "ns/hit" << std::setw(10) << all_threads << " threads wall" << std::setw(10) << "ns/hit"
               << "   thesis B.4 (GPU, bubble)\n";
-    const HitSort methods[] = {HitSort::bubble, HitSort::std_sort, HitSort::radix};
+    const HitSort methods[] = {HitSort::bubble, HitSort::std_sort, HitSort::adaptive};
     double radix_ns[2] = {0, 0}, bubble_over_radix_120 = 0;
     for (const std::size_t k : kHitCounts) {
         const HitLists shuffled = synthetic_lists(k, 1000 + k);
@@ -196,7 +196,7 @@ void run_resolver(const BenchOptions& options) {
         }
     }
 
-    // Segmented (one sort over all hits keyed by particle, then t) vs per-particle (HitSort::radix), one thread.
+    // Segmented (one sort over all hits keyed by particle, then t) vs per-particle (HitSort::adaptive), one thread.
     std::cout << "Segmented vs per-particle sorting, 1 thread (ns per hit, CPU time)\n";
     for (const std::size_t k : kHitCounts) {
         const HitLists shuffled = synthetic_lists(k, 2000 + k);
@@ -214,7 +214,7 @@ void run_resolver(const BenchOptions& options) {
             },
             [&](std::size_t v) {
                 if (v == 0) {
-                    one_thread.execute([&] { resolve_optical_path_lengths(work, status, lengths, HitSort::radix); });
+                    one_thread.execute([&] { resolve_optical_path_lengths(work, status, lengths, HitSort::adaptive); });
                 } else {
                     resolve_segmented(tagged, scratch, work, lengths);
                 }
@@ -228,7 +228,7 @@ void run_resolver(const BenchOptions& options) {
 
     // Sort alone, by list length, on the t values of one ray (~96k items per run): insertion sort, rank sort,
     // the radix sort with its automatic digit width (the library's kRadixBucketsPerItem and alternatives),
-    // fixed 8- and 11-bit digits, std::sort, and what the resolver runs (HitSort::radix: with AVX-512 the
+    // fixed 8- and 11-bit digits, std::sort, and what the resolver runs (HitSort::adaptive: with AVX-512 the
     // sorting network up to 64 items). Justifies kRadixSortMinItems, kRadixBucketsPerItem and the network.
     struct Variant {
         std::string name;
@@ -242,11 +242,11 @@ void run_resolver(const BenchOptions& options) {
     variants.push_back({"fixed8", 8, 0});
     variants.push_back({"fixed11", 11, 0});
     variants.push_back({"std_sort", 0, 0});
-    variants.push_back({"resolver", 0, 0});  // sort_hits_by_t(HitSort::radix): the network up to 64 items (AVX-512)
+    variants.push_back({"resolver", 0, 0});  // sort_hits_by_t(HitSort::adaptive): the network up to 64 items (AVX-512)
     const std::size_t kInsertion = 0, kRank = 1, kStdSort = variants.size() - 2, kResolver = variants.size() - 1;
     const std::size_t library_radix = 2 + static_cast<std::size_t>(std::countr_zero(kRadixBucketsPerItem));
     std::cout << "Sort crossover: ns per item, sort only, 1 thread CPU time (auto/B: radix sort, digits with at most "
-                 "B buckets per item; * = the library's; resolver: sort_hits_by_t, HitSort::radix)\n";
+                 "B buckets per item; * = the library's; resolver: sort_hits_by_t, HitSort::adaptive)\n";
     std::cout << std::setw(8) << "items";
     for (const Variant& v : variants) std::cout << std::setw(10) << v.name;
     std::cout << "\n";
@@ -285,7 +285,7 @@ void run_resolver(const BenchOptions& options) {
                     } else if (v == kRank) {
                         rank_sort(list, std::span{scratch}, key);
                     } else if (v == kResolver) {
-                        sort_hits_by_t(list, std::span{scratch}, HitSort::radix);
+                        sort_hits_by_t(list, std::span{scratch}, HitSort::adaptive);
                     } else if (v == kStdSort) {
                         std::sort(list.begin(), list.end(),
                                   [](const SurfaceHit& a, const SurfaceHit& b) { return a.t < b.t; });

@@ -1,5 +1,5 @@
 // Bench section "tlas": the two-level scene's per-frame costs (issue 3).
-//  1. TLAS full build vs refit (Scene::commit) for 1k / 10k / 100k particle instances.
+//  1. TLAS full build vs refit (AccelScene::commit) for 1k / 10k / 100k particle instances.
 //  2. Traversal quality after 100 frames of small random motion (a sweep of step sizes): refit only, the
 //     default rebuild policy, and a fresh build of the final state — TLAS nodes visited per ray and rays
 //     per second. The reported ratios are the worst over the sweep.
@@ -13,7 +13,7 @@
 #include "timing.hpp"
 
 #include <smoketrace/core/prng.hpp>
-#include <smoketrace/accel/scene.hpp>
+#include <smoketrace/accel/accel_scene.hpp>
 #include <smoketrace/smoke/stand_in_shapes.hpp>
 #include <smoketrace/trace/trace.hpp>
 
@@ -65,7 +65,7 @@ Particles make_particles(int n, std::uint64_t seed) {
 }
 
 // A scene of the particles as instances of one bottom level (unit sphere or unit-radius mesh).
-void fill(Scene& s, const BottomLevel& proto, const Particles& p) {
+void fill(AccelScene& s, const BottomLevel& proto, const Particles& p) {
     const auto b = s.add_bottom_level(BottomLevel(proto));
     for (std::size_t i = 0; i < p.centre.size(); ++i)
         s.add_instance(Instance{b, AffineTransform::translate_scale(p.centre[i], p.radius[i]), 0xFF,
@@ -95,7 +95,7 @@ struct TraceCost {
 // Counters per ray (one untimed pass), then rays per second: every scene is timed once per round, in
 // rotating order, and the median over rounds taken, so that the shared machine's slow spells fall on all
 // variants alike and their ratio stays meaningful. At least 5 rounds.
-std::vector<TraceCost> measure(const std::vector<const Scene*>& scenes, const std::vector<Ray>& rays, int repeats) {
+std::vector<TraceCost> measure(const std::vector<const AccelScene*>& scenes, const std::vector<Ray>& rays, int repeats) {
     std::vector<TraceCost> cost(scenes.size());
     const double n = double(rays.size());
     for (std::size_t v = 0; v < scenes.size(); ++v) {
@@ -150,7 +150,7 @@ double build_vs_refit(const BenchOptions& o, Csv& csv) {
     std::cout << "  TLAS commit (ms, median of " << repeats << "): instances  build  refit  speedup\n";
     for (const int n : {1000, 10000, 100000}) {
         const Particles p = make_particles(n, 100 + std::uint64_t(n));
-        Scene s;
+        AccelScene s;
         fill(s, unit_sphere(), p);
         s.set_rebuild_ratio(std::numeric_limits<double>::infinity());  // time the refit itself, never a rebuild
         s.commit();
@@ -194,7 +194,7 @@ MotionResult motion(const BenchOptions& o, Csv& csv, float step) {
     const int n = o.quick ? 10000 : 100000;
     const int ray_count = o.quick ? 10000 : 100000;
     const Particles start = make_particles(n, 200);
-    Scene refit_only, policy;
+    AccelScene refit_only, policy;
     fill(refit_only, unit_sphere(), start);
     fill(policy, unit_sphere(), start);
     refit_only.set_rebuild_ratio(std::numeric_limits<double>::infinity());
@@ -213,7 +213,7 @@ MotionResult motion(const BenchOptions& o, Csv& csv, float step) {
         refit_only.commit();
         policy_rebuilds += policy.commit() == TlasUpdate::rebuild ? 1 : 0;
     }
-    Scene fresh;
+    AccelScene fresh;
     fill(fresh, unit_sphere(), now);
     fresh.commit();
 
@@ -224,7 +224,7 @@ MotionResult motion(const BenchOptions& o, Csv& csv, float step) {
               << ray_count << " optical-depth rays, policy rebuilt " << policy_rebuilds << "x):\n"
               << "    variant      SAH/fresh  TLAS nodes/ray  rays/s\n";
     const std::string experiment = "motion_100_frames_step_" + std::to_string(step).substr(0, 4);
-    auto line = [&](const char* name, const Scene& s, const TraceCost& c) {
+    auto line = [&](const char* name, const AccelScene& s, const TraceCost& c) {
         std::cout << "    " << std::left << std::setw(11) << name << std::right << "  " << std::setw(9)
                   << std::setprecision(4) << s.tlas_sah_cost() / fresh.tlas_sah_cost() << "  " << std::setw(14)
                   << c.tlas_nodes << "  " << std::setprecision(6) << c.rays_per_second << "\n";
@@ -247,7 +247,7 @@ double spheres_vs_icosahedra(const BenchOptions& o, Csv& csv) {
     const int n = o.quick ? 10000 : 100000;
     const int ray_count = o.quick ? 10000 : 100000;
     const Particles p = make_particles(n, 300);
-    Scene spheres, icosahedra;
+    AccelScene spheres, icosahedra;
     fill(spheres, unit_sphere(), p);
     fill(icosahedra, unit_icosahedron(), p);
     spheres.commit();
@@ -275,7 +275,7 @@ double spheres_vs_icosahedra(const BenchOptions& o, Csv& csv) {
     Particles one;
     one.centre.emplace_back(0.0, 0.0, 0.0);
     one.radius.push_back(1.0);
-    Scene s1, i1;
+    AccelScene s1, i1;
     fill(s1, unit_sphere(), one);
     fill(i1, unit_icosahedron(), one);
     s1.commit();

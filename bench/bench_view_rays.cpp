@@ -142,7 +142,7 @@ TriangleMesh ground_mesh(const GroundQuad& g) {
 
 // Our billboards-only scene: exactly what Embree gets (quads and ground), as a two-level scene.
 struct OursBillboards {
-    Scene scene;
+    AccelScene scene;
     OursBillboards(const std::vector<Particle>& ps, const glm::vec3& eye, const GroundQuad& ground) {
         const auto quad = scene.add_bottom_level(BottomLevel::from_mesh(unit_quad(), false));
         for (std::size_t i = 0; i < ps.size(); ++i)
@@ -535,16 +535,16 @@ void run_view_rays(const BenchOptions& options) {
         }
 
         // ---- traversal: closest and layers, 1 thread and all threads ----
-        const Scene& smoke_scene = smoke->scene();
-        const Scene& bb_scene = billboards->scene;
-        auto ours_closest = [](const Scene& s, std::uint8_t mask) {
+        const AccelScene& smoke_scene = smoke->scene();
+        const AccelScene& bb_scene = billboards->scene;
+        auto ours_closest = [](const AccelScene& s, std::uint8_t mask) {
             return [&s, mask](const Ray& r, float& t) {
                 const TraceResult res = trace(s, r, ray_flag_force_opaque, mask);
                 t = res.committed.t;
                 return res.hit;
             };
         };
-        auto ours_layers = [](const Scene& s, std::uint8_t mask) {
+        auto ours_layers = [](const AccelScene& s, std::uint8_t mask) {
             return [&s, mask](const Ray& r, LayerRecord& rec) {
                 const TraceResult res = trace(s, r, ray_flag_none, mask, [&rec](const TraceHit& h) {
                     rec.add(h.t);

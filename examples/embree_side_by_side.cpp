@@ -19,7 +19,7 @@ int main() {
     const Placement placements[] = {{0, 0, 0, 1}, {2.5, 0.5, 0, 0.75}, {-2, 1, 1, 0.5}, {0.5, -2, 0.5, 1.25}};
 
     // smoketrace: the mesh as one bottom level (opaque: closest hits need no any-hit), four instances.
-    Scene scene;
+    AccelScene scene;
     const auto blas = scene.add_bottom_level(BottomLevel::from_mesh(mesh, /*opaque=*/true));
     for (const Placement& p : placements)
         scene.add_instance({blas, AffineTransform::translate_scale({p.x, p.y, p.z}, p.scale)});

@@ -9,7 +9,7 @@
 using namespace smoketrace;
 
 int main() {
-    Scene scene;
+    AccelScene scene;
     const auto ball = scene.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 1}}, /*opaque=*/false));
     for (double x : {0.0, 3.0, 6.0}) scene.add_instance({ball, AffineTransform::translate_scale({x, 0, 0}, 0.5)});
     scene.commit();

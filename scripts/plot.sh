@@ -12,7 +12,7 @@
 #   stages.png    stage times against particle count, all threads, and the total on one thread
 #                 (scaling.csv, section "scaling"; the lines break between the table B.1 counts and
 #                 the large counts, whose scenes differ: radius shrunk, no cutoff)
-#   resolver.png  resolver time per hit against the cutoff for bubble, std::sort and radix
+#   resolver.png  resolver time per hit against the cutoff for bubble, std::sort and the adaptive sort
 #                 (resolver.csv, section "resolver", thesis table B.4)
 #   embree.png    time ours / time Embree 3 for each side-by-side measurement (summary.txt)
 #   grid.png      the reference render, the thesis's configuration, the best configuration and the
@@ -167,7 +167,7 @@ fi
 
 # ---- resolver against the cutoff ----------------------------------------------------------------------
 if have resolver.csv "resolver.png"; then
-  for m in bubble std_sort radix; do
+  for m in bubble std_sort adaptive; do
     pick "$results/resolver.csv" table b4 threads method items_per_list ns_per_item |
       awk -v m="$m" '$1 == 1 && $2 == m { print $3, $4 }' > "$tmp/resolver_$m.dat"
   done
@@ -183,7 +183,7 @@ set format y "%g"
 set xlabel "hits per particle (cutoff k)"
 set ylabel "ns per hit"
 set key top left
-plot for [m in "bubble std_sort radix"] "$tmp/resolver_".m.".dat" using 1:2 with linespoints pt 7 lw 2 title m
+plot for [m in "bubble std_sort adaptive"] "$tmp/resolver_".m.".dat" using 1:2 with linespoints pt 7 lw 2 title m
 EOF
   made+=(resolver.png)
 fi

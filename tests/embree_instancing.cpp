@@ -112,7 +112,7 @@ struct Fixture {
     er::Device device{"threads=1"};
     std::vector<std::unique_ptr<er::Scene>> embree_blas;
     er::InstancedScene embree{device};
-    Scene scene;
+    AccelScene scene;
     std::vector<std::uint32_t> mesh_of;  // per instance
     int mirrored = 0;
 
@@ -205,7 +205,7 @@ struct Hit {
     bool front;
 };
 
-std::vector<Hit> smoketrace_all(const Scene& s, const Ray& ray, std::uint8_t mask) {
+std::vector<Hit> smoketrace_all(const AccelScene& s, const Ray& ray, std::uint8_t mask) {
     std::vector<Hit> hits;
     trace(s, ray, ray_flag_force_non_opaque, mask, [&](const TraceHit& h) {
         hits.push_back({h.t, h.instance_index, h.primitive_index, h.front_face()});

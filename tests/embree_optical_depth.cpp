@@ -19,7 +19,7 @@
 #include "support/embree_reference.hpp"
 
 #include <smoketrace/smoke/optical_depth_pass.hpp>
-#include <smoketrace/smoke/optical_depths.hpp>
+#include <smoketrace/smoke/optical_path_lengths.hpp>
 #include <smoketrace/core/prng.hpp>
 #include <smoketrace/smoke/stand_in_shapes.hpp>
 #include <smoketrace/smoke/tube_generator.hpp>
@@ -204,7 +204,7 @@ Reference embree_reference(const EmbreeStandIns& s, const Particle& p, glm::vec3
     return r;
 }
 
-// Runs the pass (through OpticalDepths: pass + resolve) and the Embree reference on every particle and
+// Runs the pass (through OpticalPathLengths: pass + resolve) and the Embree reference on every particle and
 // requires identical statuses and hit counts and lengths within kLengthTolerance.
 Tally compare_with_embree(const std::vector<Particle>& ps, StandInShape shape, const std::optional<GroundQuad>& ground,
                           glm::vec3 to_light, std::uint32_t cutoff, Layout layout) {
@@ -214,11 +214,11 @@ Tally compare_with_embree(const std::vector<Particle>& ps, StandInShape shape, c
 
     SmokeScene scene(ps, shape, ground, false);
     scene.update(ps, glm::vec3(0.0f, 0.0f, 10.0f));
-    OpticalDepths od(ps.size());
+    OpticalPathLengths od(ps.size());
     std::vector<std::uint32_t> all(ps.size());
     std::iota(all.begin(), all.end(), 0u);
     FrameTimings timings;
-    od.update(scene, ps, all, to_light, OpticalDepthSettings{cutoff}, HitSort::radix, timings);
+    od.update(scene, ps, all, to_light, OpticalDepthSettings{cutoff}, HitSort::adaptive, timings);
 
     Tally tally;
     std::size_t mismatches = 0;

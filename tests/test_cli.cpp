@@ -2,7 +2,7 @@
 #include "support/cli_runner.hpp"
 #include "support/fixtures.hpp"
 
-#include <smoketrace/smoke/optical_depths.hpp>
+#include <smoketrace/smoke/optical_path_lengths.hpp>
 #include <smoketrace/io/scene_file.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>
 
@@ -52,7 +52,7 @@ std::vector<CsvRow> read_depths_csv(const fs::path& path, std::string& header) {
     return rows;
 }
 
-// The library's answer for the same scene and cutoff: OpticalDepths over every particle, as the CLI does.
+// The library's answer for the same scene and cutoff: OpticalPathLengths over every particle, as the CLI does.
 struct Depths {
     std::vector<float> lengths;
     std::vector<DepthStatus> status;
@@ -64,10 +64,10 @@ Depths library_depths(const SceneDescription& desc, std::uint32_t cutoff) {
     if (desc.ground) ground = GroundQuad{desc.ground->corners};
     SmokeScene smoke(desc.smoke.particles, desc.smoke.shape, ground, /*billboards=*/false);
     smoke.update(desc.smoke.particles, desc.camera.position);
-    OpticalDepths depths(desc.smoke.particles.size());
+    OpticalPathLengths depths(desc.smoke.particles.size());
     FrameTimings t;
     depths.update(smoke, desc.smoke.particles, smoketrace::test::all_of(desc.smoke.particles.size()),
-                  desc.light.direction, OpticalDepthSettings{cutoff}, HitSort::radix, t);
+                  desc.light.direction, OpticalDepthSettings{cutoff}, HitSort::adaptive, t);
     return {depths.lengths(), depths.status(), depths.hit_counts()};
 }
 

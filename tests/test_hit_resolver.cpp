@@ -351,13 +351,13 @@ TEST_CASE("sort_hits_by_t orders any list by t and keeps its hits", "[resolver]"
             }
             std::vector<SurfaceHit> expected = input;
             std::sort(expected.begin(), expected.end(), key_then_value);
-            for (const HitSort method : {HitSort::radix, HitSort::std_sort, HitSort::bubble}) {
+            for (const HitSort method : {HitSort::adaptive, HitSort::std_sort, HitSort::bubble}) {
                 INFO(n << " hits, kind " << kind << ", method " << int(method));
                 std::vector<SurfaceHit> hits = input, scratch(n);
                 sort_hits_by_t(hits, scratch, method);
                 // Ascending t; the radix method also puts -0 before +0 (equal as floats).
                 auto before = [&](const SurfaceHit& a, const SurfaceHit& b) {
-                    return method == HitSort::radix ? float_sort_key(a.t) < float_sort_key(b.t) : a.t < b.t;
+                    return method == HitSort::adaptive ? float_sort_key(a.t) < float_sort_key(b.t) : a.t < b.t;
                 };
                 const bool ordered = std::is_sorted(hits.begin(), hits.end(), before);
                 CHECK(ordered);
@@ -491,11 +491,11 @@ TEST_CASE("the three HitSort methods give bit-identical lengths equal to the int
         if (i % 89 == 5) status[i] = DepthStatus::cutoff;
     }
 
-    const std::vector<float> radix = resolve(lists, status, HitSort::radix);
+    const std::vector<float> radix = resolve(lists, status, HitSort::adaptive);
     const std::vector<float> std_sort = resolve(lists, status, HitSort::std_sort);
     const std::vector<float> bubble = resolve(lists, status, HitSort::bubble);
     std::vector<float> radix_one_thread;
-    tbb::task_arena(1).execute([&] { radix_one_thread = resolve(lists, status, HitSort::radix); });
+    tbb::task_arena(1).execute([&] { radix_one_thread = resolve(lists, status, HitSort::adaptive); });
 
     for (std::size_t i = 0; i < kParticles; ++i) {
         INFO("particle " << i << ", " << lists.of(i).size() << " hits");
@@ -523,7 +523,7 @@ TEST_CASE("occluded and cutoff particles are fully dark whatever their hits", "[
     lists.add_particle(std::vector<SurfaceHit>{{3.0f, -1}});
     const std::vector<DepthStatus> status = {DepthStatus::occluded, DepthStatus::cutoff, DepthStatus::ok,
                                              DepthStatus::ok};
-    for (const HitSort method : {HitSort::radix, HitSort::std_sort, HitSort::bubble}) {
+    for (const HitSort method : {HitSort::adaptive, HitSort::std_sort, HitSort::bubble}) {
         const std::vector<float> lengths = resolve(lists, status, method);
         CHECK(lengths[0] == std::numeric_limits<float>::infinity());
         CHECK(lengths[1] == std::numeric_limits<float>::infinity());
@@ -537,14 +537,14 @@ TEST_CASE("resolve_optical_path_lengths sorts each ok list in place and checks i
     lists.add_particle(std::vector<SurfaceHit>{{2.0f, -1}, {0.5f, +1}, {1.0f, -1}});
     std::vector<float> lengths(1);
     const std::vector<DepthStatus> ok = {DepthStatus::ok};
-    resolve_optical_path_lengths(lists, ok, lengths, HitSort::radix);
+    resolve_optical_path_lengths(lists, ok, lengths, HitSort::adaptive);
     CHECK(lists.hits[0].t == 0.5f);
     CHECK(lists.hits[1].t == 1.0f);
     CHECK(lists.hits[2].t == 2.0f);
 
     std::vector<float> too_few;
-    CHECK_THROWS_AS(resolve_optical_path_lengths(lists, ok, too_few, HitSort::radix), std::invalid_argument);
-    CHECK_THROWS_AS(resolve_optical_path_lengths(lists, {}, lengths, HitSort::radix), std::invalid_argument);
+    CHECK_THROWS_AS(resolve_optical_path_lengths(lists, ok, too_few, HitSort::adaptive), std::invalid_argument);
+    CHECK_THROWS_AS(resolve_optical_path_lengths(lists, {}, lengths, HitSort::adaptive), std::invalid_argument);
     lists.hits.pop_back();  // offsets now point past the buffer
-    CHECK_THROWS_AS(resolve_optical_path_lengths(lists, ok, lengths, HitSort::radix), std::invalid_argument);
+    CHECK_THROWS_AS(resolve_optical_path_lengths(lists, ok, lengths, HitSort::adaptive), std::invalid_argument);
 }

@@ -234,8 +234,8 @@ TEST_CASE("hostile scene: a dense scene without a cutoff is refused by the hit b
     // The failed pass holds no rays: nothing stale to gather or resolve.
     CHECK(pass.status().empty());
     std::vector<float> none, all_lengths(ps.size());
-    CHECK_NOTHROW(pass.resolve(HitSort::radix, none));
-    CHECK_THROWS_AS(pass.resolve(HitSort::radix, all_lengths), std::invalid_argument);
+    CHECK_NOTHROW(pass.resolve(HitSort::adaptive, none));
+    CHECK_THROWS_AS(pass.resolve(HitSort::adaptive, all_lengths), std::invalid_argument);
     OpticalDepthHits empty;
     pass.gather(empty);
     CHECK(empty.lists.particle_count() == 0);

@@ -1,4 +1,4 @@
-// The optical-depth pass (thesis 4.3.2) and OpticalDepths (pass + resolve, 4.3.3, with particle groups 4.4.2),
+// The optical-depth pass (thesis 4.3.2) and OpticalPathLengths (pass + resolve, 4.3.3, with particle groups 4.4.2),
 // checked against exact answers computed here in double precision, independently of the code under test:
 //  * sphere stand-ins against the analytic union of spheres (the ray meets sphere i on [t0, t1]; the optical
 //    path length is the length of the union of [max(t0, 0), t1] over all spheres);
@@ -9,7 +9,7 @@
 #include "support/sphere_reference.hpp"
 
 #include <smoketrace/smoke/optical_depth_pass.hpp>
-#include <smoketrace/smoke/optical_depths.hpp>
+#include <smoketrace/smoke/optical_path_lengths.hpp>
 #include <smoketrace/smoke/particle_groups.hpp>
 #include <smoketrace/core/prng.hpp>
 #include <smoketrace/core/radix_sort.hpp>
@@ -67,8 +67,8 @@ struct Depths {
 };
 
 Depths full_update(const SmokeScene& scene, const std::vector<Particle>& ps, glm::vec3 to_light,
-                   std::uint32_t cutoff = 0, HitSort sort = HitSort::radix) {
-    OpticalDepths od(ps.size());
+                   std::uint32_t cutoff = 0, HitSort sort = HitSort::adaptive) {
+    OpticalPathLengths od(ps.size());
     FrameTimings timings;
     od.update(scene, ps, all_of(ps.size()), to_light, OpticalDepthSettings{cutoff}, sort, timings);
     return {od.lengths(), od.status(), od.hit_counts()};
@@ -367,7 +367,7 @@ TEST_CASE("optical depth: particle groups update 1/G of the particles, the other
         }
         CHECK_THROWS_AS(particle_group(10, 0, 0), std::invalid_argument);
     }
-    SECTION("OpticalDepths updates the group and keeps stale values elsewhere") {
+    SECTION("OpticalPathLengths updates the group and keeps stale values elsewhere") {
         const auto ps = tube_particles();
         const SmokeScene scene = make_scene(ps, kIcosahedron);
         const glm::vec3 light_a(0.0f, 1.0f, 0.0f), light_b(1.0f, 0.2f, 0.0f);
@@ -375,7 +375,7 @@ TEST_CASE("optical depth: particle groups update 1/G of the particles, the other
         const Depths full_a = full_update(scene, ps, light_a, cutoff);
         const Depths full_b = full_update(scene, ps, light_b, cutoff);
 
-        OpticalDepths od(ps.size());
+        OpticalPathLengths od(ps.size());
         for (std::size_t i = 0; i < ps.size(); ++i) {  // before any update: fully lit, nothing counted
             REQUIRE(od.lengths()[i] == 0.0f);
             REQUIRE(od.status()[i] == DepthStatus::ok);
@@ -391,7 +391,7 @@ TEST_CASE("optical depth: particle groups update 1/G of the particles, the other
         for (const auto& [group, light] : {std::pair{g0, light_a}, std::pair{g1, light_b}}) {
             FrameTimings timings{-1.0, -1.0, -1.0, -1.0, -1.0};
             StageClock call;
-            od.update(scene, ps, group, light, OpticalDepthSettings{cutoff}, HitSort::radix, timings);
+            od.update(scene, ps, group, light, OpticalDepthSettings{cutoff}, HitSort::adaptive, timings);
             const double call_ms = call.lap_ms();
             CHECK(timings.od_pass >= 0.0);
             CHECK(timings.resolve >= 0.0);
@@ -451,7 +451,7 @@ TEST_CASE("optical depth: radix, std::sort and bubble sort give bit-identical le
         for (std::uint32_t cutoff : {0u, 60u}) {
             for (glm::vec3 light : {glm::vec3(0, 1, 0), glm::vec3(1, 0.3f, 0.2f), glm::vec3(1, 0, 0)}) {
                 INFO(n << " particles, shape " << shape.name() << " cutoff " << cutoff);
-                const Depths radix = full_update(scene, ps, light, cutoff, HitSort::radix);
+                const Depths radix = full_update(scene, ps, light, cutoff, HitSort::adaptive);
                 const Depths stds = full_update(scene, ps, light, cutoff, HitSort::std_sort);
                 const Depths bubble = full_update(scene, ps, light, cutoff, HitSort::bubble);
                 CHECK(same_bits(radix.lengths, stds.lengths));
@@ -470,7 +470,7 @@ TEST_CASE("optical depth: radix, std::sort and bubble sort give bit-identical le
 
 TEST_CASE("optical depth: resolving the kept hits in place gives the bits of gathering them first",
           "[optical-depth]") {
-    // OpticalDepths resolves the hits where the pass kept them (OpticalDepthPass::resolve); run() gathers
+    // OpticalPathLengths resolves the hits where the pass kept them (OpticalDepthPass::resolve); run() gathers
     // them into one buffer for resolve_optical_path_lengths(). Both, for every sort, with a cutoff that
     // cuts some rays off and a quad over part of the smoke that occludes others, for all particles and
     // for a group (every third particle, in reverse order).
@@ -487,7 +487,7 @@ TEST_CASE("optical depth: resolving the kept hits in place gives the bits of gat
     for (StandInShape shape : {kSphere, kIcosahedron}) {
         const SmokeScene scene = make_scene(ps, shape, quad);
         for (const std::uint32_t cutoff : {0u, 40u}) {
-            for (const HitSort sort : {HitSort::radix, HitSort::std_sort, HitSort::bubble}) {
+            for (const HitSort sort : {HitSort::adaptive, HitSort::std_sort, HitSort::bubble}) {
                 for (const std::vector<std::uint32_t>* which : {&all, &group}) {
                     INFO("shape " << shape.name() << ", cutoff " << cutoff << ", sort " << int(sort) << ", "
                                   << which->size() << " particles");
@@ -605,9 +605,9 @@ TEST_CASE("optical depth: empty particle lists", "[optical-depth]") {
         CHECK(out.hit_counts.empty());
         CHECK(out.lists.particle_count() == 0);
         CHECK(out.lists.hit_count() == 0);
-        OpticalDepths od(0);
+        OpticalPathLengths od(0);
         FrameTimings t;
-        od.update(scene, none, {}, {0.0f, 1.0f, 0.0f}, {}, HitSort::radix, t);
+        od.update(scene, none, {}, {0.0f, 1.0f, 0.0f}, {}, HitSort::adaptive, t);
         CHECK(od.lengths().empty());
     }
     // Particles, but an empty group.
@@ -617,8 +617,8 @@ TEST_CASE("optical depth: empty particle lists", "[optical-depth]") {
     OpticalDepthHits out;
     pass.run(scene, ps, {}, {0.0f, 1.0f, 0.0f}, {}, out);
     CHECK(out.lists.particle_count() == 0);
-    OpticalDepths od(ps.size());
+    OpticalPathLengths od(ps.size());
     FrameTimings t;
-    od.update(scene, ps, {}, {0.0f, 1.0f, 0.0f}, {}, HitSort::radix, t);
+    od.update(scene, ps, {}, {0.0f, 1.0f, 0.0f}, {}, HitSort::adaptive, t);
     CHECK(std::all_of(od.lengths().begin(), od.lengths().end(), [](float l) { return l == 0.0f; }));
 }

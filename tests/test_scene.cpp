@@ -1,9 +1,9 @@
-// The two-level Scene: what commit() does per frame (none / refit / rebuild, scene.hpp), the TLAS it
+// The two-level AccelScene: what commit() does per frame (none / refit / rebuild, accel_scene.hpp), the TLAS it
 // leaves behind (exact boxes, node masks = OR of the subtree), and that a refit tree, however degraded
 // by motion, answers every query with exactly the hits a freshly built one gives.
 #include <smoketrace/accel/bvh_builder.hpp>
 #include <smoketrace/core/prng.hpp>
-#include <smoketrace/accel/scene.hpp>
+#include <smoketrace/accel/accel_scene.hpp>
 #include <smoketrace/smoke/stand_in_shapes.hpp>
 #include <smoketrace/trace/trace.hpp>
 
@@ -45,7 +45,7 @@ std::uint8_t random_mask(Pcg32& rng) { return std::uint8_t(1u << (rng.next_u32()
 
 // n instances of three bottom levels (icosphere:1 mesh, non-opaque; a two-sphere set; an opaque
 // icosahedron) at random transforms in [0, extent)³, random one-bit masks.
-void populate(Scene& s, Pcg32& rng, int n, float extent) {
+void populate(AccelScene& s, Pcg32& rng, int n, float extent) {
     const auto mesh = s.add_bottom_level(BottomLevel::from_mesh(make_icosphere(1, 1.0f), false));
     const auto spheres =
         s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 0.8f}, Sphere{{0.5f, 0, 0}, 0.6f}}, false));
@@ -57,7 +57,7 @@ void populate(Scene& s, Pcg32& rng, int n, float extent) {
 }
 
 // Moves every instance by a random step of up to `step` per axis (keeping its linear part).
-void jitter(Scene& s, Pcg32& rng, float step) {
+void jitter(AccelScene& s, Pcg32& rng, float step) {
     for (std::uint32_t i = 0; i < s.instance_count(); ++i) {
         AffineTransform m = s.instance(i).object_to_world;
         m.translation += glm::dvec3(rng.uniform(-step, step), rng.uniform(-step, step), rng.uniform(-step, step));
@@ -76,7 +76,7 @@ Ray random_ray(Pcg32& rng, float extent) {
 // shrinks tmax and hides the non-opaque hits behind it), so only the candidates nearer than the final
 // committed hit are defined (rule 6: tmax never drops below it); `cut` keeps just those.
 using HitKey = std::tuple<float, std::uint32_t, std::uint32_t, int>;
-std::vector<HitKey> all_hits(const Scene& s, const Ray& r, std::uint8_t mask, std::uint32_t flags = ray_flag_none) {
+std::vector<HitKey> all_hits(const AccelScene& s, const Ray& r, std::uint8_t mask, std::uint32_t flags = ray_flag_none) {
     std::vector<HitKey> keys;
     const TraceResult res = trace(s, r, flags, mask, [&](const TraceHit& h) {
         keys.emplace_back(h.t, h.instance_index, h.primitive_index, int(h.kind));
@@ -94,7 +94,7 @@ struct WideCheck {
     std::vector<int> seen;
     int bad_box = 0, bad_mask = 0, bad_unused = 0, nodes = 0;
 };
-void check_wide_node(const Scene& s, std::uint32_t node, WideCheck& c, Aabb& box, std::uint8_t& mask) {
+void check_wide_node(const AccelScene& s, std::uint32_t node, WideCheck& c, Aabb& box, std::uint8_t& mask) {
     const WideBvhNode& n = s.wide_tlas().nodes()[node];
     ++c.nodes;
     for (unsigned i = 0; i < kWideBvhWidth; ++i) {
@@ -123,7 +123,7 @@ void check_wide_node(const Scene& s, std::uint32_t node, WideCheck& c, Aabb& box
         mask |= m;
     }
 }
-void check_wide_tlas(const Scene& s) {
+void check_wide_tlas(const AccelScene& s) {
     WideCheck c;
     c.seen.assign(s.instance_count(), 0);
     if (s.instance_count() == 0) {
@@ -146,7 +146,7 @@ void check_wide_tlas(const Scene& s) {
 // Checks the committed TLAS against its definition: every leaf box is exactly the union of its
 // instances' world boxes, every inner box exactly the union of its children's, every node mask exactly
 // the OR of the masks below it; every instance sits in exactly one leaf.
-void check_tlas_invariants(const Scene& s) {
+void check_tlas_invariants(const AccelScene& s) {
     const Bvh& t = s.tlas();
     REQUIRE(t.nodes.size() == s.tlas_node_masks().size());
     std::vector<int> seen(s.instance_count(), 0);
@@ -176,7 +176,7 @@ void check_tlas_invariants(const Scene& s) {
     check_wide_tlas(s);
 }
 
-std::vector<unsigned char> tlas_bytes(const Scene& s) {
+std::vector<unsigned char> tlas_bytes(const AccelScene& s) {
     const auto& n = s.tlas().nodes;
     std::vector<unsigned char> b(n.size() * sizeof(BvhNode));
     if (!n.empty()) std::memcpy(b.data(), n.data(), b.size());
@@ -187,7 +187,7 @@ std::vector<unsigned char> tlas_bytes(const Scene& s) {
 
 TEST_CASE("scene: commit() does no TLAS work when nothing changed", "[scene]") {
     Pcg32 rng(1);
-    Scene s;
+    AccelScene s;
     populate(s, rng, 200, 30.0f);
     CHECK_FALSE(s.committed());
     CHECK(s.commit() == TlasUpdate::rebuild);
@@ -212,7 +212,7 @@ TEST_CASE("scene: setting every transform to the value it already has is no chan
     // particles), must not pay a TLAS refit for it: "a frame with no transform change does no TLAS
     // work", as set_mask() already treats an unchanged mask.
     Pcg32 rng(12);
-    Scene s;
+    AccelScene s;
     populate(s, rng, 100, 30.0f);
     REQUIRE(s.commit() == TlasUpdate::rebuild);
     for (std::uint32_t i = 0; i < s.instance_count(); ++i) s.set_transform(i, s.instance(i).object_to_world);
@@ -222,7 +222,7 @@ TEST_CASE("scene: setting every transform to the value it already has is no chan
 
 TEST_CASE("scene: transforms and masks refit, adding and removing instances rebuild", "[scene]") {
     Pcg32 rng(2);
-    Scene s;
+    AccelScene s;
     populate(s, rng, 100, 30.0f);
     REQUIRE(s.commit() == TlasUpdate::rebuild);
     const std::vector<std::uint32_t> order = s.tlas().prim_indices;
@@ -258,7 +258,7 @@ TEST_CASE("scene: transforms and masks refit, adding and removing instances rebu
 
 TEST_CASE("scene: removing an instance removes its geometry and renumbers the later ones", "[scene]") {
     // Three unit spheres on the z axis at z = 0, 3, 6, user ids 10, 11, 12.
-    Scene s;
+    AccelScene s;
     const auto b = s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 1.0f}}, true));
     for (std::uint32_t i = 0; i < 3; ++i)
         s.add_instance(Instance{b, AffineTransform::translate_scale({0, 0, 3.0 * i}, 1.0), 0xFF, 10 + i, 0});
@@ -287,7 +287,7 @@ TEST_CASE("scene: removing a world-triangles instance keeps the others' triangle
     TriangleMesh quad;
     quad.vertices = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
     quad.triangles = {{0, 1, 2}, {0, 2, 3}};
-    Scene s;
+    AccelScene s;
     const auto b = s.add_bottom_level(BottomLevel::from_mesh(quad, false));
     for (std::uint32_t i = 0; i < 3; ++i)
         s.add_instance(Instance{b, AffineTransform::translate_scale({0, 0, 3.0 * i}, 1.0), 0xFF, 20 + i, 0});
@@ -306,7 +306,7 @@ TEST_CASE("scene: removing a world-triangles instance keeps the others' triangle
 }
 
 TEST_CASE("scene: a scene with every instance removed traces as empty", "[scene]") {
-    Scene s;
+    AccelScene s;
     const auto b = s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 1.0f}}, true));
     s.add_instance(Instance{b, {}, 0xFF, 0, 0});
     s.commit();
@@ -318,7 +318,7 @@ TEST_CASE("scene: a scene with every instance removed traces as empty", "[scene]
 }
 
 TEST_CASE("scene: a singular instance transform is rejected", "[scene]") {
-    Scene s;
+    AccelScene s;
     const auto b = s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 1.0f}}, true));
     AffineTransform flat;
     flat.linear[2][2] = 0.0;  // squashes z
@@ -328,7 +328,7 @@ TEST_CASE("scene: a singular instance transform is rejected", "[scene]") {
 
 TEST_CASE("scene: node masks are the OR of the subtree after build, refit and mask changes", "[scene]") {
     Pcg32 rng(3);
-    Scene s;
+    AccelScene s;
     populate(s, rng, 500, 40.0f);
     s.commit();
     check_tlas_invariants(s);
@@ -356,7 +356,7 @@ TEST_CASE("scene: the rebuild policy rebuilds exactly when the refit SAH passes 
     // the tree a few percent per frame, so the ratio creeps up to the threshold and the decision is
     // tested right at it; occasional teleports of many instances degrade it at once.
     Pcg32 rng(5);
-    Scene s;
+    AccelScene s;
     populate(s, rng, 2000, 50.0f);
     REQUIRE(s.commit() == TlasUpdate::rebuild);
     int refits = 0, rebuilds = 0;
@@ -385,7 +385,7 @@ TEST_CASE("scene: the rebuild policy rebuilds exactly when the refit SAH passes 
         CHECK(u == (expect_rebuild ? TlasUpdate::rebuild : TlasUpdate::refit));
         if (u == TlasUpdate::rebuild) {
             ++rebuilds;
-            // A rebuild is a fresh SAH build of the current boxes, grouped by instance mask as Scene
+            // A rebuild is a fresh SAH build of the current boxes, grouped by instance mask as AccelScene
             // builds its TLAS, and becomes the new reference.
             std::vector<std::uint32_t> masks(s.instance_count());
             for (std::uint32_t i = 0; i < s.instance_count(); ++i) masks[i] = s.instance(i).mask;
@@ -411,7 +411,7 @@ TEST_CASE("scene: the rebuild policy rebuilds exactly when the refit SAH passes 
 
 TEST_CASE("scene: set_rebuild_ratio(infinity) refits however degraded the tree", "[scene]") {
     Pcg32 rng(6);
-    Scene s;
+    AccelScene s;
     populate(s, rng, 1000, 50.0f);
     s.set_rebuild_ratio(std::numeric_limits<double>::infinity());
     REQUIRE(s.commit() == TlasUpdate::rebuild);
@@ -441,7 +441,7 @@ TEST_CASE("scene: after many random frames a refit TLAS returns exactly the hits
     constexpr int kInstances = 600, kFrames = 100, kRays = 400;
     constexpr float kExtent = 20.0f;
     Pcg32 setup(7);
-    Scene refit_only, policy;
+    AccelScene refit_only, policy;
     {
         Pcg32 a = setup, b = setup;
         populate(refit_only, a, kInstances, kExtent);
@@ -472,7 +472,7 @@ TEST_CASE("scene: after many random frames a refit TLAS returns exactly the hits
         CHECK(refit_only.commit() == TlasUpdate::refit);
         policy_rebuilds += policy.commit() == TlasUpdate::rebuild ? 1 : 0;
     }
-    Scene fresh;
+    AccelScene fresh;
     {
         Pcg32 c = setup;
         populate(fresh, c, kInstances, kExtent);

@@ -99,7 +99,7 @@ RefAnswer reference(const RefSphere& s, const Ray& ray) {
 }
 
 // All hits of the ray, every sphere forced non-opaque and ignored by any-hit.
-std::vector<TraceHit> all_hits(const Scene& s, const Ray& r) {
+std::vector<TraceHit> all_hits(const AccelScene& s, const Ray& r) {
     std::vector<TraceHit> hits;
     trace(s, r, ray_flag_force_non_opaque, 0xFF, [&](const TraceHit& h) {
         hits.push_back(h);
@@ -112,7 +112,7 @@ std::vector<TraceHit> all_hits(const Scene& s, const Ray& r) {
 // (front face) iff the entry lies in [tmin, tmax] and its exit (back face) iff the exit does, each
 // within its tolerance; a must_miss sphere reports nothing; an `either` sphere is not checked, nor is a
 // root within its tolerance of tmin/tmax. Returns the number of roots checked.
-int compare(const Scene& scene, const std::vector<RefSphere>& spheres, const Ray& ray) {
+int compare(const AccelScene& scene, const std::vector<RefSphere>& spheres, const Ray& ray) {
     const std::vector<TraceHit> hits = all_hits(scene, ray);
     int checked = 0;
     for (const RefSphere& s : spheres) {
@@ -155,7 +155,7 @@ int compare(const Scene& scene, const std::vector<RefSphere>& spheres, const Ray
 
 // A one-sphere-BLAS scene: sphere (c, r) placed by `m`; returns the world-space reference sphere.
 struct OneSphere {
-    Scene scene;
+    AccelScene scene;
     RefSphere ref;
 };
 OneSphere one_sphere(glm::vec3 c, float r, const AffineTransform& m = {}) {
@@ -355,7 +355,7 @@ TEST_CASE("spheres: a sphere set against the analytic answer, rays from inside a
     std::vector<Sphere> set;
     for (int i = 0; i < 300; ++i)
         set.push_back(Sphere{{rng.uniform(0, 20), rng.uniform(0, 20), rng.uniform(0, 20)}, rng.uniform(0.05f, 2.0f)});
-    Scene scene;
+    AccelScene scene;
     const auto b = scene.add_bottom_level(BottomLevel::from_spheres(set, true));
     const AffineTransform moved = AffineTransform::translate_scale({1000.0, -1000.0, 500.0}, 2.5);
     scene.add_instance(Instance{b, {}, 0xFF, 0, 0});
@@ -454,7 +454,7 @@ struct Listing {
     std::vector<TraceHit> hits;
     TraceCounters counters;
 };
-Listing listing(const Scene& s, const Ray& r) {
+Listing listing(const AccelScene& s, const Ray& r) {
     Listing l;
     l.counters = trace(s, r, ray_flag_force_non_opaque, 0xFF, [&](const TraceHit& h) {
         l.hits.push_back(h);
@@ -479,7 +479,7 @@ TEST_CASE("spheres: the world-sphere fast path agrees with the object-space path
     Pcg32 rng(61);
     int compared_hits = 0, compared_rays = 0, committed_compared = 0, near_tangent = 0;
     for (const glm::dvec3 base : {glm::dvec3(0.0), glm::dvec3(3e4, -1e4, 2e4)}) {
-        Scene fast, general;
+        AccelScene fast, general;
         struct World {
             Ld3 centre;
             long double radius;
@@ -620,7 +620,7 @@ TEST_CASE("spheres: a single sphere under a non-similarity transform (an ellipso
     Pcg32 rng(62);
     const glm::dmat3 rot = random_rotation(rng, false), mirrored = random_rotation(rng, true);
     auto takes_fast_path = [&](const glm::dmat3& linear, std::vector<Sphere> spheres = {}) {
-        Scene s;
+        AccelScene s;
         const auto b = s.add_bottom_level(BottomLevel::from_spheres(spheres.empty() ? std::vector<Sphere>{sp} : spheres, true));
         s.add_instance(Instance{b, AffineTransform{linear, glm::dvec3(1, 2, 3)}, 0xFF, 0, 0});
         return s.record(0).path == InstancePath::world_sphere;
@@ -632,7 +632,7 @@ TEST_CASE("spheres: a single sphere under a non-similarity transform (an ellipso
     CHECK_FALSE(takes_fast_path(glm::dmat3(glm::dvec3(1, 0, 0), glm::dvec3(1e-6, 1, 0), glm::dvec3(0, 0, 1))));  // shear
     CHECK_FALSE(takes_fast_path(2.0 * rot, {sp, Sphere{{5, 5, 5}, 1.0f}}));                                      // two spheres
     {
-        Scene s;  // a mesh never does (this one takes the world-triangles path)
+        AccelScene s;  // a mesh never does (this one takes the world-triangles path)
         TriangleMesh m;
         m.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
         m.triangles = {{0, 1, 2}};
@@ -654,7 +654,7 @@ TEST_CASE("spheres: a single sphere under a non-similarity transform (an ellipso
             AffineTransform m;
             m.linear = random_rotation(rng, mirror) * scale;
             m.translation = glm::dvec3(rng.uniform(-10, 10), rng.uniform(-10, 10), rng.uniform(-10, 10));
-            Scene s;
+            AccelScene s;
             s.add_instance(Instance{s.add_bottom_level(BottomLevel::from_spheres({sp}, false)), m, 0xFF, 7, 0});
             s.commit();
             REQUIRE(s.record(0).path == InstancePath::object_space);

@@ -76,7 +76,7 @@ Traced trace_all(const std::vector<Particle>& ps, StandInShape shape, glm::vec3 
     t.hit_counts = hits.hit_counts;
     t.lists = std::move(hits.lists);
     t.lengths.resize(ps.size());
-    resolve_optical_path_lengths(t.lists, t.status, t.lengths, HitSort::radix);  // also sorts each list
+    resolve_optical_path_lengths(t.lists, t.status, t.lengths, HitSort::adaptive);  // also sorts each list
     return t;
 }
 
@@ -340,7 +340,7 @@ void require_finite_image(const ImageRgba& img, float bound) {
 }
 
 // Lengths are finite and >= 0 where the status is ok, +inf (documented "fully dark") otherwise.
-void require_documented_lengths(const OpticalDepths& d) {
+void require_documented_lengths(const OpticalPathLengths& d) {
     for (std::size_t i = 0; i < d.lengths().size(); ++i) {
         INFO("particle " << i << " l = " << d.lengths()[i]);
         if (d.status()[i] == DepthStatus::ok) {

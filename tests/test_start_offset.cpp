@@ -7,7 +7,7 @@
 #include "support/sphere_reference.hpp"
 
 #include <smoketrace/smoke/optical_depth_pass.hpp>
-#include <smoketrace/smoke/optical_depths.hpp>
+#include <smoketrace/smoke/optical_path_lengths.hpp>
 #include <smoketrace/core/prng.hpp>
 #include <smoketrace/smoke/stand_in_shapes.hpp>
 #include <smoketrace/trace/trace.hpp>
@@ -39,14 +39,14 @@ struct Depths {
     std::vector<std::uint32_t> hit_counts;
 };
 
-// The pass and the resolve (OpticalDepths), every particle, no cutoff.
+// The pass and the resolve (OpticalPathLengths), every particle, no cutoff.
 Depths trace_all(const std::vector<Particle>& ps, StandInShape shape, glm::vec3 to_light,
                  const std::optional<GroundQuad>& ground = {}) {
     SmokeScene scene(ps, shape, ground, false);
     scene.update(ps, glm::vec3(0.0f, 0.0f, 10.0f));
-    OpticalDepths od(ps.size());
+    OpticalPathLengths od(ps.size());
     FrameTimings timings;
-    od.update(scene, ps, all_of(ps.size()), to_light, OpticalDepthSettings{}, HitSort::radix, timings);
+    od.update(scene, ps, all_of(ps.size()), to_light, OpticalDepthSettings{}, HitSort::adaptive, timings);
     return {od.lengths(), od.status(), od.hit_counts()};
 }
 

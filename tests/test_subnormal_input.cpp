@@ -7,7 +7,7 @@
 
 #include <smoketrace/render/camera.hpp>
 #include <smoketrace/render/frame_renderer.hpp>
-#include <smoketrace/smoke/optical_depths.hpp>
+#include <smoketrace/smoke/optical_path_lengths.hpp>
 #include <smoketrace/io/scene_file.hpp>
 #include <smoketrace/render/sixway_texture.hpp>
 #include <smoketrace/io/sixway_files.hpp>
@@ -254,13 +254,13 @@ TEST_CASE("subnormal inputs: optical depths and frames stay exact and finite", "
         if (s.ground) ground = GroundQuad{s.ground->corners};
         SmokeScene scene(s.smoke.particles, s.smoke.shape, ground, false);
         scene.update(s.smoke.particles, s.camera.position);
-        OpticalDepths od(s.smoke.particles.size());
+        OpticalPathLengths od(s.smoke.particles.size());
         FrameTimings timings;
         od.update(scene, s.smoke.particles, test::all_of(s.smoke.particles.size()), s.light.direction,
-                  OpticalDepthSettings{}, HitSort::radix, timings);
+                  OpticalDepthSettings{}, HitSort::adaptive, timings);
         return od;
     };
-    const OpticalDepths da = depths(a), db = depths(b);
+    const OpticalPathLengths da = depths(a), db = depths(b);
     for (std::size_t i = 0; i < a.smoke.particles.size(); ++i) {
         INFO("particle " << i << ": " << da.lengths()[i] << " vs " << db.lengths()[i]);
         CHECK(da.status()[i] == db.status()[i]);
@@ -336,10 +336,10 @@ TEST_CASE("particles a few subnormal steps apart: the acceleration structure and
     for (const StandInShape shape : shapes) {
         SmokeScene scene(ps, shape, std::nullopt, false);
         scene.update(ps, glm::vec3(0.0f, 0.0f, 1.0f));
-        OpticalDepths od(ps.size());
+        OpticalPathLengths od(ps.size());
         FrameTimings timings;
         od.update(scene, ps, test::all_of(ps.size()), glm::vec3(1.0f, 0.0f, 0.0f), OpticalDepthSettings{},
-                  HitSort::radix, timings);
+                  HitSort::adaptive, timings);
         for (std::size_t k = 0; k < ps.size(); ++k) {
             INFO(shape.name() << ", particle " << k);
             REQUIRE(od.status()[k] == DepthStatus::ok);

@@ -53,9 +53,9 @@ Instance instance_of(std::uint32_t blas, AffineTransform m = {}, std::uint8_t ma
 }
 
 // One quad BLAS at z = 0, instanced once per z in `zs` (instance i at zs[i], user id 100 + i).
-Scene stacked_quads(const std::vector<float>& zs, bool opaque, std::uint8_t flags = instance_flag_none,
+AccelScene stacked_quads(const std::vector<float>& zs, bool opaque, std::uint8_t flags = instance_flag_none,
                     InstancePaths paths = InstancePaths::fastest) {
-    Scene s(paths);
+    AccelScene s(paths);
     const auto b = s.add_bottom_level(BottomLevel::from_mesh(quad(0.0f), opaque));
     for (std::size_t i = 0; i < zs.size(); ++i)
         s.add_instance(instance_of(b, translation({0, 0, zs[i]}), 0xFF, 100 + std::uint32_t(i), flags));
@@ -74,7 +74,7 @@ struct AllHits {
     std::vector<TraceHit> hits;
     TraceResult result;
 };
-AllHits all_hits(const Scene& s, const Ray& r, std::uint32_t flags = ray_flag_none, std::uint8_t mask = 0xFF,
+AllHits all_hits(const AccelScene& s, const Ray& r, std::uint32_t flags = ray_flag_none, std::uint8_t mask = 0xFF,
                  const TraceLimits& limits = {}, TlasWalk walk = TlasWalk::nearest_first) {
     AllHits a;
     auto record = [&](const TraceHit& h) {
@@ -98,11 +98,11 @@ std::vector<float> ts_of(const std::vector<TraceHit>& hits) {
 // (t = 0.5 against 4.5) and lies higher along z (centre 5.25 against 5), the two orders a traversal may
 // follow (wide_bvh_traversal.hpp). For the down ray, A's hit (t = 9) is therefore the first candidate,
 // B's (t = 5) the nearer one. (Checked in the tests that rely on it: with plain accept, two commits happen.)
-Scene far_first_scene(bool opaque) {
+AccelScene far_first_scene(bool opaque) {
     TriangleMesh a = quad(1.0f, 4.0f);
     a.vertices.insert(a.vertices.end(), {{3.5f, 3.5f, 9.5f}, {3.9f, 3.5f, 9.5f}, {3.5f, 3.9f, 9.5f}});
     a.triangles.push_back({4, 5, 6});
-    Scene s;
+    AccelScene s;
     s.add_instance(instance_of(s.add_bottom_level(BottomLevel::from_mesh(a, opaque))));
     s.add_instance(instance_of(s.add_bottom_level(BottomLevel::from_mesh(quad(5.0f, 0.5f), opaque))));
     s.commit();
@@ -116,7 +116,7 @@ Scene far_first_scene(bool opaque) {
 
 TEST_CASE("trace: opaque hits commit without any-hit, non-opaque hits call it once", "[trace]") {
     for (const bool opaque : {true, false}) {
-        const Scene s = stacked_quads({4.0f}, opaque);
+        const AccelScene s = stacked_quads({4.0f}, opaque);
         int calls = 0;
         const TraceResult r = trace(s, down_ray(), ray_flag_none, 0xFF, [&](const TraceHit&) {
             ++calls;
@@ -147,7 +147,7 @@ TEST_CASE("trace: opacity = geometry, overridden by instance force flags, overri
                 if (rf == ray_flag_force_opaque) expected = true;
                 if (rf == ray_flag_force_non_opaque) expected = false;
                 CAPTURE(geometry_opaque, int(inst), rf, expected);
-                const Scene s = stacked_quads({4.0f}, geometry_opaque, inst);
+                const AccelScene s = stacked_quads({4.0f}, geometry_opaque, inst);
 
                 const AllHits plain = all_hits(s, down_ray(), rf);
                 CHECK(plain.result.counters.any_hit_invocations == (expected ? 0u : 1u));
@@ -167,7 +167,7 @@ TEST_CASE("trace: opacity = geometry, overridden by instance force flags, overri
 
 TEST_CASE("trace: CULL_OPAQUE and CULL_NON_OPAQUE act per instance in a mixed scene", "[trace]") {
     // Opaque quad at z = 4 (t = 6) in front of a non-opaque one at z = 2 (t = 8).
-    Scene s;
+    AccelScene s;
     const auto o = s.add_bottom_level(BottomLevel::from_mesh(quad(0.0f), true));
     const auto n = s.add_bottom_level(BottomLevel::from_mesh(quad(0.0f), false));
     s.add_instance(instance_of(o, translation({0, 0, 4})));
@@ -197,7 +197,7 @@ TEST_CASE("trace: CULL_OPAQUE and CULL_NON_OPAQUE act per instance in a mixed sc
 TEST_CASE("trace: CULL_BACK / CULL_FRONT skip triangle hits of that facing", "[trace]") {
     // A quad takes the world-triangles path unless the scene is told object space only: rule 4 on both.
     const InstancePaths paths = GENERATE(InstancePaths::fastest, InstancePaths::object_space_only);
-    const Scene s = stacked_quads({0.0f}, true, instance_flag_none, paths);
+    const AccelScene s = stacked_quads({0.0f}, true, instance_flag_none, paths);
     REQUIRE((s.record(0).path == InstancePath::world_triangles) == (paths == InstancePaths::fastest));
     // From above the quad shows its front face, from below its back face.
     const TraceResult down = trace(s, down_ray(), ray_flag_none, 0xFF);
@@ -213,7 +213,7 @@ TEST_CASE("trace: CULL_BACK / CULL_FRONT skip triangle hits of that facing", "[t
     CHECK(trace(s, up_ray(), ray_flag_cull_front_facing_triangles, 0xFF).hit);
 
     // A culled hit is never a candidate either: no any-hit call for it.
-    const Scene t = stacked_quads({0.0f}, false, instance_flag_none, paths);
+    const AccelScene t = stacked_quads({0.0f}, false, instance_flag_none, paths);
     CHECK(all_hits(t, up_ray(), ray_flag_cull_back_facing_triangles).result.counters.any_hit_invocations == 0);
     CHECK(all_hits(t, down_ray(), ray_flag_cull_back_facing_triangles).result.counters.any_hit_invocations == 1);
 }
@@ -223,7 +223,7 @@ TEST_CASE("trace: a culled nearer face does not hide the farther one", "[trace]"
     // Down ray meets the back of z = 2 at t = 8, then the front of z = 0 at t = 10.
     // A quad takes the world-triangles path unless the scene is told object space only: rule 4 on both.
     const InstancePaths paths = GENERATE(InstancePaths::fastest, InstancePaths::object_space_only);
-    Scene s(paths);
+    AccelScene s(paths);
     TriangleMesh flipped = quad(0.0f);
     for (auto& tri : flipped.triangles) std::swap(tri.y, tri.z);
     const auto up_facing = s.add_bottom_level(BottomLevel::from_mesh(quad(0.0f), true));
@@ -245,7 +245,7 @@ TEST_CASE("trace: TRIANGLE_CULL_DISABLE exempts only the flagged instance from f
     // Two quads seen from below (back faces): z = 0 flagged, z = 2 not.
     // A quad takes the world-triangles path unless the scene is told object space only: rule 4 on both.
     const InstancePaths paths = GENERATE(InstancePaths::fastest, InstancePaths::object_space_only);
-    Scene s(paths);
+    AccelScene s(paths);
     const auto b = s.add_bottom_level(BottomLevel::from_mesh(quad(0.0f), false));
     s.add_instance(instance_of(b, translation({0, 0, 0}), 0xFF, 0, instance_flag_triangle_cull_disable));
     s.add_instance(instance_of(b, translation({0, 0, 2}), 0xFF, 1, instance_flag_none));
@@ -263,7 +263,7 @@ TEST_CASE("trace: TRIANGLE_CULL_DISABLE exempts only the flagged instance from f
 TEST_CASE("trace: TRIANGLE_FRONT_CLOCKWISE reverses which face is the front", "[trace]") {
     // A quad takes the world-triangles path unless the scene is told object space only: rule 4 on both.
     const InstancePaths paths = GENERATE(InstancePaths::fastest, InstancePaths::object_space_only);
-    const Scene s = stacked_quads({0.0f}, true, instance_flag_triangle_front_clockwise, paths);
+    const AccelScene s = stacked_quads({0.0f}, true, instance_flag_triangle_front_clockwise, paths);
     const TraceResult down = trace(s, down_ray(), ray_flag_none, 0xFF);
     const TraceResult up = trace(s, up_ray(), ray_flag_none, 0xFF);
     REQUIRE(down.hit);
@@ -282,7 +282,7 @@ TEST_CASE("trace: facing culls and the winding flag never apply to spheres", "[t
     // at t = 10 + √0.87.
     for (const std::uint8_t inst_flags :
          {std::uint8_t(instance_flag_none), std::uint8_t(instance_flag_triangle_front_clockwise)}) {
-        Scene s;
+        AccelScene s;
         const auto b = s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 1.0f}}, false));
         s.add_instance(instance_of(b, {}, 0xFF, 0, inst_flags));
         s.commit();
@@ -327,7 +327,7 @@ TEST_CASE("trace: mirroring (negative determinant) transforms keep face sides", 
         const double det = m.determinant();
         CAPTURE(det);
 
-        Scene s;
+        AccelScene s;
         const auto tri = s.add_bottom_level(BottomLevel::from_mesh(mesh, false));
         const auto sph = s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 1.0f}}, false));
         const auto tet = s.add_bottom_level(BottomLevel::from_mesh(tetra, false));
@@ -379,7 +379,7 @@ TEST_CASE("trace: mirroring (negative determinant) transforms keep face sides", 
 
 TEST_CASE("trace: an instance is visible iff InstanceMask & InclusionMask != 0", "[trace]") {
     // Eight non-opaque quads on the ray, instance i has mask bit i only; every inclusion mask 0…255.
-    Scene s;
+    AccelScene s;
     const auto b = s.add_bottom_level(BottomLevel::from_mesh(quad(0.0f), false));
     for (std::uint32_t i = 0; i < 8; ++i)
         s.add_instance(instance_of(b, translation({0, 0, double(i)}), std::uint8_t(1u << i), i));
@@ -399,7 +399,7 @@ TEST_CASE("trace: an instance is visible iff InstanceMask & InclusionMask != 0",
 }
 
 TEST_CASE("trace: a ray whose mask excludes every instance visits no TLAS node and enters no instance", "[trace]") {
-    Scene s;
+    AccelScene s;
     const auto b = s.add_bottom_level(BottomLevel::from_mesh(quad(0.0f), true));
     for (std::uint32_t i = 0; i < 64; ++i)
         s.add_instance(instance_of(b, translation({double(i % 4), double(i / 4 % 4), double(i / 16)}),
@@ -429,7 +429,7 @@ struct ExpectedVisits {
     std::uint32_t nodes = 0;
     std::uint32_t instances = 0;
 };
-void count_binary(const Scene& s, const BoxRay& r, float tmax, std::uint8_t incl, std::uint32_t node,
+void count_binary(const AccelScene& s, const BoxRay& r, float tmax, std::uint8_t incl, std::uint32_t node,
                   ExpectedVisits& out) {
     if ((s.tlas_node_masks()[node] & incl) == 0) return;
     const BvhNode& n = s.tlas().nodes[node];
@@ -444,7 +444,7 @@ void count_binary(const Scene& s, const BoxRay& r, float tmax, std::uint8_t incl
     count_binary(s, r, tmax, incl, n.first, out);
     count_binary(s, r, tmax, incl, n.first + 1, out);
 }
-void count_wide(const Scene& s, const BoxRay& r, float tmax, std::uint8_t incl, std::uint32_t node,
+void count_wide(const AccelScene& s, const BoxRay& r, float tmax, std::uint8_t incl, std::uint32_t node,
                 ExpectedVisits& out) {
     const WideBvhNode& n = s.wide_tlas().nodes()[node];
     ++out.nodes;
@@ -464,7 +464,7 @@ void count_wide(const Scene& s, const BoxRay& r, float tmax, std::uint8_t incl, 
             if (s.instance(s.tlas().prim_indices[k]).mask & incl) ++out.instances;
     }
 }
-ExpectedVisits count_visits(const Scene& s, const BoxRay& r, float tmax, std::uint8_t incl, TlasWalk walk) {
+ExpectedVisits count_visits(const AccelScene& s, const BoxRay& r, float tmax, std::uint8_t incl, TlasWalk walk) {
     ExpectedVisits out;
     if (walk == TlasWalk::nearest_first) count_binary(s, r, tmax, incl, 0, out);
     else if (!s.wide_tlas().empty() && (s.wide_tlas().root_mask() & incl) != 0) count_wide(s, r, tmax, incl, 0, out);
@@ -475,7 +475,7 @@ ExpectedVisits count_visits(const Scene& s, const BoxRay& r, float tmax, std::ui
 TEST_CASE("trace: node masks prune subtrees whose instances the inclusion mask excludes", "[trace]") {
     // Two interleaved populations along x: mask 0x01 instances at even x, 0x02 at odd x; a few blocks
     // of each so that whole TLAS subtrees hold one population only. The ray runs along x through all.
-    Scene s;
+    AccelScene s;
     const auto b = s.add_bottom_level(BottomLevel::from_mesh(quad(0.0f, 0.4f), false));
     for (int block = 0; block < 8; ++block)
         for (int i = 0; i < 16; ++i) {
@@ -508,7 +508,7 @@ TEST_CASE("trace: node masks prune subtrees whose instances the inclusion mask e
 // Rule 6: the any-hit decisions; candidates only in [tmin, committed tmax].
 
 TEST_CASE("trace: any-hit ignore commits nothing and keeps tmax", "[trace]") {
-    const Scene s = stacked_quads(layers(6), false);
+    const AccelScene s = stacked_quads(layers(6), false);
     const AllHits a = all_hits(s, down_ray());
     CHECK_FALSE(a.result.hit);
     CHECK(a.result.counters.hits_accepted == 0);
@@ -527,7 +527,7 @@ TEST_CASE("trace: any-hit ignore commits nothing and keeps tmax", "[trace]") {
 }
 
 TEST_CASE("trace: any-hit accept commits the closest accepted candidate", "[trace]") {
-    const Scene s = stacked_quads(layers(6), false);
+    const AccelScene s = stacked_quads(layers(6), false);
     for (const Ray& ray : {down_ray(), up_ray()}) {
         const TraceResult r = trace(s, ray, ray_flag_none, 0xFF);  // AcceptAll
         REQUIRE(r.hit);
@@ -545,7 +545,7 @@ TEST_CASE("trace: any-hit accept commits the closest accepted candidate", "[trac
 TEST_CASE("trace: any-hit accept_and_end commits that candidate and ends the search", "[trace]") {
     // The far-first scene: the first candidate offered is the FARTHER surface (t = 9), so only ending the
     // search stops the nearer one (t = 5) from being offered after it.
-    const Scene s = far_first_scene(false);
+    const AccelScene s = far_first_scene(false);
     int calls = 0;
     float first_t = 0.0f;
     const TraceResult r = trace(s, down_ray(), ray_flag_none, 0xFF, [&](const TraceHit& h) {
@@ -569,7 +569,7 @@ TEST_CASE("trace: any-hit accept_and_end commits that candidate and ends the sea
     CHECK(all.committed.t == 5.0f);
 
     // Ignore the first two candidates, then accept_and_end: exactly three calls, the third committed.
-    const Scene layered = stacked_quads(layers(6), false);
+    const AccelScene layered = stacked_quads(layers(6), false);
     int n = 0;
     float third_t = 0.0f;
     const TraceResult r3 = trace(layered, down_ray(), ray_flag_none, 0xFF, [&](const TraceHit& h) {
@@ -595,7 +595,7 @@ TEST_CASE("trace: any-hit sees candidates only in [tmin, current committed tmax]
         m.vertices.insert(m.vertices.end(), q.vertices.begin(), q.vertices.end());
         for (auto t : q.triangles) m.triangles.push_back(t + glm::uvec3(base));
     }
-    Scene s;
+    AccelScene s;
     s.add_instance(instance_of(s.add_bottom_level(BottomLevel::from_mesh(m, false))));
     s.commit();
     for (const Ray& ray : {down_ray(0.5f, 100.0f), up_ray(0.5f, 100.0f)}) {
@@ -616,7 +616,7 @@ TEST_CASE("trace: any-hit sees candidates only in [tmin, current committed tmax]
     }
     // A sphere reports two candidates; once its entry is accepted the exit lies beyond the committed
     // tmax and must not be offered.
-    Scene sph;
+    AccelScene sph;
     sph.add_instance(instance_of(sph.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 2.0f}}, false))));
     sph.commit();
     std::vector<float> offered;
@@ -637,7 +637,7 @@ TEST_CASE("trace: any-hit sees candidates only in [tmin, current committed tmax]
 
 TEST_CASE("trace: [tmin, tmax] is closed at both ends, exactly", "[trace]") {
     for (const bool opaque : {true, false}) {
-        const Scene s = stacked_quads({4.0f}, opaque);  // the down ray meets it at t = 6 exactly
+        const AccelScene s = stacked_quads({4.0f}, opaque);  // the down ray meets it at t = 6 exactly
         CHECK(all_hits(s, down_ray(0.0f, 6.0f)).hits.size() == (opaque ? 0u : 1u));
         CHECK(trace(s, down_ray(0.0f, 6.0f), ray_flag_none, 0xFF).hit);
         CHECK_FALSE(trace(s, down_ray(0.0f, std::nextafter(6.0f, 0.0f)), ray_flag_none, 0xFF).hit);
@@ -645,7 +645,7 @@ TEST_CASE("trace: [tmin, tmax] is closed at both ends, exactly", "[trace]") {
         CHECK_FALSE(trace(s, down_ray(std::nextafter(6.0f, kInf), kInf), ray_flag_none, 0xFF).hit);
     }
     // Spheres too: a sphere of radius 2 at z = 0 is entered by the down ray along the axis at t = 8.
-    Scene s;
+    AccelScene s;
     s.add_instance(instance_of(s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 2.0f}}, true))));
     s.commit();
     const Ray axis = make_ray({0, 0, 10}, {0, 0, -1}, 0.0f, 8.0f);
@@ -667,7 +667,7 @@ TEST_CASE("trace: [tmin, tmax] is closed at both ends, exactly", "[trace]") {
 TEST_CASE("trace: ACCEPT_FIRST_HIT_AND_END_SEARCH ends at the first commit, nearest or not", "[trace]") {
     // The far-first scene (see far_first_scene): the first commit is the farther surface.
     for (const bool opaque : {true, false}) {
-        const Scene s = far_first_scene(opaque);
+        const AccelScene s = far_first_scene(opaque);
         CAPTURE(opaque);
         const TraceResult all = trace(s, down_ray(), ray_flag_none, 0xFF);
         REQUIRE(all.hit);
@@ -682,7 +682,7 @@ TEST_CASE("trace: ACCEPT_FIRST_HIT_AND_END_SEARCH ends at the first commit, near
         CHECK(first.counters.instances_entered == 1);
     }
     // An ignored candidate is not a commit: the search goes on to the next one.
-    const Scene s = stacked_quads(layers(4), false);
+    const AccelScene s = stacked_quads(layers(4), false);
     int calls = 0;
     const TraceResult r = trace(s, down_ray(), ray_flag_accept_first_hit_and_end_search, 0xFF, [&](const TraceHit&) {
         return ++calls == 1 ? AnyHitDecision::ignore : AnyHitDecision::accept;
@@ -692,7 +692,7 @@ TEST_CASE("trace: ACCEPT_FIRST_HIT_AND_END_SEARCH ends at the first commit, near
 }
 
 TEST_CASE("trace: SKIP_CLOSEST_HIT_SHADER reports whether, not what", "[trace]") {
-    const Scene s = stacked_quads(layers(3), true);
+    const AccelScene s = stacked_quads(layers(3), true);
     const TraceResult full = trace(s, down_ray(), ray_flag_none, 0xFF);
     REQUIRE(full.hit);
     CHECK(full.committed.t == 7.0f);
@@ -734,7 +734,7 @@ TEST_CASE("trace: any-hit cutoff with K-1 and K+1 surfaces", "[trace]") {
     }
     // Opaque hits call no any-hit and so never count toward the cutoff.
     {
-        const Scene s = stacked_quads(layers(K + 3), true);
+        const AccelScene s = stacked_quads(layers(K + 3), true);
         const TraceResult r = trace(s, down_ray(), ray_flag_none, 0xFF, AcceptAll{}, limits);
         CHECK_FALSE(r.cut_off);
         CHECK(r.committed.t == 10.0f - float(K + 3));
@@ -765,7 +765,7 @@ TEST_CASE("trace: exactly K surfaces under an any-hit cutoff of K are not cut of
 
 TEST_CASE("trace: one any-hit per primitive crossing, shared vertices and edges reported once", "[trace]") {
     const TriangleMesh ico = make_icosphere(2, 1.0f);
-    Scene s;
+    AccelScene s;
     s.add_instance(instance_of(s.add_bottom_level(BottomLevel::from_mesh(ico, false))));
     s.add_instance(instance_of(s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 1.0f}}, false)),
                                translation({5, 0, 0})));
@@ -838,7 +838,7 @@ TEST_CASE("trace: world-space quads are watertight along their shared diagonal",
     Pcg32 rng(7);
     int rays = 0;
     for (const glm::dvec3 base : {glm::dvec3(0.0), glm::dvec3(1e4, -2e4, 5e3)}) {
-        Scene s;
+        AccelScene s;
         const auto b = s.add_bottom_level(BottomLevel::from_mesh(quad(0.0f), false));
         for (int i = 0; i < 20; ++i) s.add_instance(instance_of(b, random_affine(rng, base, i), 0xFF, std::uint32_t(i)));
         s.commit();
@@ -880,7 +880,7 @@ TEST_CASE("trace: the world-triangles path agrees with the object-space path", "
     Pcg32 rng(11);
     int compared = 0;
     for (const glm::dvec3 base : {glm::dvec3(0.0), glm::dvec3(-3e3, 2e3, 1e3)}) {
-        Scene fast, general(InstancePaths::object_space_only);
+        AccelScene fast, general(InstancePaths::object_space_only);
         const auto bf = fast.add_bottom_level(BottomLevel::from_mesh(quad(0.0f), false));
         const auto bg = general.add_bottom_level(BottomLevel::from_mesh(quad(0.0f), false));
         std::vector<AffineTransform> ms;
@@ -959,7 +959,7 @@ TEST_CASE("trace: both TLAS walks go near to far along the ray", "[trace]") {
     // prunes every other subtree: one instance entered. The 4-wide walk takes each node's children in the
     // ray's order along the node's axis (wide_bvh_traversal.hpp): at most the leaves of the nearest node.
     // A walk in slot order, or against the ray's order, would enter most of the 64 for one direction.
-    const Scene s = stacked_quads(layers(64), true);
+    const AccelScene s = stacked_quads(layers(64), true);
     for (const TlasWalk walk : {TlasWalk::nearest_first, TlasWalk::all_hits})
         for (const Ray& r : {make_ray({0.3f, 0.2f, 100.0f}, {0, 0, -1}), up_ray()}) {
             const TraceResult res = walk == TlasWalk::all_hits ? trace<TlasWalk::all_hits>(s, r, ray_flag_none, 0xFF)
@@ -976,7 +976,7 @@ TEST_CASE("trace: the two TLAS walks find the same hits", "[trace]") {
     // walk must report the same candidates (as a set: their order may differ), commit the same closest
     // hit, and agree on the cutoff, which depends on the number of candidates only.
     Pcg32 rng(23);
-    Scene s;
+    AccelScene s;
     const std::uint32_t blases[] = {s.add_bottom_level(BottomLevel::from_mesh(quad(0.0f), false)),
                                     s.add_bottom_level(BottomLevel::from_mesh(make_icosphere(1, 1.0f), false)),
                                     s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 1.0f}}, false)),
@@ -1025,7 +1025,7 @@ TEST_CASE("trace: the two TLAS walks find the same hits", "[trace]") {
     // ray going +x. The first (a quad at x = 0) commits t = 100; the second's box starts beyond that; the
     // third, last in that order, is a long box whose quad at x = −40 is the nearest hit (t = 60). A walk
     // that stopped at the first leaf beyond tmax would return the quad at x = 0.
-    Scene d;
+    AccelScene d;
     auto facing_x = [](float x, float h) {  // a quad in the plane x, counter-clockwise seen from −x
         TriangleMesh m;
         m.vertices = {{x, -h, -h}, {x, -h, h}, {x, h, h}, {x, h, -h}};

@@ -185,8 +185,8 @@ TriangleMesh quad() {
 // 400 instances of six kinds: world spheres (similarity transforms), object-space spheres (non-uniform
 // scale), icospheres (object-space meshes), world-space quads, opaque quads, opaque world spheres; masks
 // 1, 2 or 4.
-Scene mixed_scene(Pcg32& rng) {
-    Scene s;
+AccelScene mixed_scene(Pcg32& rng) {
+    AccelScene s;
     const std::uint32_t sphere = s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 1.0f}}, false));
     const std::uint32_t ico = s.add_bottom_level(BottomLevel::from_mesh(make_icosphere(1, 1.0f), false));
     const std::uint32_t glass = s.add_bottom_level(BottomLevel::from_mesh(quad(), false));
@@ -229,7 +229,7 @@ TEST_CASE("trace_bundle: every ray of a bundle meets the candidates trace() show
     // kernel is exact, the rest is the very code trace() runs), and, since nothing shrinks tmax, the
     // same counters as trace<TlasWalk::all_hits>: both walk the 4-wide tree with the same box test.
     Pcg32 rng(41);
-    const Scene s = mixed_scene(rng);
+    const AccelScene s = mixed_scene(rng);
     std::size_t candidates = 0;
     for (int k = 0; k < 500; ++k) {
         const RayBundle b = random_bundle(rng, 1 + rng.below(kBundleWidth));
@@ -272,7 +272,7 @@ TEST_CASE("trace_bundle: commits, first-hit ends, skipped closest hits and cutof
     //  * ACCEPT_FIRST_HIT_AND_END_SEARCH | SKIP_CLOSEST_HIT_SHADER (a shadow ray): whether anything is hit;
     //  * a cutoff of 3 on ignored, non-opaque candidates: whether the ray is cut off, and the calls made.
     Pcg32 rng(43);
-    const Scene s = mixed_scene(rng);
+    const AccelScene s = mixed_scene(rng);
     int closest = 0, shadowed = 0, cut = 0;
     for (int k = 0; k < 400; ++k) {
         const RayBundle b = random_bundle(rng, 1 + rng.below(kBundleWidth));
@@ -323,7 +323,7 @@ TEST_CASE("trace_bundle: a committed sphere entry drops that sphere's exit, as i
     // (non-opaque and opaque), every candidate accepted: per ray the committed hit (the first entry) and
     // the counts of accepted hits and any-hit calls equal trace()'s. (The random scenes above rarely make a
     // ray's first candidate a sphere whose exit is also in range.)
-    Scene s;
+    AccelScene s;
     const std::uint32_t glassy = s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 1.0f}}, false));
     const std::uint32_t solid = s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 1.0f}}, true));
     for (int k = 0; k < 4; ++k)
@@ -365,7 +365,7 @@ TEST_CASE("trace_bundle: a ray that ends its search leaves the others unchanged"
     // they must meet exactly the candidates they meet in a bundle where nobody ends, and lane 0 must have
     // called any-hit once.
     Pcg32 rng(47);
-    const Scene s = mixed_scene(rng);
+    const AccelScene s = mixed_scene(rng);
     int checked = 0;
     for (int k = 0; k < 300; ++k) {
         const RayBundle b = random_bundle(rng, kBundleWidth);

@@ -88,7 +88,7 @@ TEST_CASE("view: ground shadows under the tubes in full mode, never darker than 
     // would need another scene; instead compare pixels whose view ray reaches the ground unobstructed by
     // smoke in both images (identical layer sets), classified by whether a stand-in shadows them.
     const Camera cam(scene.camera.position, scene.camera.look_at, scene.camera.up, scene.camera.fov_deg, kSize, kSize);
-    const Scene& s = full_r.smoke().scene();
+    const AccelScene& s = full_r.smoke().scene();
     double shadowed = 0, lit = 0;
     int n_shadowed = 0, n_lit = 0, compared = 0;
     for (int y = 0; y < kSize; ++y)

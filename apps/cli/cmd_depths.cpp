@@ -5,7 +5,7 @@
 #include "thread_limit.hpp"
 
 #include <smoketrace/io/output_path.hpp>
-#include <smoketrace/smoke/optical_depths.hpp>
+#include <smoketrace/smoke/optical_path_lengths.hpp>
 #include <smoketrace/smoke/particle_groups.hpp>
 #include <smoketrace/io/scene_file.hpp>
 
@@ -27,10 +27,10 @@ const char* status_name(DepthStatus s) {
 }
 
 HitSort parse_sort(const std::string& s) {
-    if (s == "radix") return HitSort::radix;
+    if (s == "adaptive") return HitSort::adaptive;
     if (s == "std") return HitSort::std_sort;
     if (s == "bubble") return HitSort::bubble;
-    throw CliError("--sort: '" + s + "' is not one of radix, std, bubble");
+    throw CliError("--sort: '" + s + "' is not one of adaptive, std, bubble");
 }
 
 int run_depths(const Args& args) {
@@ -52,7 +52,7 @@ int run_depths(const Args& args) {
         shape = parse_stand_in_shape(*shape_arg);
         if (!shape) throw CliError("--shape: '" + *shape_arg + "' is not sphere, icosahedron or icosphere:L (L = 1…4)");
     }
-    const HitSort sort = sort_arg ? parse_sort(*sort_arg) : HitSort::radix;
+    const HitSort sort = sort_arg ? parse_sort(*sort_arg) : HitSort::adaptive;
     const ThreadLimit limit(threads ? int(*threads) : 0);
     // Before any work: -o must not be the scene file, a folder, or in a missing folder.
     const OutputTarget output = checked_output(*out_path, {scene_path});
@@ -68,14 +68,14 @@ int run_depths(const Args& args) {
     const std::vector<std::uint32_t> all = particle_group(particles.size(), 1, 0);
 
     std::vector<FrameTimings> runs;
-    std::unique_ptr<OpticalDepths> depths;
+    std::unique_ptr<OpticalPathLengths> depths;
     for (long long r = 0; r < (repeat ? *repeat : 1); ++r) {
         FrameTimings t;
         StageClock clock;
         SmokeScene smoke(particles, shape ? *shape : desc.smoke.shape, ground, /*billboards=*/false);
         smoke.update(particles, desc.camera.position);
         t.tlas_update = clock.lap_ms();
-        depths = std::make_unique<OpticalDepths>(particles.size());
+        depths = std::make_unique<OpticalPathLengths>(particles.size());
         depths->update(smoke, particles, all, desc.light.direction, settings, sort, t);
         t.total = t.tlas_update + t.od_pass + t.resolve;
         runs.push_back(t);
@@ -106,12 +106,13 @@ constexpr OptionHelp kOptions[] = {
     {"--repeat", "R", "1", "run the pass R times (for --timings)"},
     {"--timings", "", "off", "print the median stage times in ms (tlas_update, od_pass, resolve, total); on standard "
                             "error with -o -"},
-    {"--sort", "radix|std|bubble", "radix", "how each particle's hits are sorted (radix: the fastest sorts)"},
+    {"--sort", "adaptive|std|bubble", "adaptive",
+     "how each particle's hits are sorted (adaptive: a sorting network, rank or radix sort by list length)"},
 };
 
 const RegisterCommand registration{{"depths",
                                     "depths SCENE.json -o OUT.csv|- [--shape sphere|icosahedron|icosphere:L] [--cutoff K] "
-                                    "[--threads T] [--repeat R] [--timings] [--sort radix|std|bubble]",
+                                    "[--threads T] [--repeat R] [--timings] [--sort adaptive|std|bubble]",
                                     "optical path length of every particle toward the light, as CSV (-o -: on standard output)", &run_depths,
                                     kOptions}};
 

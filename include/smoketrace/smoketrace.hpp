@@ -5,12 +5,12 @@
 // (docs/design.md). Include a single header of a layer instead to keep a translation unit lean.
 
 // Tracing: the two-level scene and DirectX Raytracing's TraceRay() rules on the CPU.
-#include <smoketrace/accel/scene.hpp>
+#include <smoketrace/accel/accel_scene.hpp>
 #include <smoketrace/trace/trace.hpp>
 #include <smoketrace/trace/trace_bundle.hpp>
 
 // The thesis's optical-depth pipeline: particles, their stand-ins, the pass and the resolver (eq. 3.1).
-#include <smoketrace/smoke/optical_depths.hpp>
+#include <smoketrace/smoke/optical_path_lengths.hpp>
 #include <smoketrace/smoke/particle_groups.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>
 #include <smoketrace/smoke/tube_generator.hpp>

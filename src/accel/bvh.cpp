@@ -26,7 +26,7 @@ double Bvh::sah_cost(const SahCosts& costs) const {
     const double root_area = nodes[0].bounds.area();
     if (!(root_area > 0.0)) return costs.intersection * double(nodes[0].count);
     // Backward, and divided by the root's area once at the end: the order and the terms of the fused
-    // refit sweep of the TLAS (Scene::refit), so that both give the same bits.
+    // refit sweep of the TLAS (AccelScene::refit), so that both give the same bits.
     double weighted = 0.0;
     for (std::size_t i = nodes.size(); i-- > 0;)
         if (i != 1) weighted += sah_term(nodes[i], costs);

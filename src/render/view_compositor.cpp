@@ -162,7 +162,7 @@ private:
 // with every layer collected (up to the order of the rounded products, far below an 8-bit step). The
 // thesis's eq. 4.1 has no transmittance, so it collects every layer.
 glm::vec3 one_traversal_pixel(const PixelShader& shader, const Ray& ray, Scratch& scratch) {
-    const Scene& scene = shader.scene().scene();
+    const AccelScene& scene = shader.scene().scene();
     const ViewSettings& s = shader.settings();
     const TraceResult opaque = trace(scene, ray, ray_flag_force_opaque, kOpaqueViewMask);
     const float t_opaque = opaque.hit ? opaque.committed.t : std::numeric_limits<float>::infinity();

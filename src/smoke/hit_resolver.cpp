@@ -7,7 +7,7 @@
 //   (b) one small sort per particle (a sorting network up to 128 hits with AVX-512, a rank sort below
 //       kRadixSortMinItems, radix above), each list staying in L1 (or registers) until the walk that follows.
 // (b) is the faster at every list length the bench tries (section "resolver", table "segmented vs
-// per-particle"), and it parallelises over particles with no shared histogram, so HitSort::radix is (b).
+// per-particle"), and it parallelises over particles with no shared histogram, so HitSort::adaptive is (b).
 #include <smoketrace/smoke/hit_resolver.hpp>
 #include <smoketrace/core/radix_sort.hpp>
 #include <smoketrace/core/simd/isa.hpp>
@@ -42,7 +42,7 @@ void bubble_sort_by_t(std::span<SurfaceHit> hits) {
 
 void sort_hits_by_t(std::span<SurfaceHit> hits, std::span<SurfaceHit> scratch, HitSort method) {
     switch (method) {
-        case HitSort::radix:
+        case HitSort::adaptive:
 #if defined(SMOKETRACE_SIMD_AVX512)
             if (hits.size() <= detail::kNetworkSortMaxHits) {
                 detail::network_sort_hits_avx512(hits);
@@ -146,7 +146,7 @@ void resolve_optical_path_lengths(HitLists& lists, std::span<const DepthStatus> 
 
 float ListResolver::operator()(std::span<SurfaceHit> hits, HitSort method) {
     std::span<SurfaceHit> scratch(small_);
-    if (method == HitSort::radix && hits.size() > small_.size()) {
+    if (method == HitSort::adaptive && hits.size() > small_.size()) {
         if (hits.size() > large_.size()) large_.resize(hits.size());
         scratch = large_;
     }

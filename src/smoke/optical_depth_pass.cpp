@@ -34,7 +34,7 @@ struct RayOutcome {
 
 // A particle's status and hit count from its ray's search `r`, which collected `hits`. A search that
 // did not see the whole ray, because it was cut off or met the ground, is completed here.
-RayOutcome outcome_of(const Scene& scene, const Ray& ray, const TraceResult& r, std::span<const SurfaceHit> hits,
+RayOutcome outcome_of(const AccelScene& scene, const Ray& ray, const TraceResult& r, std::span<const SurfaceHit> hits,
                       std::uint32_t cutoff) {
     if (r.cut_off) {
         // Cut off before the whole ray was seen: only a ground-only ray can tell whether it is occluded.
@@ -95,7 +95,7 @@ void OpticalDepthPass::run(const SmokeScene& smoke, std::span<const Particle> pa
 void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> particles,
                              std::span<const std::uint32_t> which, const glm::vec3& to_light,
                              const OpticalDepthSettings& settings) {
-    const Scene& scene = smoke.scene();
+    const AccelScene& scene = smoke.scene();
     const glm::vec3 dir = glm::normalize(to_light);
     const std::size_t n = which.size();
     // Set once every ray is traced: after a throw the pass holds no rays.
@@ -132,7 +132,7 @@ void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> 
         [&](const tbb::blocked_range<std::size_t>& r) {
             Scratch& sc = threads.local();
             // The rays of one pass reach every particle: each thread first asks its caches for the whole
-            // top level at once (Scene::prefetch_top_level), once per pass. Between two passes a frame's
+            // top level at once (AccelScene::prefetch_top_level), once per pass. Between two passes a frame's
             // other work evicts it, and a walk from L3 waits at every node, pointer chase by pointer chase.
             if (sc.warmed_in_trace != trace_id) {
                 sc.warmed_in_trace = trace_id;

@@ -110,7 +110,7 @@ void check_pipeline(const SceneDescription& s) {
         renderer.render(0, image);
         for (const glm::vec4& px : image.pixels)
             require(std::isfinite(px.x) && std::isfinite(px.y) && std::isfinite(px.z) && std::isfinite(px.w), "pixel not finite");
-        const OpticalDepths& d = renderer.depths();
+        const OpticalPathLengths& d = renderer.depths();
         for (std::size_t i = 0; i < d.lengths().size(); ++i) {
             const float l = d.lengths()[i];
             if (d.status()[i] == DepthStatus::ok) require(std::isfinite(l) && l >= 0.0f, "optical path length");

@@ -6,7 +6,7 @@
 // which child comes first; four children per node halve the steps.
 //
 // The binary tree stays the master copy. It is built and refit as before (its SAH cost drives the
-// rebuild policy, scene.hpp); collapse() derives the wide tree from it after a build, and refit() copies
+// rebuild policy, accel_scene.hpp); collapse() derives the wide tree from it after a build, and refit() copies
 // its boxes and masks over after a refit, through the binary node each child slot was made from.
 #include <smoketrace/geometry/aabb.hpp>
 #include <smoketrace/accel/bvh.hpp>

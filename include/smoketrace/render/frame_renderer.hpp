@@ -9,7 +9,7 @@
 #include <smoketrace/render/camera.hpp>
 #include <smoketrace/core/frame_timings.hpp>
 #include <smoketrace/core/image.hpp>
-#include <smoketrace/smoke/optical_depths.hpp>
+#include <smoketrace/smoke/optical_path_lengths.hpp>
 #include <smoketrace/smoke/particle_system.hpp>
 #include <smoketrace/render/scene_description.hpp>
 #include <smoketrace/render/sixway_texture.hpp>
@@ -25,7 +25,7 @@ struct RenderOptions {
     StandInShape shape{};
     int width = 512, height = 512;
     CompositorKind compositor = CompositorKind::one_traversal;
-    HitSort sort = HitSort::radix;
+    HitSort sort = HitSort::adaptive;
 
     // The scene file's own settings and camera size.
     static RenderOptions from_scene(const SceneDescription& scene);
@@ -45,7 +45,7 @@ public:
     // Renders frame `frame` (0, 1, 2, … in order: particles advance one step per frame) into `image`.
     FrameReport render(std::uint64_t frame, ImageRgba& image);
 
-    [[nodiscard]] const OpticalDepths& depths() const { return depths_; }
+    [[nodiscard]] const OpticalPathLengths& depths() const { return depths_; }
     [[nodiscard]] const ParticleSystem& particles() const { return particles_; }
     [[nodiscard]] const SmokeScene& smoke() const { return smoke_; }
 
@@ -56,7 +56,7 @@ private:
     ParticleSystem particles_;
     SmokeScene smoke_;
     Camera camera_;
-    OpticalDepths depths_;
+    OpticalPathLengths depths_;
     std::int64_t last_frame_ = -1;
     glm::vec3 last_light_{0.0f};
     int last_flipbook_frame_ = -1;  // the flipbook frame of the image last drawn

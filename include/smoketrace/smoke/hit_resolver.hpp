@@ -54,17 +54,17 @@ struct HitLists {
 
 // How resolve_optical_path_lengths() sorts each list by t. All three give bit-identical lengths.
 enum class HitSort : std::uint8_t {
-    radix,     // the fast path: with AVX-512 a sorting network for lists of up to 128 hits
-               // (hit_resolver_avx512.hpp); else sort_by_float_key (radix_sort.hpp), a rank sort for short
-               // lists and an LSD radix sort for long ones. The cost per hit stays flat as the cutoff grows
-               // (method.md, thesis 6.2)
+    adaptive,  // the fast path, picked by list length: with AVX-512 a sorting network for lists of up to
+               // 128 hits (hit_resolver_avx512.hpp); else sort_by_float_key (radix_sort.hpp), a rank sort
+               // for short lists and an LSD radix sort for long ones. The cost per hit stays flat as the
+               // cutoff grows (method.md, thesis 6.2)
     std_sort,  // std::sort, the baseline
     bubble,    // the thesis's bubble sort, O(k^2), kept to reproduce table B.4
 };
 
-// Sorts one particle's hits by t with `method`: ascending t, and for HitSort::radix float_sort_key()
+// Sorts one particle's hits by t with `method`: ascending t, and for HitSort::adaptive float_sort_key()
 // order (-0 before +0). Hits of equal t come in an order that depends on the method, which
-// optical_path_length() ignores. `scratch`: at least hits.size() elements for HitSort::radix, unused by
+// optical_path_length() ignores. `scratch`: at least hits.size() elements for HitSort::adaptive, unused by
 // the others.
 void sort_hits_by_t(std::span<SurfaceHit> hits, std::span<SurfaceHit> scratch, HitSort method);
 
@@ -84,7 +84,7 @@ inline constexpr std::size_t kWalkLanes = 8;
 // optical_path_length() one hit at a time: the definition the AVX-512 walk is tested against.
 [[nodiscard]] double optical_path_length_scalar(std::span<const SurfaceHit> sorted_hits);
 
-// What HitSort::radix's sorting network (hit_resolver_avx512.hpp) does to a list, one comparison at a
+// What HitSort::adaptive's sorting network (hit_resolver_avx512.hpp) does to a list, one comparison at a
 // time: sorts it by the 64-bit key float_sort_key(t) · 2^32 + the value's bits, so ascending t, and
 // hits of equal t by their values' bits as unsigned. The definition the network is tested against.
 void network_sort_hits_scalar(std::span<SurfaceHit> hits);

@@ -3,7 +3,7 @@
 // icosahedron or icosphere) for optical-depth and shadow rays, and a camera-facing billboard quad for
 // view rays — plus the opaque ground quad. Instance masks keep the representations apart.
 #include <smoketrace/smoke/particle_system.hpp>
-#include <smoketrace/accel/scene.hpp>
+#include <smoketrace/accel/accel_scene.hpp>
 #include <smoketrace/smoke/stand_in_shapes.hpp>
 
 #include <array>
@@ -39,7 +39,7 @@ public:
     // work (TlasUpdate::none).
     TlasUpdate update(std::span<const Particle> particles, const glm::vec3& eye);
 
-    [[nodiscard]] const Scene& scene() const { return scene_; }
+    [[nodiscard]] const AccelScene& scene() const { return scene_; }
     [[nodiscard]] std::size_t particle_count() const { return count_; }
     [[nodiscard]] StandInShape shape() const { return shape_; }
     [[nodiscard]] bool has_billboards() const { return billboards_; }
@@ -60,7 +60,7 @@ public:
 
 private:
     static constexpr std::uint32_t kNoInstance = ~0u;
-    Scene scene_;
+    AccelScene scene_;
     std::size_t count_ = 0;
     StandInShape shape_;
     bool billboards_ = false;

@@ -6,7 +6,7 @@
 #include <smoketrace/trace/any_hit.hpp>
 #include <smoketrace/trace/blas_traversal.hpp>
 #include <smoketrace/geometry/ray_sphere.hpp>
-#include <smoketrace/accel/scene.hpp>
+#include <smoketrace/accel/accel_scene.hpp>
 #include <smoketrace/trace/trace_types.hpp>
 
 #include <cstdint>
@@ -46,7 +46,7 @@ private:
 template <class AnyHit>
 class RaySearch {
 public:
-    RaySearch(const Scene& scene, const Ray& ray, std::uint32_t flags, AnyHit& any_hit, const TraceLimits& limits,
+    RaySearch(const AccelScene& scene, const Ray& ray, std::uint32_t flags, AnyHit& any_hit, const TraceLimits& limits,
               float& tmax)
         : scene_(scene), any_hit_(any_hit), tmax_(tmax), world_origin_(ray.origin), world_dir_(ray.direction),
           ray_(ray), max_any_hit_(limits.max_any_hit_invocations),
@@ -62,7 +62,7 @@ public:
     [[nodiscard]] bool ended() const { return ended_; }
 
     // The geometry of an instance that rules 1-3 admitted (`opaque`: its final opacity), by the path
-    // Scene chose for it. Returns true when the search has ended.
+    // AccelScene chose for it. Returns true when the search has ended.
     [[gnu::always_inline]] bool visit(std::uint32_t index, const InstanceRecord& inst, bool opaque) {
         switch (inst.path) {
             case InstancePath::world_triangles:
@@ -305,7 +305,7 @@ private:
         return ended_;
     }
 
-    const Scene& scene_;
+    const AccelScene& scene_;
     AnyHit& any_hit_;
     float& tmax_;
     bool ended_ = false;

@@ -1,5 +1,5 @@
 #pragma once
-// trace(): DirectX Raytracing's TraceRay() on the CPU, over a two-level Scene. Every ray of smoketrace
+// trace(): DirectX Raytracing's TraceRay() on the CPU, over a two-level AccelScene. Every ray of smoketrace
 // (optical-depth, view and shadow rays) goes through this function or through trace_bundle()
 // (trace_bundle.hpp), which traces rays that share a direction together and gives each what this
 // function would. Both run the rules below through RaySearch (ray_search.hpp), where they are implemented.
@@ -33,14 +33,14 @@
 // called at most K times; a (K+1)-th non-opaque candidate ends the search, uncalled, and sets
 // TraceResult::cut_off. A ray with exactly K candidates is therefore never cut off.
 //
-// Two kinds of instance skip the object-space ray (InstancePath, scene.hpp): a single sphere under a
+// Two kinds of instance skip the object-space ray (InstancePath, accel_scene.hpp): a single sphere under a
 // similarity transform (every sphere stand-in) is tested as a sphere in world space, and a one-leaf mesh
 // of a few triangles (every billboard, the ground) as triangles kept transformed to world space. The
 // hits, their order and the counters are those of the general path; t (and barycentrics) differ by
-// rounding only. Scene(InstancePaths::object_space_only) turns both off.
+// rounding only. AccelScene(InstancePaths::object_space_only) turns both off.
 #include <smoketrace/accel/bvh_traversal.hpp>
 #include <smoketrace/trace/ray_search.hpp>
-#include <smoketrace/accel/scene.hpp>
+#include <smoketrace/accel/accel_scene.hpp>
 #include <smoketrace/trace/trace_types.hpp>
 #include <smoketrace/accel/wide_bvh_traversal.hpp>
 
@@ -68,7 +68,7 @@ enum class TlasWalk : std::uint8_t {
 };
 
 template <TlasWalk Walk = TlasWalk::nearest_first, class AnyHit = AcceptAll>
-TraceResult trace(const Scene& scene, const Ray& ray, std::uint32_t flags, std::uint8_t inclusion_mask,
+TraceResult trace(const AccelScene& scene, const Ray& ray, std::uint32_t flags, std::uint8_t inclusion_mask,
                   AnyHit&& any_hit = {}, const TraceLimits& limits = {}) {
     float tmax;  // the search's, read by the walk at every step
     RaySearch<std::remove_reference_t<AnyHit>> search(scene, ray, flags, any_hit, limits, tmax);

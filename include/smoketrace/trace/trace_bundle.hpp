@@ -20,7 +20,7 @@
 #include <smoketrace/geometry/ray_bundle.hpp>
 #include <smoketrace/trace/ray_search.hpp>
 #include <smoketrace/geometry/ray_sphere_bundle.hpp>
-#include <smoketrace/accel/scene.hpp>
+#include <smoketrace/accel/accel_scene.hpp>
 #include <smoketrace/trace/trace_types.hpp>
 
 #include <array>
@@ -44,7 +44,7 @@ struct LaneAnyHit {
 
 template <class AnyHit, std::size_t... I>
 std::array<RaySearch<LaneAnyHit<AnyHit>>, kBundleWidth> make_lane_searches(
-    const Scene& scene, const RayBundle& bundle, std::uint32_t flags, std::array<LaneAnyHit<AnyHit>, kBundleWidth>& hits,
+    const AccelScene& scene, const RayBundle& bundle, std::uint32_t flags, std::array<LaneAnyHit<AnyHit>, kBundleWidth>& hits,
     const TraceLimits& limits, float* tmax, std::index_sequence<I...>) {
     return {RaySearch<LaneAnyHit<AnyHit>>(scene, bundle.ray(I), flags, hits[I], limits, tmax[I])...};
 }
@@ -52,7 +52,7 @@ std::array<RaySearch<LaneAnyHit<AnyHit>>, kBundleWidth> make_lane_searches(
 
 // any_hit(unsigned lane, const TraceHit&) -> AnyHitDecision, for every candidate of every ray.
 template <class AnyHit>
-BundleResults trace_bundle(const Scene& scene, const RayBundle& bundle, std::uint32_t flags,
+BundleResults trace_bundle(const AccelScene& scene, const RayBundle& bundle, std::uint32_t flags,
                            std::uint8_t inclusion_mask, AnyHit&& any_hit, const TraceLimits& limits = {}) {
     using Callback = std::remove_reference_t<AnyHit>;
     std::array<detail::LaneAnyHit<Callback>, kBundleWidth> lane_hits;

@@ -2,7 +2,7 @@
 // What a trace call takes and gives (trace.hpp, trace_bundle.hpp): DXR's ray flags and hit kinds, the
 // hit an any-hit callback sees, the per-ray counters, the cutoff and the result.
 #include <smoketrace/trace/any_hit.hpp>
-#include <smoketrace/accel/scene.hpp>
+#include <smoketrace/accel/accel_scene.hpp>
 
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>

@@ -3,7 +3,7 @@
 #include <smoketrace/io/png_io.hpp>
 #include <smoketrace/io/sixway_files.hpp>
 #include <smoketrace/render/sixway_texture.hpp>
-#include <smoketrace/smoke/optical_depths.hpp>
+#include <smoketrace/smoke/optical_path_lengths.hpp>
 #include <smoketrace/smoke/particle_groups.hpp>
 #include <smoketrace/trace/trace.hpp>
 
@@ -15,7 +15,7 @@ using namespace smoketrace;
 
 int main() {
     // trace(): a ray through two unit spheres crosses four surfaces.
-    Scene scene;
+    AccelScene scene;
     const auto ball = scene.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 1}}, false));
     scene.add_instance({ball, AffineTransform::translate_scale({0, 0, 0}, 1)});
     scene.add_instance({ball, AffineTransform::translate_scale({4, 0, 0}, 1)});
@@ -32,9 +32,9 @@ int main() {
     particles[1].center = {0.0f, 3.0f, 0.0f};
     SmokeScene smoke(particles, StandInShape{StandInKind::sphere, 0}, std::nullopt, false);
     smoke.update(particles, glm::vec3(0.0f, 0.0f, 10.0f));
-    OpticalDepths depths(particles.size());
+    OpticalPathLengths depths(particles.size());
     FrameTimings timings;
-    depths.update(smoke, particles, particle_group(2, 1, 0), glm::vec3(0, 1, 0), {}, HitSort::radix, timings);
+    depths.update(smoke, particles, particle_group(2, 1, 0), glm::vec3(0, 1, 0), {}, HitSort::adaptive, timings);
     const float l = depths.lengths()[0];
 
     // The installed textures (stb), and a PNG written (zlib).

@@ -5,7 +5,7 @@
 // What the library does: from each particle's centre a ray goes toward the light and an any-hit callback
 // records every particle surface it crosses (+1 entering, -1 leaving); the hit resolver sorts them and sums
 // the stretches that lie inside smoke (equation 3.1, which also counts the particle the ray starts in).
-#include <smoketrace/smoke/optical_depths.hpp>
+#include <smoketrace/smoke/optical_path_lengths.hpp>
 #include <smoketrace/smoke/particle_groups.hpp>
 
 #include <cmath>
@@ -28,10 +28,10 @@ int main() {
     smoke.update(particles, /*eye=*/glm::vec3(0.0f, 0.0f, 10.0f));
 
     // Trace and resolve every particle (one group: particle_group(n, 1, frame) is all of them).
-    OpticalDepths depths(particles.size());
+    OpticalPathLengths depths(particles.size());
     FrameTimings timings;
     depths.update(smoke, particles, particle_group(particles.size(), 1, 0), to_light, OpticalDepthSettings{},
-                  HitSort::radix, timings);
+                  HitSort::adaptive, timings);
 
     // By hand, along +y: a ray starts inside its own particle (1 unit of smoke to leave it); a particle
     // centred on the ray adds its diameter 2; C, 0.5 off the ray, adds the chord 2·sqrt(1 - 0.5²).

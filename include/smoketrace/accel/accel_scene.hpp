@@ -43,14 +43,14 @@ inline constexpr double kTlasRebuildSahRatio = 1.2;
 enum class TlasUpdate : std::uint8_t { none, refit, rebuild };
 [[nodiscard]] const char* to_string(TlasUpdate u);
 
-// How trace() tests an instance, decided when its transform is set (Scene::update_instance).
+// How trace() tests an instance, decided when its transform is set (AccelScene::update_instance).
 enum class InstancePath : std::uint8_t {
     object_space,     // the general path: the ray taken into object space, the BLAS traversed there
     world_sphere,     // one sphere under a similarity transform: the sphere tested in world space
     world_triangles,  // a one-leaf mesh of a few triangles: its triangles kept transformed, tested in world space
 };
 
-// Whether a Scene may use the world-space paths (the default) or takes every instance through the
+// Whether an AccelScene may use the world-space paths (the default) or takes every instance through the
 // object-space path.
 enum class InstancePaths : std::uint8_t { fastest, object_space_only };
 
@@ -79,7 +79,7 @@ struct alignas(64) InstanceRecord {
     // a small sphere far from the world origin is as precise as there.
     glm::dvec3 sphere_offset;
     double sphere_radius;  // scale · radius
-    // world_triangles only: how many (in the BLAS's leaf order, from Scene::world_triangles()[first_world_
+    // world_triangles only: how many (in the BLAS's leaf order, from AccelScene::world_triangles()[first_world_
     // triangle]), and whether a world-space front face is an object-space back face (a mirroring transform)
     // — XOR TRIANGLE_FRONT_CLOCKWISE, so that rule 4 sees the facing the general path would.
     std::uint8_t world_triangle_count;
@@ -94,15 +94,15 @@ static_assert(offsetof(InstanceRecord, sphere_radius) + sizeof(double) <= 64, "a
 // least as much on recent Intel cores), leaving the rest to the walk's own buffers.
 inline constexpr std::size_t kPrefetchTopLevelMaxBytes = std::size_t{512} << 10;
 
-class Scene {
+class AccelScene {
 public:
     // `paths` = object_space_only turns the world-space paths off (every instance takes the general path):
     // for tests that hold the two against each other, and for whoever wants DXR's one mechanism only.
-    explicit Scene(InstancePaths paths = InstancePaths::fastest) : paths_(paths) {}
-    Scene(const Scene&) = delete;
-    Scene& operator=(const Scene&) = delete;
-    Scene(Scene&&) = default;
-    Scene& operator=(Scene&&) = default;
+    explicit AccelScene(InstancePaths paths = InstancePaths::fastest) : paths_(paths) {}
+    AccelScene(const AccelScene&) = delete;
+    AccelScene& operator=(const AccelScene&) = delete;
+    AccelScene(AccelScene&&) = default;
+    AccelScene& operator=(AccelScene&&) = default;
 
     std::uint32_t add_bottom_level(BottomLevel blas);
     std::uint32_t add_instance(const Instance& instance);  // returns its index

@@ -1,6 +1,6 @@
-// Two-level scene and its TLAS update policy (see scene.hpp).
+// Two-level scene and its TLAS update policy (see accel_scene.hpp).
 #include <smoketrace/accel/bvh_builder.hpp>
-#include <smoketrace/accel/scene.hpp>
+#include <smoketrace/accel/accel_scene.hpp>
 
 #include <glm/geometric.hpp>
 #include <glm/matrix.hpp>
@@ -36,13 +36,13 @@ BottomLevel BottomLevel::from_spheres(const std::vector<Sphere>& s, bool opaque)
     return b;
 }
 
-std::uint32_t Scene::add_bottom_level(BottomLevel blas) {
+std::uint32_t AccelScene::add_bottom_level(BottomLevel blas) {
     blases_.push_back(std::make_unique<BottomLevel>(std::move(blas)));
     return static_cast<std::uint32_t>(blases_.size() - 1);
 }
 
-std::uint32_t Scene::add_instance(const Instance& instance) {
-    if (instance.blas >= blases_.size()) throw std::out_of_range("Scene::add_instance: no bottom level " + std::to_string(instance.blas));
+std::uint32_t AccelScene::add_instance(const Instance& instance) {
+    if (instance.blas >= blases_.size()) throw std::out_of_range("AccelScene::add_instance: no bottom level " + std::to_string(instance.blas));
     instances_.push_back(instance);
     records_.emplace_back();
     // The world_triangles path depends on the BLAS alone, so an instance's slots are fixed here.
@@ -57,8 +57,8 @@ std::uint32_t Scene::add_instance(const Instance& instance) {
     return static_cast<std::uint32_t>(instances_.size() - 1);
 }
 
-void Scene::remove_instance(std::uint32_t index) {
-    if (index >= instances_.size()) throw std::out_of_range("Scene::remove_instance");
+void AccelScene::remove_instance(std::uint32_t index) {
+    if (index >= instances_.size()) throw std::out_of_range("AccelScene::remove_instance");
     const InstanceRecord& gone = records_[index];
     if (gone.path == InstancePath::world_triangles) {
         const std::uint32_t first = gone.first_world_triangle, n = gone.world_triangle_count;
@@ -73,14 +73,14 @@ void Scene::remove_instance(std::uint32_t index) {
     structure_dirty_ = true;
 }
 
-void Scene::set_transform(std::uint32_t index, const AffineTransform& m) {
+void AccelScene::set_transform(std::uint32_t index, const AffineTransform& m) {
     if (instances_.at(index).object_to_world == m) return;  // an unchanged frame does no TLAS work
     instances_[index].object_to_world = m;
     update_instance(index);
     transforms_dirty_ = true;
 }
 
-void Scene::set_mask(std::uint32_t index, std::uint8_t mask) {
+void AccelScene::set_mask(std::uint32_t index, std::uint8_t mask) {
     if (instances_.at(index).mask == mask) return;
     instances_[index].mask = mask;
     records_[index].mask = mask;
@@ -112,13 +112,13 @@ bool is_similarity(const glm::dmat3& m, double& scale) {
 
 }  // namespace
 
-bool Scene::takes_world_triangles(const BottomLevel& b) const {
+bool AccelScene::takes_world_triangles(const BottomLevel& b) const {
     return paths_ == InstancePaths::fastest && b.kind == GeometryKind::triangles && !b.mesh.bvh().empty() &&
            b.mesh.bvh().nodes[0].is_leaf() && b.mesh.leaf_triangles().size() <= kMaxWorldTriangles;
 }
 
 // World box: the 8 transformed corners of the object box, in double, rounded outward to float.
-void Scene::update_instance(std::uint32_t i) {
+void AccelScene::update_instance(std::uint32_t i) {
     const Instance& in = instances_[i];
     const BottomLevel& b = *blases_[in.blas];
     const AffineTransform inv = in.object_to_world.inverse();
@@ -174,11 +174,11 @@ void Scene::update_instance(std::uint32_t i) {
     }
     if (!(std::isfinite(wb.lo.x) && std::isfinite(wb.lo.y) && std::isfinite(wb.lo.z) && std::isfinite(wb.hi.x) &&
           std::isfinite(wb.hi.y) && std::isfinite(wb.hi.z)))
-        throw std::domain_error("Scene: instance " + std::to_string(i) + " has a non-finite or empty world box");
+        throw std::domain_error("AccelScene: instance " + std::to_string(i) + " has a non-finite or empty world box");
     world_boxes_[i] = wb;
 }
 
-void Scene::rebuild() {
+void AccelScene::rebuild() {
     // Grouped by mask (bvh_builder.hpp): in the smoke scene a particle's stand-in and its billboard have
     // almost the same box, and one SAH tree over both would pair them in every leaf's parent, so a view
     // ray (stand-ins masked out) or a light ray (billboards masked out) would still walk the other half.
@@ -192,7 +192,7 @@ void Scene::rebuild() {
 
 // One backward sweep (children before parents) refits the boxes, ORs the instance masks and sums the
 // SAH cost, with the terms and order of Bvh::sah_cost, so the rebuild test costs no extra pass.
-void Scene::refit_binary() {
+void AccelScene::refit_binary() {
     constexpr std::size_t kPrefetch = 16;
     auto& nodes = tlas_.nodes;
     const SahCosts costs{};
@@ -226,7 +226,7 @@ void Scene::refit_binary() {
     sah_current_ = nodes.empty() ? 0.0 : root_area > 0.0 ? weighted / root_area : tlas_.sah_cost(costs);
 }
 
-TlasUpdate Scene::commit() {
+TlasUpdate AccelScene::commit() {
     if (structure_dirty_) {
         rebuild();
         structure_dirty_ = transforms_dirty_ = false;
@@ -243,7 +243,7 @@ TlasUpdate Scene::commit() {
     return TlasUpdate::refit;
 }
 
-void Scene::prefetch_top_level() const {
+void AccelScene::prefetch_top_level() const {
     constexpr std::size_t kLine = 64;
     const std::size_t node_bytes = wide_tlas_.node_count() * sizeof(WideBvhNode);
     const std::size_t index_bytes = tlas_.prim_indices.size() * sizeof(std::uint32_t);

@@ -10,9 +10,9 @@
 
 namespace smoketrace {
 
-class OpticalDepths {
+class OpticalPathLengths {
 public:
-    explicit OpticalDepths(std::size_t particle_count);
+    explicit OpticalPathLengths(std::size_t particle_count);
 
     // Traces and resolves the particles `which`; fills timings.od_pass and timings.resolve.
     void update(const SmokeScene& scene, std::span<const Particle> particles, std::span<const std::uint32_t> which,

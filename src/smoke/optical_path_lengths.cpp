@@ -1,10 +1,10 @@
-#include <smoketrace/smoke/optical_depths.hpp>
+#include <smoketrace/smoke/optical_path_lengths.hpp>
 
 namespace smoketrace {
 
-OpticalDepths::OpticalDepths(std::size_t n) : lengths_(n, 0.0f), status_(n, DepthStatus::ok), hit_counts_(n, 0) {}
+OpticalPathLengths::OpticalPathLengths(std::size_t n) : lengths_(n, 0.0f), status_(n, DepthStatus::ok), hit_counts_(n, 0) {}
 
-void OpticalDepths::update(const SmokeScene& scene, std::span<const Particle> particles,
+void OpticalPathLengths::update(const SmokeScene& scene, std::span<const Particle> particles,
                            std::span<const std::uint32_t> which, const glm::vec3& to_light,
                            const OpticalDepthSettings& settings, HitSort sort, FrameTimings& timings) {
     StageClock clock;
