@@ -797,6 +797,22 @@ TEST_CASE("Icospheres: 20·4^L faces on the sphere, closed, outward, convex", "[
     REQUIRE_THROWS(make_icosphere(9));
 }
 
+// A ray for the box tests' comparisons with the scalar slab test: origins often exactly on the slab planes
+// -1, -0.5, 0, 0.5, 1 (0·∞ = NaN there), direction components of +0 and −0, tmin and tmax often 0 or ∞.
+Ray box_test_ray(Pcg32& rng, float& tmax) {
+    const float planes[] = {-1.0f, -0.5f, 0.0f, 0.5f, 1.0f};
+    Ray r;
+    for (int k = 0; k < 3; ++k) {
+        r.origin[k] = rng.next_u32() % 3 ? planes[rng.next_u32() % 5] : rng.uniform(-2.0f, 2.0f);
+        const std::uint32_t kind = rng.next_u32() % 5;
+        r.direction[k] = kind == 0 ? 0.0f : kind == 1 ? -0.0f : rng.uniform(-1.0f, 1.0f);
+    }
+    if (r.direction == glm::vec3(0.0f)) r.direction.x = 1.0f;
+    r.tmin = rng.next_u32() % 2 ? 0.0f : rng.uniform(0.0f, 1.0f);
+    tmax = rng.next_u32() % 3 ? kInf : rng.uniform(0.0f, 2.0f);
+    return r;
+}
+
 }  // namespace
 
 TEST_CASE("Grouped build: no node below the top mixes groups, every primitive once, boxes exact", "[bvh]") {
@@ -875,15 +891,8 @@ TEST_CASE("BVH traversal: the paired child test equals the scalar slab test on e
             n.first = rng.next_u32();
             n.count = rng.next_u32();
         }
-        Ray r;
-        for (int k = 0; k < 3; ++k) {
-            r.origin[k] = rng.next_u32() % 3 ? pick(planes) : rng.uniform(-2.0f, 2.0f);
-            const std::uint32_t kind = rng.next_u32() % 5;
-            r.direction[k] = kind == 0 ? 0.0f : kind == 1 ? -0.0f : rng.uniform(-1.0f, 1.0f);
-        }
-        if (r.direction == glm::vec3(0.0f)) r.direction.x = 1.0f;
-        r.tmin = rng.next_u32() % 2 ? 0.0f : rng.uniform(0.0f, 1.0f);
-        const float tmax = rng.next_u32() % 3 ? std::numeric_limits<float>::infinity() : rng.uniform(0.0f, 2.0f);
+        float tmax = 0.0f;
+        const Ray r = box_test_ray(rng, tmax);
         const BoxRay br(r);
         float tl = -1.0f, tr = -1.0f, sl = -1.0f, sr = -1.0f;
         const unsigned bits = ChildPairTest(br).test(pair, tmax, tl, tr);
@@ -924,15 +933,8 @@ TEST_CASE("Wide BVH traversal: the four-child box test equals the scalar slab te
             }
             n.mask[c] = std::uint8_t(rng.next_u32() % 3 == 0 ? 0u : rng.next_u32());
         }
-        Ray r;
-        for (int k = 0; k < 3; ++k) {
-            r.origin[k] = rng.next_u32() % 3 ? pick(planes) : rng.uniform(-2.0f, 2.0f);
-            const std::uint32_t kind = rng.next_u32() % 5;
-            r.direction[k] = kind == 0 ? 0.0f : kind == 1 ? -0.0f : rng.uniform(-1.0f, 1.0f);
-        }
-        if (r.direction == glm::vec3(0.0f)) r.direction.x = 1.0f;
-        r.tmin = rng.next_u32() % 2 ? 0.0f : rng.uniform(0.0f, 1.0f);
-        const float tmax = rng.next_u32() % 3 ? kInf : rng.uniform(0.0f, 2.0f);
+        float tmax = 0.0f;
+        const Ray r = box_test_ray(rng, tmax);
         const BoxRay br(r);
         alignas(16) float t[kWideBvhWidth];
         const unsigned bits = WideBoxTest(br).test(n, tmax, t);
