@@ -325,8 +325,8 @@ void run_resolver(const BenchOptions& options) {
 }
 
 const RegisterSection kResolverSection{{"resolver",
-                                        "hit resolver (thesis 4.3.3, table B.4): bubble vs std::sort vs the adaptive sort, "
-                                        "segmented vs per-particle, sort crossover",
+                                        "hit resolver (thesis 4.3.3, table B.4): bubble vs std::sort vs the adaptive "
+                                        "sort, segmented vs per-particle, sort crossover",
                                         &run_resolver}};
 
 }  // namespace

@@ -95,7 +95,8 @@ struct TraceCost {
 // Counters per ray (one untimed pass), then rays per second: every scene is timed once per round, in
 // rotating order, and the median over rounds taken, so that the shared machine's slow spells fall on all
 // variants alike and their ratio stays meaningful. At least 5 rounds.
-std::vector<TraceCost> measure(const std::vector<const AccelScene*>& scenes, const std::vector<Ray>& rays, int repeats) {
+std::vector<TraceCost> measure(const std::vector<const AccelScene*>& scenes, const std::vector<Ray>& rays,
+                               int repeats) {
     std::vector<TraceCost> cost(scenes.size());
     const double n = double(rays.size());
     for (std::size_t v = 0; v < scenes.size(); ++v) {

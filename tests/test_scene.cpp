@@ -76,7 +76,8 @@ Ray random_ray(Pcg32& rng, float extent) {
 // shrinks tmax and hides the non-opaque hits behind it), so only the candidates nearer than the final
 // committed hit are defined (rule 6: tmax never drops below it); `cut` keeps just those.
 using HitKey = std::tuple<float, std::uint32_t, std::uint32_t, int>;
-std::vector<HitKey> all_hits(const AccelScene& s, const Ray& r, std::uint8_t mask, std::uint32_t flags = ray_flag_none) {
+std::vector<HitKey> all_hits(const AccelScene& s, const Ray& r, std::uint8_t mask,
+                             std::uint32_t flags = ray_flag_none) {
     std::vector<HitKey> keys;
     const TraceResult res = trace(s, r, flags, mask, [&](const TraceHit& h) {
         keys.emplace_back(h.t, h.instance_index, h.primitive_index, int(h.kind));

@@ -110,11 +110,12 @@ constexpr OptionHelp kOptions[] = {
      "how each particle's hits are sorted (adaptive: a sorting network, rank or radix sort by list length)"},
 };
 
-const RegisterCommand registration{{"depths",
-                                    "depths SCENE.json -o OUT.csv|- [--shape sphere|icosahedron|icosphere:L] [--cutoff K] "
-                                    "[--threads T] [--repeat R] [--timings] [--sort adaptive|std|bubble]",
-                                    "optical path length of every particle toward the light, as CSV (-o -: on standard output)", &run_depths,
-                                    kOptions}};
+const RegisterCommand registration{
+    {"depths",
+     "depths SCENE.json -o OUT.csv|- [--shape sphere|icosahedron|icosphere:L] [--cutoff K] [--threads T] "
+     "[--repeat R] [--timings] [--sort adaptive|std|bubble]",
+     "optical path length of every particle toward the light, as CSV (-o -: on standard output)", &run_depths,
+     kOptions}};
 
 }  // namespace
 }  // namespace smoketrace::cli

@@ -42,7 +42,8 @@ std::uint32_t AccelScene::add_bottom_level(BottomLevel blas) {
 }
 
 std::uint32_t AccelScene::add_instance(const Instance& instance) {
-    if (instance.blas >= blases_.size()) throw std::out_of_range("AccelScene::add_instance: no bottom level " + std::to_string(instance.blas));
+    if (instance.blas >= blases_.size())
+        throw std::out_of_range("AccelScene::add_instance: no bottom level " + std::to_string(instance.blas));
     instances_.push_back(instance);
     records_.emplace_back();
     // The world_triangles path depends on the BLAS alone, so an instance's slots are fixed here.

@@ -2,7 +2,8 @@
 
 namespace smoketrace {
 
-OpticalPathLengths::OpticalPathLengths(std::size_t n) : lengths_(n, 0.0f), status_(n, DepthStatus::ok), hit_counts_(n, 0) {}
+OpticalPathLengths::OpticalPathLengths(std::size_t n)
+    : lengths_(n, 0.0f), status_(n, DepthStatus::ok), hit_counts_(n, 0) {}
 
 void OpticalPathLengths::update(const SmokeScene& scene, std::span<const Particle> particles,
                            std::span<const std::uint32_t> which, const glm::vec3& to_light,

@@ -44,8 +44,9 @@ struct LaneAnyHit {
 
 template <class AnyHit, std::size_t... I>
 std::array<RaySearch<LaneAnyHit<AnyHit>>, kBundleWidth> make_lane_searches(
-    const AccelScene& scene, const RayBundle& bundle, std::uint32_t flags, std::array<LaneAnyHit<AnyHit>, kBundleWidth>& hits,
-    const TraceLimits& limits, float* tmax, std::index_sequence<I...>) {
+    const AccelScene& scene, const RayBundle& bundle, std::uint32_t flags,
+    std::array<LaneAnyHit<AnyHit>, kBundleWidth>& hits, const TraceLimits& limits, float* tmax,
+    std::index_sequence<I...>) {
     return {RaySearch<LaneAnyHit<AnyHit>>(scene, bundle.ray(I), flags, hits[I], limits, tmax[I])...};
 }
 }  // namespace detail
@@ -92,7 +93,8 @@ BundleResults trace_bundle(const AccelScene& scene, const RayBundle& bundle, std
                 }
             } else if (inst.path == InstancePath::object_space) {
                 // The direction's part of the object-space ray, once for the bundle.
-                const auto od = RaySearch<detail::LaneAnyHit<Callback>>::object_direction(inst, glm::dvec3(bundle.direction));
+                const auto od =
+                    RaySearch<detail::LaneAnyHit<Callback>>::object_direction(inst, glm::dvec3(bundle.direction));
                 for (unsigned m = lanes; m != 0; m &= m - 1) {
                     const unsigned i = unsigned(std::countr_zero(m));
                     if (searches[i].visit_object_space(index, inst, opaque, od)) lanes &= ~(1u << i);
