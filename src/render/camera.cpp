@@ -35,4 +35,12 @@ Ray Camera::ray(int x, int y, float tmin) const {
     return Ray{position_, tmin, glm::normalize(forward_ + sx * right_ + sy * up_), std::numeric_limits<float>::infinity()};
 }
 
+RayTile Camera::tile(int x0, int y0, int columns, int rows, glm::vec2 offset, float tmin) const {
+    // ray()'s image-plane coordinates, with the pixel's point at `offset` rather than its centre.
+    float x[kTileColumns], y[kTileRows];
+    for (int c = 0; c < columns; ++c) x[c] = (2.0f * (float(x0 + c) + offset.x) / float(width_) - 1.0f) * half_width_;
+    for (int r = 0; r < rows; ++r) y[r] = (1.0f - 2.0f * (float(y0 + r) + offset.y) / float(height_)) * half_height_;
+    return RayTile(position_, forward_, right_, up_, x, unsigned(columns), y, unsigned(rows), tmin);
+}
+
 }  // namespace smoketrace

@@ -1,7 +1,9 @@
 #pragma once
 // A pinhole camera: one ray per pixel centre, as in the thesis's view pass (4.3.5).
 #include <smoketrace/geometry/ray.hpp>
+#include <smoketrace/geometry/ray_tile.hpp>
 
+#include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
 namespace smoketrace {
@@ -15,6 +17,11 @@ public:
 
     // Ray through the centre of pixel (x, y), y = 0 the top row; unit direction, so t is distance.
     [[nodiscard]] Ray ray(int x, int y, float tmin) const;
+
+    // The rays of pixels [x0, x0 + columns) × [y0, y0 + rows) as a tile (at most kTileColumns × kTileRows),
+    // each through the point `offset` of its pixel ((0.5, 0.5): the centre; x right, y down), with
+    // unbounded tmax: lane (c, r) is bit for bit the ray of pixel (x0 + c, y0 + r) through that point.
+    [[nodiscard]] RayTile tile(int x0, int y0, int columns, int rows, glm::vec2 offset, float tmin) const;
 
     [[nodiscard]] const glm::vec3& position() const { return position_; }
     [[nodiscard]] int width() const { return width_; }

@@ -186,10 +186,7 @@ private:
     // A few triangles kept in world space: the world ray's watertight test on each, in leaf order, with
     // rule 4 on the object-space facing. Counted as the one-leaf BLAS it stands for.
     [[gnu::always_inline]] bool visit_world_triangles(std::uint32_t index, const InstanceRecord& inst, bool opaque) {
-        ++world_leaves_;
-        const std::uint32_t n = inst.world_triangle_count;
-        result_.counters.primitives_tested += n;
-        const bool cull_enabled = !(inst.flags & instance_flag_triangle_cull_disable);
+        count_world_triangles(inst);
         const MeshBlas::Triangle* tris = scene_.world_triangles() + inst.first_world_triangle;
         // The world ray's triangle set-up, shared by every world_triangles instance; made at the first
         // one, since most rays (a light ray rising from a particle) meet none.
@@ -197,27 +194,46 @@ private:
             world_tri_ = TriangleRay(ray_);
             world_tri_ready_ = true;
         }
-        for (std::uint32_t k = 0; k < n; ++k) {
+        for (std::uint32_t k = 0; k < inst.world_triangle_count; ++k) {
             TriangleHit th;
             if (!intersect_triangle(world_tri_, tris[k].v0, tris[k].v1, tris[k].v2, tmax_, th)) continue;
-            const bool front = th.front_face != inst.world_facing_flipped;
-            if (cull_enabled && (front ? cull_front_facing_ : cull_back_facing_)) continue;  // rule 4
-            const bool end = report(opaque, [&] {
-                TraceHit h;
-                h.t = th.t;
-                h.barycentrics = th.barycentrics;  // an affine map keeps them
-                h.instance_index = index;
-                h.instance_id = inst.user_id;
-                h.primitive_index = inst.blas->mesh.primitive_id(k);
-                h.kind = front ? HitKind::front_face : HitKind::back_face;
-                h.geometry = GeometryKind::triangles;
-                return h;
-            });
-            if (end) return true;
+            if (report_world_triangle(index, inst, opaque, k, th)) return true;
         }
         return false;
     }
 
+public:
+    // A world_triangles instance tested for this ray outside visit(), by a tile (trace_tile.hpp): counted as
+    // visit() counts its own.
+    [[gnu::always_inline]] void count_world_triangles(const InstanceRecord& inst) {
+        ++world_leaves_;
+        result_.counters.primitives_tested += inst.world_triangle_count;
+    }
+
+    // Triangle k of a world_triangles instance, met by this ray at `th` (t within [tmin, tmax]): rule 4 on the
+    // object-space facing, then rules 5-8. Returns true when the search has ended.
+    [[gnu::always_inline]] bool report_world_triangle(std::uint32_t index, const InstanceRecord& inst, bool opaque,
+                                                      std::uint32_t k, const TriangleHit& th) {
+        const bool front = th.front_face != inst.world_facing_flipped;
+        const bool cull_enabled = !(inst.flags & instance_flag_triangle_cull_disable);
+        if (cull_enabled && (front ? cull_front_facing_ : cull_back_facing_)) return false;  // rule 4
+        return report(opaque, [&] {
+            TraceHit h;
+            h.t = th.t;
+            h.barycentrics = th.barycentrics;  // an affine map keeps them
+            h.instance_index = index;
+            h.instance_id = inst.user_id;
+            h.primitive_index = inst.blas->mesh.primitive_id(k);
+            h.kind = front ? HitKind::front_face : HitKind::back_face;
+            h.geometry = GeometryKind::triangles;
+            return h;
+        });
+    }
+
+    // The search's current tmax (a commit lowers it).
+    [[nodiscard]] float tmax() const { return tmax_; }
+
+private:
     // The general path (InstancePath::object_space): the ray taken into object space and the BLAS run
     // there (rule 4 applies to triangles only). Out of line, so that the instance visit, the TLAS walk's
     // leaf callback, stays small enough to be inlined into the walk.

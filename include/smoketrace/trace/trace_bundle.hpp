@@ -34,14 +34,6 @@ namespace smoketrace {
 using BundleResults = std::array<TraceResult, kBundleWidth>;  // [i] for lane i; lanes >= count are default
 
 namespace detail {
-// One lane's view of the bundle's any-hit callback: what RaySearch calls.
-template <class AnyHit>
-struct LaneAnyHit {
-    AnyHit* any_hit;
-    unsigned lane;
-    AnyHitDecision operator()(const TraceHit& h) const { return (*any_hit)(lane, h); }
-};
-
 template <class AnyHit, std::size_t... I>
 std::array<RaySearch<LaneAnyHit<AnyHit>>, kBundleWidth> make_lane_searches(
     const AccelScene& scene, const RayBundle& bundle, std::uint32_t flags,
@@ -56,7 +48,7 @@ template <class AnyHit>
 BundleResults trace_bundle(const AccelScene& scene, const RayBundle& bundle, std::uint32_t flags,
                            std::uint8_t inclusion_mask, AnyHit&& any_hit, const TraceLimits& limits = {}) {
     using Callback = std::remove_reference_t<AnyHit>;
-    std::array<detail::LaneAnyHit<Callback>, kBundleWidth> lane_hits;
+    std::array<LaneAnyHit<Callback>, kBundleWidth> lane_hits;
     for (unsigned i = 0; i < kBundleWidth; ++i) lane_hits[i] = {&any_hit, i};
     alignas(64) float tmax[kBundleWidth];  // each lane's, written by its search, read by the walk
     auto searches = detail::make_lane_searches(scene, bundle, flags, lane_hits, limits, tmax,
@@ -94,7 +86,7 @@ BundleResults trace_bundle(const AccelScene& scene, const RayBundle& bundle, std
             } else if (inst.path == InstancePath::object_space) {
                 // The direction's part of the object-space ray, once for the bundle.
                 const auto od =
-                    RaySearch<detail::LaneAnyHit<Callback>>::object_direction(inst, glm::dvec3(bundle.direction));
+                    RaySearch<LaneAnyHit<Callback>>::object_direction(inst, glm::dvec3(bundle.direction));
                 for (unsigned m = lanes; m != 0; m &= m - 1) {
                     const unsigned i = unsigned(std::countr_zero(m));
                     if (searches[i].visit_object_space(index, inst, opaque, od)) lanes &= ~(1u << i);

@@ -67,4 +67,13 @@ struct AcceptAll {
     constexpr AnyHitDecision operator()(const TraceHit&) const { return AnyHitDecision::accept; }
 };
 
+// One ray's view of a callback shared by many rays (trace_bundle(), trace_tile(): any_hit(lane, hit)): what
+// that ray's RaySearch calls.
+template <class AnyHit>
+struct LaneAnyHit {
+    AnyHit* any_hit;
+    unsigned lane;
+    AnyHitDecision operator()(const TraceHit& h) const { return (*any_hit)(lane, h); }
+};
+
 }  // namespace smoketrace

@@ -1,0 +1,208 @@
+#pragma once
+// trace_tile(): trace() (trace.hpp) for the rays of a tile, up to kTileRays camera rays from one eye through a
+// grid of image-plane points (geometry/ray_tile.hpp), traced together. What each ray sees is exactly what
+// trace() would show it:
+//
+//   results[i] == trace(scene, tile.ray(i), flags, inclusion_mask, any_hit_i, limits), where
+//   any_hit_i(hit) = any_hit(i, hit),
+//
+// with every DXR rule of trace.hpp, the cutoff and SKIP_CLOSEST_HIT_SHADER applied to each ray on its own (a
+// ray that ends its search drops out, the others go on). The candidates of one ray and their t are those
+// trace() reports, bit for bit; only their order may differ (DXR gives none). Where two opaque hits of a ray
+// lie at exactly the same t, which of them is committed depends on the order they are met, as between
+// trace()'s two top-level walks. Counters: tlas_nodes and boxes_tested count the tile's one walk, shared by
+// its rays; the rest count each ray's own work, as in trace().
+//
+// How: the top level is walked once for the tile (accel/tile_traversal.hpp), culling nodes against the tile's
+// frustum, and the instances it reaches that rules 1-3 admit are gathered and sorted by their distance from
+// the eye. Then each instance is tested for the rays under its shadow on the image plane only
+// (RayTile::shadow_lanes()), skipping rays whose tmax already lies before it: near to far, a ray whose
+// any-hit callback ends or shrinks it early (a pixel gone opaque) stops meeting what lies behind. A
+// world_triangles instance (every billboard, the ground) is tested for a block of rays at once
+// (geometry/ray_triangle_tile.hpp) and each ray's hits are handed to its RaySearch (ray_search.hpp), the code
+// trace() runs, as is every other kind of instance, one ray at a time.
+#include <smoketrace/accel/accel_scene.hpp>
+#include <smoketrace/accel/tile_traversal.hpp>
+#include <smoketrace/core/simd/lanes.hpp>
+#include <smoketrace/geometry/ray_tile.hpp>
+#include <smoketrace/geometry/ray_triangle_tile.hpp>
+#include <smoketrace/trace/ray_search.hpp>
+#include <smoketrace/trace/trace_types.hpp>
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cstdint>
+#include <memory>
+#include <new>
+#include <type_traits>
+#include <vector>
+
+namespace smoketrace {
+
+using TileResults = std::array<TraceResult, kTileRays>;  // [lane]; lanes outside the grid are default
+
+// What trace_tile() keeps between calls, so that a tile allocates nothing once it has met its largest list:
+// one per thread.
+struct TileScratch {
+    struct Candidate {
+        std::uint32_t index;  // instance
+        bool opaque;          // its final opacity (rule 2)
+        float distance;       // distance_to_box() from the eye
+    };
+    std::vector<Candidate> candidates;
+};
+
+namespace detail {
+// kTileRays RaySearches, made in place (they are neither copied nor moved) and trivially destroyed.
+template <class AnyHit>
+class TileSearches {
+public:
+    using Search = RaySearch<LaneAnyHit<AnyHit>>;
+    static_assert(std::is_trivially_destructible_v<Search>);
+
+    TileSearches(const AccelScene& scene, RayTile& tile, std::uint32_t flags, AnyHit& any_hit,
+                 const TraceLimits& limits) {
+        for (unsigned lane = 0; lane < kTileRays; ++lane) {
+            hits_[lane] = {&any_hit, lane};
+            new (&storage_[lane]) Search(scene, tile.ray(lane), flags, hits_[lane], limits, tile.tmax_ref(lane));
+        }
+    }
+    TileSearches(const TileSearches&) = delete;
+    TileSearches& operator=(const TileSearches&) = delete;
+
+    Search& operator[](unsigned lane) { return *std::launder(reinterpret_cast<Search*>(&storage_[lane])); }
+
+private:
+    std::array<LaneAnyHit<AnyHit>, kTileRays> hits_;
+    struct alignas(Search) Slot {
+        unsigned char bytes[sizeof(Search)];
+    };
+    std::array<Slot, kTileRays> storage_;
+};
+}  // namespace detail
+
+// any_hit(unsigned lane, const TraceHit&) -> AnyHitDecision, for every candidate of every ray. The tile's
+// rays must have unit directions (as a camera's do); their tmax is the tile's (RayTile::set_tmax()), and
+// the search lowers it as trace() lowers a ray's.
+template <class AnyHit>
+void trace_tile(const AccelScene& scene, RayTile& tile, std::uint32_t flags, std::uint8_t inclusion_mask,
+                AnyHit&& any_hit, TileResults& results, TileScratch& scratch, const TraceLimits& limits = {}) {
+    using Callback = std::remove_reference_t<AnyHit>;
+    using Floats = simd::Floats<simd::kFloatLanes>;
+    constexpr unsigned W = simd::kFloatLanes;
+    static_assert(kTileColumns % W == 0);
+    constexpr unsigned kBlockBits = W == 32 ? ~0u : (1u << W) - 1u;
+
+    detail::TileSearches<Callback> searches(scene, tile, flags, any_hit, limits);
+    const TileTriangleRays triangle_rays(tile);
+    const InstanceFilter filter(flags, inclusion_mask);
+
+    // The rays still searching, a set of columns per row.
+    TileLineSet alive[kTileRows] = {};
+    float reach = 0.0f;
+    for (unsigned r = 0; r < tile.rows(); ++r) {
+        alive[r] = tile.all_columns();
+        for (unsigned c = 0; c < tile.columns(); ++c) reach = std::max(reach, tile.tmax(RayTile::lane(c, r)));
+    }
+
+    // The instances the tile can see, near to far.
+    std::vector<TileScratch::Candidate>& candidates = scratch.candidates;
+    candidates.clear();
+    TraversalStats tlas_stats;
+    const Bvh& tlas = scene.tlas();
+    const std::uint8_t* node_masks = scene.tlas_node_masks().data();
+    traverse_bvh_tile(
+        tlas, tile, reach,
+        [&](std::uint32_t first, std::uint32_t count) {
+            for (std::uint32_t k = first; k < first + count; ++k) {
+                const std::uint32_t index = tlas.prim_indices[k];
+                bool opaque;
+                if (!filter.admits(scene.record(index), opaque)) continue;  // rules 1-3, once for the tile
+                candidates.push_back({index, opaque, distance_to_box(tile.origin(), scene.instance_bounds(index))});
+            }
+        },
+        tlas_stats, [&](std::uint32_t node) { return (node_masks[node] & inclusion_mask) != 0; });
+    std::sort(candidates.begin(), candidates.end(),
+              [](const TileScratch::Candidate& a, const TileScratch::Candidate& b) {
+                  return a.distance < b.distance || (a.distance == b.distance && a.index < b.index);
+              });
+
+    const float* tmax = tile.tmax_data();
+    for (const TileScratch::Candidate& cand : candidates) {
+        TileLineSet columns, rows;
+        if (!tile.shadow_lanes(scene.instance_bounds(cand.index), columns, rows)) continue;
+        const InstanceRecord& inst = scene.record(cand.index);
+        const Floats distance = Floats::broadcast(cand.distance);
+        // The rays of row r and block b under the shadow, still searching, whose tmax reaches the instance.
+        auto block_lanes = [&](unsigned r, unsigned b) {
+            const unsigned first = RayTile::lane(b * W, r);
+            const unsigned in_shadow = ((columns & alive[r]) >> (b * W)) & kBlockBits;
+            if (in_shadow == 0) return 0u;
+            return in_shadow & bits(Floats::load(tmax + first) >= distance);
+        };
+        // A ray whose search has ended.
+        auto end_lane = [&](unsigned lane) { alive[lane / kTileColumns] &= ~(1u << (lane % kTileColumns)); };
+
+        if (inst.path == InstancePath::world_triangles && triangle_rays.shared_axes) {
+            const MeshBlas::Triangle* tris = scene.world_triangles() + inst.first_world_triangle;
+            const glm::vec3& eye = tile.origin();
+            // The rays the instance is tested for, counted as trace() counts a visit.
+            unsigned tested[kTileRows][kTileColumns / W] = {};
+            for (TileLineSet rs = rows; rs != 0; rs &= rs - 1) {
+                const unsigned r = unsigned(std::countr_zero(rs));
+                for (unsigned b = 0; b < kTileColumns / W; ++b) {
+                    tested[r][b] = block_lanes(r, b);
+                    const unsigned first = RayTile::lane(b * W, r);
+                    for (unsigned m = tested[r][b]; m != 0; m &= m - 1)
+                        searches[first + unsigned(std::countr_zero(m))].count_world_triangles(inst);
+                }
+            }
+            for (std::uint32_t k = 0; k < inst.world_triangle_count; ++k) {
+                const MeshBlas::Triangle& tri = tris[k];
+                const glm::vec3 a = tri.v0 - eye, b = tri.v1 - eye, c = tri.v2 - eye;
+                const glm::dvec3 normal = triangle_normal(tri.v0, tri.v1, tri.v2);
+                for (TileLineSet rs = rows; rs != 0; rs &= rs - 1) {
+                    const unsigned r = unsigned(std::countr_zero(rs));
+                    for (unsigned blk = 0; blk < kTileColumns / W; ++blk) {
+                        // Tested once and still searching (an earlier triangle may have ended a ray).
+                        const unsigned lanes = tested[r][blk] & (alive[r] >> (blk * W)) & kBlockBits;
+                        if (lanes == 0) continue;
+                        const unsigned first = RayTile::lane(blk * W, r);
+                        ShearedLanes<W> sheared;
+                        for (unsigned m = shear_lanes<W>(triangle_rays, first, lanes, a, b, c, sheared); m != 0;
+                             m &= m - 1) {
+                            const unsigned i = unsigned(std::countr_zero(m));
+                            const unsigned lane = first + i;
+                            TriangleHit th;
+                            if (!finish_triangle_hit(TriangleRay(tile.ray(lane)), sheared.lane(i), tri.v0, normal,
+                                                     tmax[lane], th))
+                                continue;
+                            if (searches[lane].report_world_triangle(cand.index, inst, cand.opaque, k, th))
+                                end_lane(lane);
+                        }
+                    }
+                }
+            }
+        } else {
+            for (TileLineSet rs = rows; rs != 0; rs &= rs - 1) {
+                const unsigned r = unsigned(std::countr_zero(rs));
+                for (unsigned blk = 0; blk < kTileColumns / W; ++blk) {
+                    const unsigned first = RayTile::lane(blk * W, r);
+                    for (unsigned m = block_lanes(r, blk); m != 0; m &= m - 1) {
+                        const unsigned lane = first + unsigned(std::countr_zero(m));
+                        if (searches[lane].visit(cand.index, inst, cand.opaque)) end_lane(lane);
+                    }
+                }
+            }
+        }
+    }
+
+    for (unsigned r = 0; r < kTileRows; ++r)
+        for (unsigned c = 0; c < kTileColumns; ++c) {
+            const unsigned lane = RayTile::lane(c, r);
+            results[lane] = r < tile.rows() && c < tile.columns() ? searches[lane].finish(tlas_stats) : TraceResult{};
+        }
+}
+
+}  // namespace smoketrace

@@ -1,0 +1,307 @@
+// trace_tile(): camera rays traced a tile at a time must each see exactly what trace() shows them alone.
+//
+// The kernel first, lane by lane against the scalar shear it stands for (bit for bit, no tolerance: the same
+// operations), on rays through triangle edges and vertices too. Then tiles against trace() on a random scene
+// of every instance kind and on smoke scenes (the shipped ones and adversarial ones: billboards at the same
+// depth, a billboard's shared diagonal through a pixel centre, the eye inside the smoke), compared on what
+// DXR fixes whatever the order: the candidates when every one is ignored (t bit for bit), the closest hit,
+// a first-hit end and the cutoff.
+#include <smoketrace/geometry/ray_triangle_tile.hpp>
+#include <smoketrace/io/scene_file.hpp>
+#include <smoketrace/render/camera.hpp>
+#include <smoketrace/smoke/smoke_scene.hpp>
+#include <smoketrace/trace/trace.hpp>
+#include <smoketrace/trace/trace_tile.hpp>
+
+#include <catch2/catch.hpp>
+
+#include "support/fixtures.hpp"
+#include "support/mixed_scene.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <cstring>
+#include <filesystem>
+#include <limits>
+#include <vector>
+
+using namespace smoketrace;
+using namespace smoketrace::test;
+
+namespace {
+
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+bool same_bits(float a, float b) { return std::bit_cast<std::uint32_t>(a) == std::bit_cast<std::uint32_t>(b); }
+bool same_bits(double a, double b) { return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b); }
+
+// Every ray of `tile` against trace(): candidates (every one ignored), the closest hit (every one accepted,
+// the flags as given), a first-hit end and a cutoff of `cutoff` any-hit calls. Returns the candidates seen.
+std::size_t check_tile(const AccelScene& scene, RayTile tile, std::uint32_t extra_flags, std::uint8_t mask,
+                       std::uint32_t cutoff) {
+    TileScratch scratch;
+    TileResults results;
+    std::size_t seen = 0, ties = 0;
+    const RayTile start = tile;
+    {
+        std::vector<HitKey> got[kTileRays];
+        RayTile t = start;
+        trace_tile(scene, t, ray_flag_force_non_opaque | extra_flags, mask,
+                   [&](unsigned lane, const TraceHit& h) {
+                       got[lane].push_back(key_of(h));
+                       return AnyHitDecision::ignore;
+                   },
+                   results, scratch);
+        for (unsigned r = 0; r < kTileRows; ++r)
+            for (unsigned c = 0; c < kTileColumns; ++c) {
+                const unsigned lane = RayTile::lane(c, r);
+                if (r >= tile.rows() || c >= tile.columns()) {
+                    CHECK(got[lane].empty());
+                    continue;
+                }
+                std::vector<HitKey> expected;
+                trace(scene, start.ray(lane), ray_flag_force_non_opaque | extra_flags, mask, [&](const TraceHit& h) {
+                    expected.push_back(key_of(h));
+                    return AnyHitDecision::ignore;
+                });
+                std::sort(got[lane].begin(), got[lane].end());
+                std::sort(expected.begin(), expected.end());
+                CAPTURE(c, r);
+                CHECK(got[lane] == expected);
+                CHECK(results[lane].counters.any_hit_invocations == expected.size());
+                seen += expected.size();
+            }
+    }
+    for (const std::uint32_t flags : {extra_flags, extra_flags | std::uint32_t(ray_flag_accept_first_hit_and_end_search)}) {
+        RayTile t = start;
+        trace_tile(scene, t, flags, mask, [](unsigned, const TraceHit&) { return AnyHitDecision::accept; }, results,
+                   scratch);
+        for (unsigned r = 0; r < tile.rows(); ++r)
+            for (unsigned c = 0; c < tile.columns(); ++c) {
+                const unsigned lane = RayTile::lane(c, r);
+                const TraceResult alone = trace(scene, start.ray(lane), flags, mask);
+                CAPTURE(c, r, flags);
+                REQUIRE(results[lane].hit == alone.hit);
+                if (!alone.hit || (flags & ray_flag_accept_first_hit_and_end_search)) continue;
+                const TraceHit& got = results[lane].committed;
+                CHECK(same_bits(got.t, alone.committed.t));
+                CHECK(t.tmax(lane) == alone.committed.t);
+                if (key_of(got) == key_of(alone.committed)) continue;
+                // A tie: two surfaces at exactly that t, committed in the order met. The tile's must be one
+                // of the ray's candidates there.
+                bool candidate = false;
+                trace(scene, start.ray(lane), flags | ray_flag_force_non_opaque, mask, [&](const TraceHit& h) {
+                    candidate = candidate || key_of(h) == key_of(got);
+                    return AnyHitDecision::ignore;
+                });
+                CHECK(candidate);
+                ++ties;
+            }
+    }
+    {
+        RayTile t = start;
+        trace_tile(scene, t, ray_flag_force_non_opaque | extra_flags, mask,
+                   [](unsigned, const TraceHit&) { return AnyHitDecision::ignore; }, results, scratch,
+                   TraceLimits{cutoff});
+        for (unsigned r = 0; r < tile.rows(); ++r)
+            for (unsigned c = 0; c < tile.columns(); ++c) {
+                const unsigned lane = RayTile::lane(c, r);
+                const TraceResult alone = trace(scene, start.ray(lane), ray_flag_force_non_opaque | extra_flags, mask,
+                                                [](const TraceHit&) { return AnyHitDecision::ignore; },
+                                                TraceLimits{cutoff});
+                CHECK(results[lane].cut_off == alone.cut_off);
+            }
+    }
+    // Ties are the exception: billboards sharing a centre (the adversarial scene below) make them.
+    CHECK(ties <= seen / 4);
+    return seen;
+}
+
+// The shipped scene's smoke, billboards turned to its camera.
+struct SmokeView {
+    std::vector<Particle> particles;
+    SmokeScene scene;
+    Camera camera;
+};
+
+SmokeView smoke_view(std::vector<Particle> particles, const std::optional<GroundQuad>& ground, const glm::vec3& eye,
+                     const glm::vec3& look_at, float fov, int size) {
+    SmokeScene scene(particles, StandInShape{}, ground, true);
+    scene.update(particles, eye);
+    return SmokeView{std::move(particles), std::move(scene), Camera(eye, look_at, glm::vec3(0, 1, 0), fov, size, size)};
+}
+
+constexpr std::uint8_t kOpaqueView = kViewRayMask & std::uint8_t(~kBillboardMask);
+
+// Every tile of the view, billboards (every candidate) and the opaque surface (closest hit).
+std::size_t check_smoke_view(const SmokeView& v, glm::vec2 offset) {
+    std::size_t seen = 0;
+    const Camera& cam = v.camera;
+    for (int y0 = 0; y0 < cam.height(); y0 += int(kTileRows))
+        for (int x0 = 0; x0 < cam.width(); x0 += int(kTileColumns)) {
+            const int cols = std::min(int(kTileColumns), cam.width() - x0), rows = std::min(int(kTileRows), cam.height() - y0);
+            const RayTile tile = cam.tile(x0, y0, cols, rows, offset, 1e-3f);
+            CAPTURE(x0, y0);
+            seen += check_tile(v.scene.scene(), tile, ray_flag_none, kBillboardMask, 3);
+            check_tile(v.scene.scene(), tile, ray_flag_force_opaque, kOpaqueView, 1);
+        }
+    return seen;
+}
+
+}  // namespace
+
+TEST_CASE("ray tile: lane (c, r) is the camera's ray of that pixel, bit for bit", "[trace-tile]") {
+    const Camera cam(glm::vec3(1, 2, 9), glm::vec3(0.2f, 0.1f, -1), glm::vec3(0, 1, 0), 50.0f, 70, 45);
+    for (int y0 : {0, 16, 32})
+        for (int x0 : {0, 16, 64}) {
+            const int cols = std::min(16, 70 - x0), rows = std::min(16, 45 - y0);
+            const RayTile tile = cam.tile(x0, y0, cols, rows, glm::vec2(0.5f), 1e-3f);
+            REQUIRE(tile.columns() == unsigned(cols));
+            for (int r = 0; r < rows; ++r)
+                for (int c = 0; c < cols; ++c) {
+                    const Ray a = tile.ray(RayTile::lane(c, r)), b = cam.ray(x0 + c, y0 + r, 1e-3f);
+                    CAPTURE(x0, y0, c, r);
+                    CHECK(std::memcmp(&a, &b, sizeof(Ray)) == 0);
+                }
+        }
+}
+
+TEST_CASE("ray tile: shear_lanes() is the scalar shear lane by lane, through edges and vertices too", "[trace-tile]") {
+    // Tiles whose middle column and row have x = y = 0 exactly, looking along an axis: their middle ray is
+    // the axis itself, and triangles with an edge or a vertex on that axis give float edge functions of
+    // exactly 0 (the double path). Random triangles around them, some sharing that vertex.
+    Pcg32 rng(23);
+    constexpr unsigned W = simd::kFloatLanes;
+    std::size_t kept = 0, zero_edges = 0;
+    for (int k = 0; k < 400; ++k) {
+        float x[kTileColumns], y[kTileRows];
+        const float spread = rng.uniform(0.01f, 1.5f);
+        for (unsigned i = 0; i < kTileColumns; ++i) x[i] = spread * (float(int(i) - 8) / 8.0f);
+        for (unsigned i = 0; i < kTileRows; ++i) y[i] = spread * (float(8 - int(i)) / 8.0f);
+        const int axis = k % 3;
+        glm::vec3 f(0.0f), rt(0.0f), up(0.0f);
+        f[axis] = k % 2 ? 1.0f : -1.0f;
+        rt[(axis + 1) % 3] = 1.0f;
+        up[(axis + 2) % 3] = 1.0f;
+        const glm::vec3 eye(rng.uniform(-3, 3), rng.uniform(-3, 3), rng.uniform(-3, 3));
+        const RayTile tile(eye, f, rt, up, x, kTileColumns, y, kTileRows, 0.0f);
+        const TileTriangleRays rays(tile);
+        if (!rays.shared_axes) continue;
+        const glm::vec3 on_axis = eye + f * rng.uniform(1.0f, 9.0f);
+        for (int j = 0; j < 20; ++j) {
+            glm::vec3 v[3];
+            for (glm::vec3& p : v) p = eye + f * rng.uniform(0.5f, 9.0f) + rt * rng.uniform(-4, 4) + up * rng.uniform(-4, 4);
+            if (j % 2 == 0) v[j % 3] = on_axis;  // a vertex on the middle ray
+            if (j % 4 == 1) v[1] = on_axis + (v[0] - on_axis) * -1.0f;  // an edge through the middle ray
+            const glm::vec3 a = v[0] - eye, b = v[1] - eye, c = v[2] - eye;
+            for (unsigned first = 0; first < kTileRays; first += W) {
+                ShearedLanes<W> out;
+                const unsigned keep = shear_lanes<W>(rays, first, W == 32 ? ~0u : (1u << W) - 1u, a, b, c, out);
+                for (unsigned i = 0; i < W; ++i) {
+                    const ShearedTriangle s = shear_triangle(TriangleRay(tile.ray(first + i)), v[0], v[1], v[2]);
+                    CAPTURE(k, j, first, i);
+                    REQUIRE(bool(keep >> i & 1u) == !straddles(s));
+                    CHECK(same_bits(out.ax[i], s.ax));
+                    CHECK(same_bits(out.ay[i], s.ay));
+                    CHECK(same_bits(out.bx[i], s.bx));
+                    CHECK(same_bits(out.by[i], s.by));
+                    CHECK(same_bits(out.cx[i], s.cx));
+                    CHECK(same_bits(out.cy[i], s.cy));
+                    zero_edges += (s.u == 0.0) + (s.v == 0.0) + (s.w == 0.0);
+                    if (!(keep >> i & 1u)) continue;
+                    ++kept;
+                    CHECK(same_bits(out.u[i], s.u));
+                    CHECK(same_bits(out.v[i], s.v));
+                    CHECK(same_bits(out.w[i], s.w));
+                }
+            }
+        }
+    }
+    CHECK(kept > 10000);
+    CHECK(zero_edges > 100);
+}
+
+TEST_CASE("trace_tile: every ray of a tile meets what trace() shows it alone (every instance kind)", "[trace-tile]") {
+    Pcg32 rng(57);
+    const AccelScene s = mixed_scene(rng);
+    std::size_t seen = 0;
+    for (int k = 0; k < 24; ++k) {
+        const glm::vec3 eye = 45.0f * random_unit(rng);
+        const glm::vec3 at(rng.uniform(-8, 8), rng.uniform(-8, 8), rng.uniform(-8, 8));
+        const int size = 40 + int(rng.below(60));
+        const Camera cam(eye, at, glm::vec3(0, 1, 0), rng.uniform(10.0f, 90.0f), size, size);
+        const int x0 = int(rng.below(unsigned(size))), y0 = int(rng.below(unsigned(size)));
+        const int cols = std::min(int(kTileColumns), size - x0), rows = std::min(int(kTileRows), size - y0);
+        RayTile tile = cam.tile(x0, y0, cols, rows, glm::vec2(rng.uniform01(), rng.uniform01()), rng.uniform(0.0f, 40.0f));
+        // Some rays end early, as a pixel's ground does.
+        for (unsigned lane = 0; lane < kTileRays; ++lane)
+            if (rng.below(4) == 0) tile.set_tmax(lane, rng.uniform(30.0f, 60.0f));
+        const std::uint8_t mask = std::uint8_t(1u + rng.below(7));
+        const std::uint32_t flags = k % 3 == 1   ? ray_flag_cull_back_facing_triangles
+                                    : k % 3 == 2 ? ray_flag_cull_front_facing_triangles
+                                                 : ray_flag_none;
+        CAPTURE(k);
+        seen += check_tile(s, tile, flags, mask, 1 + rng.below(4));
+    }
+    CHECK(seen > 2000);
+}
+
+TEST_CASE("trace_tile: the shipped scenes' camera rays meet the billboards and ground trace() shows them", "[trace-tile]") {
+    std::size_t seen = 0;
+    for (const char* name : {"two_tubes_above.json", "two_tubes_right.json"}) {
+        const SceneDescription d =
+            load_scene_file(std::filesystem::path(SMOKETRACE_ASSET_DIR) / "scenes" / name);
+        std::optional<GroundQuad> ground;
+        if (d.ground) ground = GroundQuad{d.ground->corners};
+        const SmokeView v = smoke_view(d.smoke.particles, ground, d.camera.position, d.camera.look_at,
+                                       d.camera.fov_deg, 64);
+        CAPTURE(name);
+        seen += check_smoke_view(v, glm::vec2(0.5f));
+        seen += check_smoke_view(v, glm::vec2(0.125f, 0.875f));
+    }
+    CHECK(seen > 20000);
+}
+
+TEST_CASE("trace_tile: billboards at the same depth, a diagonal through a pixel centre, the eye in the smoke",
+          "[trace-tile]") {
+    const GroundQuad ground{{glm::vec3(-20, -3, 20), glm::vec3(20, -3, 20), glm::vec3(20, -3, -20), glm::vec3(-20, -3, -20)}};
+    SECTION("the same depth: particles sharing a centre, and on a sphere around the eye") {
+        std::vector<Particle> ps;
+        for (int i = 0; i < 6; ++i) {
+            Particle p = particle(glm::vec3(0.3f, 0.2f, -6.0f), 0.5f + 0.25f * float(i));
+            p.rotation = 0.4f * float(i);
+            ps.push_back(p);
+        }
+        for (int i = 0; i < 40; ++i) {
+            const float a = 0.05f * float(i);
+            ps.push_back(particle(8.0f * glm::vec3(std::sin(a) * 0.3f, std::cos(a) * 0.2f, -1.0f) /
+                                      glm::length(glm::vec3(std::sin(a) * 0.3f, std::cos(a) * 0.2f, -1.0f)),
+                                  0.7f));
+        }
+        const SmokeView v = smoke_view(ps, ground, glm::vec3(0.0f), glm::vec3(0, 0, -1), 60.0f, 48);
+        CHECK(check_smoke_view(v, glm::vec2(0.5f)) > 2000);
+    }
+    SECTION("a billboard's shared diagonal through the middle pixel's centre") {
+        // 33 × 33 pixels: the middle column and row have x = y = 0 exactly, so the middle ray is the view
+        // axis, which passes through the centre of a quad facing the eye, on the edge its two triangles share.
+        const SmokeView v = smoke_view({particle(glm::vec3(0, 0, -5), 1.0f), particle(glm::vec3(0, 0, -7), 2.0f)},
+                                       ground, glm::vec3(0.0f), glm::vec3(0, 0, -1), 40.0f, 33);
+        const Ray axis = v.camera.ray(16, 16, 1e-3f);
+        REQUIRE(axis.direction == glm::vec3(0, 0, -1));
+        std::size_t layers = 0;
+        trace(v.scene.scene(), axis, ray_flag_force_non_opaque, kBillboardMask, [&](const TraceHit&) {
+            ++layers;
+            return AnyHitDecision::ignore;
+        });
+        CHECK(layers == 2);  // one triangle of each quad, never both
+        CHECK(check_smoke_view(v, glm::vec2(0.5f)) > 500);
+    }
+    SECTION("the eye inside the smoke") {
+        std::vector<Particle> ps;
+        Pcg32 rng(5);
+        for (int i = 0; i < 300; ++i)
+            ps.push_back(particle(glm::vec3(rng.uniform(-2, 2), rng.uniform(-2, 2), rng.uniform(-2, 2)), 0.4f));
+        const SmokeView v = smoke_view(ps, ground, glm::vec3(0.1f, 0.0f, 0.2f), glm::vec3(1, 0.3f, -1), 90.0f, 48);
+        CHECK(check_smoke_view(v, glm::vec2(0.5f)) > 7000);
+    }
+}
