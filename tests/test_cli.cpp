@@ -25,6 +25,7 @@
 namespace fs = std::filesystem;
 using namespace smoketrace;
 using smoketrace::test::CliRun;
+using smoketrace::test::file_bytes;
 using smoketrace::test::run_cli;
 using smoketrace::test::TempDir;
 
@@ -166,6 +167,11 @@ TEST_CASE("cli: bad arguments and files name the problem and leave no output", "
         {"render " + kScene + " -o " + png.string() + " --size 12", "WxH"},
         {"render " + kScene + " -o " + png.string() + " --mode fancy", "--mode"},
         {"render " + kScene + " -o " + png.string() + " --frames -3", "--frames"},
+        {"render " + kScene + " -o " + png.string() + " --spp 0", "--spp: 0 is out of range [1, 64]"},
+        {"render " + kScene + " -o " + png.string() + " --spp 65", "--spp: 65 is out of range [1, 64]"},
+        {"render " + kScene + " -o " + png.string() + " --spp 1.5", "--spp: '1.5' is not a whole number"},
+        {"render " + kScene + " -o " + png.string() + " --spp four", "--spp: 'four' is not a whole number"},
+        {"render " + kScene + " -o " + png.string() + " --spp", "--spp"},
         {"render " + kScene + " -o " + (dir.path / "nowhere" / "x.png").string(), "does not exist"},
         {"render " + kScene + " -o " + png.string() + " --textures " + (dir.path / "none").string(), "sixway"},
         {"frobnicate", "unknown command"},
@@ -199,4 +205,28 @@ TEST_CASE("cli: an output folder that cannot be written is an error, not a crash
         CHECK(r.exit_code != 0);
         CHECK(r.err.find("d.csv") != std::string::npos);
     }
+}
+
+TEST_CASE("cli: --spp overrides the scene's render.spp", "[cli][spp]") {
+    // minimal.json says nothing about spp (1); a copy of it says 4. The option wins over the file both ways, and
+    // 4 samples give another image than 1 (the particles' and the ground's edges), so the setting is used.
+    TempDir dir;
+    std::string text = file_bytes(kScene);
+    const auto brace = text.rfind('}');
+    REQUIRE(brace != std::string::npos);
+    text.insert(brace, ", \"render\": { \"spp\": 4 } ");
+    const fs::path four = dir.write("four.json", text);
+    REQUIRE(load_scene_file(four).render.spp == 4u);
+    const auto render = [&](const fs::path& scene, const std::string& name, const std::string& options) {
+        const fs::path out = dir.path / name;
+        const CliRun r = run_cli("render " + scene.string() + " -o " + out.string() + " --size 24x24" + options);
+        INFO(r.err);
+        REQUIRE(r.exit_code == 0);
+        return file_bytes(out);
+    };
+    const std::string file_one = render(kScene, "a.png", "");
+    const std::string file_four = render(four, "b.png", "");
+    CHECK(render(kScene, "c.png", " --spp 4") == file_four);
+    CHECK(render(four, "d.png", " --spp 1") == file_one);
+    CHECK(file_one != file_four);
 }

@@ -4,6 +4,7 @@
 // folder of its own (the installed layout, the build tree's, neither).
 #include "support/cli_runner.hpp"
 
+#include <smoketrace/render/pixel_samples.hpp>
 #include <smoketrace/render/sixway_baker.hpp>
 #include <smoketrace/render/sixway_texture.hpp>
 
@@ -130,6 +131,12 @@ TEST_CASE("cli help: the defaults shown for bake-sixway are the baker's", "[cli]
     CHECK_THAT(entry_of(help, "--frames"), Catch::EndsWith("default: " + std::to_string(defaults.frames)));
     CHECK_THAT(entry_of(help, "--tile"), Catch::EndsWith("default: " + std::to_string(defaults.tile)));
     CHECK_THAT(entry_of(help, "--seed"), Catch::EndsWith("default: " + std::to_string(defaults.seed)));
+}
+
+TEST_CASE("cli help: --spp names the range the renderer takes", "[cli][spp]") {
+    const std::string entry = entry_of(cli("help render").out, "--spp");
+    CHECK_THAT(entry, Catch::Contains("1…" + std::to_string(smoketrace::kMaxSpp)));
+    CHECK_THAT(entry, Catch::EndsWith("default: the scene's render.spp (1)"));
 }
 
 TEST_CASE("cli help: help for an unknown command is an error", "[cli]") {

@@ -3,6 +3,7 @@
 #include "support/cli_runner.hpp"
 
 #include <smoketrace/render/camera.hpp>
+#include <smoketrace/render/pixel_samples.hpp>
 #include <smoketrace/io/scene_file.hpp>
 #include <smoketrace/smoke/tube_generator.hpp>
 
@@ -116,6 +117,7 @@ TEST_CASE("the defaults of every optional key", "[scene]") {
     CHECK(s.render.softness == 0.3f);
     CHECK(s.render.transmittance_threshold == 1.0f / 255.0f);
     CHECK(s.render.compositing == Compositing::over);
+    CHECK(s.render.spp == 1u);
     CHECK(s.camera.width == 512u);
     CHECK(s.camera.height == 512u);
     CHECK(s.camera.fov_deg == 45.0f);
@@ -139,7 +141,7 @@ TEST_CASE("every optional key is read", "[scene]") {
     j["camera"] = {{"position", {1, 2, 3}}, {"look_at", {0, 0, -1}}, {"up", {0, 0, 1}},
                    {"fov_deg", 60}, {"width", 640}, {"height", 480}};
     j["render"] = {{"mode", "simple-shadow"}, {"cutoff", 60}, {"groups", 4}, {"frames", 32},
-                   {"softness", 0}, {"transmittance_threshold", 0.5}, {"compositing", "thesis"}};
+                   {"softness", 0}, {"transmittance_threshold", 0.5}, {"compositing", "thesis"}, {"spp", 16}};
     const SceneDescription s = parse_scene(j.dump(), "all.json");
     CHECK(s.light.color == glm::vec3(0.9f, 0.8f, 0.7f));
     CHECK(s.light.rotation_per_frame_deg == -2.5f);
@@ -167,6 +169,7 @@ TEST_CASE("every optional key is read", "[scene]") {
     CHECK(s.render.softness == 0.0f);
     CHECK(s.render.transmittance_threshold == 0.5f);
     CHECK(s.render.compositing == Compositing::thesis);
+    CHECK(s.render.spp == 16u);
 }
 
 TEST_CASE("a light direction of any length is stored normalised", "[scene]") {
@@ -535,6 +538,25 @@ TEST_CASE("error: values outside their interval", "[scene]") {
     json d = minimal();
     d["smoke"]["particles"][0]["growth"] = -1;
     require_error(d, "/smoke/particles/0/growth", "must be > -1");
+}
+
+TEST_CASE("error: render.spp outside [1, kMaxSpp] or not an integer", "[scene][spp]") {
+    REQUIRE(kMaxSpp == 64);  // the messages below name the range
+    json j = minimal();
+    j["render"] = {{"spp", 0}};
+    require_error(j, "/render/spp", "must be in [1, 64] (got 0)");
+    j["render"] = {{"spp", 65}};
+    require_error(j, "/render/spp", "must be in [1, 64] (got 65)");
+    j["render"] = {{"spp", -4}};
+    require_error(j, "/render/spp", "must be in [1, 64] (got -4)");
+    j["render"] = {{"spp", 1.5}};
+    require_error(j, "/render/spp", "must be an integer (got number 1.5)");
+    j["render"] = {{"spp", "4"}};
+    require_error(j, "/render/spp", "must be an integer (got string \"4\")");
+    j["render"] = {{"spp", 64}};  // the bounds themselves are accepted
+    CHECK(parse_scene(j.dump(), "ok.json").render.spp == 64u);
+    j["render"] = {{"spp", 1}};
+    CHECK(parse_scene(j.dump(), "ok.json").render.spp == 1u);
 }
 
 TEST_CASE("error: integers written as decimals", "[scene]") {

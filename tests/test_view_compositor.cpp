@@ -1,17 +1,23 @@
-// The view pass (thesis 4.3.5) and the frame loop: determinism, render-mode relations, the two compositors.
+// The view pass (thesis 4.3.5) and the frame loop: determinism, render-mode relations, the two compositors,
+// samples per pixel.
 #include <catch2/catch.hpp>
 
 #include <smoketrace/render/frame_renderer.hpp>
+#include <smoketrace/render/pixel_samples.hpp>
 #include <smoketrace/io/png_io.hpp>
 #include <smoketrace/io/scene_file.hpp>
 #include <smoketrace/trace/trace.hpp>
 #include <smoketrace/io/sixway_files.hpp>
 
+#include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
+#include <stdexcept>
+#include <vector>
 
 using namespace smoketrace;
 
@@ -223,4 +229,232 @@ TEST_CASE("view: moving particles refit the TLAS, groups update 1/G of the depth
     const auto& after = r.depths().lengths();
     for (std::size_t i = 0; i < after.size(); ++i)
         if (i % 4 != 1) REQUIRE(std::bit_cast<std::uint32_t>(after[i]) == std::bit_cast<std::uint32_t>(before[i]));
+}
+
+// ---- Samples per pixel (pixel_samples.hpp) --------------------------------------------------------------
+
+namespace {
+
+ImageRgba render_spp(const SceneDescription& scene, std::uint32_t spp, RenderMode mode = RenderMode::full) {
+    RenderOptions o = RenderOptions::from_scene(scene);
+    o.render.mode = mode;
+    o.render.spp = spp;
+    o.width = o.height = kSize;
+    FrameRenderer r(scene, o, texture());
+    ImageRgba img;
+    r.render(0, img);
+    return img;
+}
+
+// A wall facing the camera, whose top and right edges cross the image at slight angles, over a background of
+// another colour: a scene of two colours and straight edges, whose pixels' covered fractions are known.
+// The camera at the origin looks down −z with up +y, fov 90°, so the wall at z = −kWallDistance maps to the
+// image linearly: image (u, v) = (24·(1 + X/D), 24·(1 − Y/D)) at 48×48 pixels.
+constexpr int kEdgeImageSize = 48;
+constexpr double kWallDistance = 2.0;
+
+// The wall's corners in image coordinates (pixels, y down), clockwise on the image, which is counter-clockwise
+// seen from the camera (world y up), so that the wall's normal faces the camera. The top edge rises 1.7 pixels
+// over 75.7 and the right edge leans 1.4 pixels over 88.1: each crosses some 36 pixels at many fractions.
+const glm::dvec2 kWallCorners[4] = {{-40.0, 100.0}, {37.1, 100.0}, {35.7, 11.9}, {-40.0, 10.2}};
+
+SceneDescription edge_scene() {
+    const double half = 0.5 * kEdgeImageSize;
+    nlohmann::json corners = nlohmann::json::array();
+    for (const glm::dvec2& c : kWallCorners)
+        corners.push_back({(c.x / half - 1.0) * kWallDistance, (1.0 - c.y / half) * kWallDistance, -kWallDistance});
+    const nlohmann::json j = {
+        {"light", {{"direction", {0, 0, 1}}}},
+        {"ambient", {0, 0, 0}},
+        {"background", {0.0, 0.5, 1.0}},
+        {"smoke", {{"particles", nlohmann::json::array()}}},
+        {"ground", {{"corners", corners}, {"color", {1.0, 0.5, 0.0}}}},
+        {"camera", {{"position", {0, 0, 0}}, {"look_at", {0, 0, -1}}, {"fov_deg", 90},
+                    {"width", kEdgeImageSize}, {"height", kEdgeImageSize}}},
+        {"render", {{"mode", "basic"}}}};
+    return parse_scene(j.dump(), "edge.json");
+}
+
+// The wall as the renderer has it (its corners rounded to float), projected back to image coordinates.
+std::array<glm::dvec2, 4> wall_in_image(const SceneDescription& scene) {
+    const double half = 0.5 * kEdgeImageSize;
+    std::array<glm::dvec2, 4> out{};
+    for (int k = 0; k < 4; ++k) {
+        const glm::dvec3 c(scene.ground->corners[std::size_t(k)]);
+        out[std::size_t(k)] = {half * (1.0 + c.x / -c.z), half * (1.0 - c.y / -c.z)};
+    }
+    return out;
+}
+
+// The area of the convex polygon inside the pixel square [px, px + 1] × [py, py + 1] (Sutherland–Hodgman
+// clipping, then the shoelace formula), in double: the pixel's exact covered fraction.
+double covered_fraction(const std::array<glm::dvec2, 4>& polygon, int px, int py) {
+    std::vector<glm::dvec2> poly(polygon.begin(), polygon.end());
+    const auto clip = [&](int axis, double bound, bool keep_above) {
+        std::vector<glm::dvec2> out;
+        for (std::size_t i = 0; i < poly.size(); ++i) {
+            const glm::dvec2 a = poly[i], b = poly[(i + 1) % poly.size()];
+            const double da = keep_above ? a[axis] - bound : bound - a[axis];
+            const double db = keep_above ? b[axis] - bound : bound - b[axis];
+            if (da >= 0.0) out.push_back(a);
+            if ((da >= 0.0) != (db >= 0.0)) out.push_back(a + (b - a) * (da / (da - db)));
+        }
+        poly = std::move(out);
+    };
+    clip(0, px, true);
+    clip(0, px + 1.0, false);
+    clip(1, py, true);
+    clip(1, py + 1.0, false);
+    double twice_area = 0.0;
+    for (std::size_t i = 0; i < poly.size(); ++i) {
+        const glm::dvec2 a = poly[i], b = poly[(i + 1) % poly.size()];
+        twice_area += a.x * b.y - b.x * a.y;
+    }
+    return std::abs(0.5 * twice_area);
+}
+
+// Whether the segment a–b meets the closed pixel square (Liang–Barsky clipping leaves some of it).
+bool segment_meets_pixel(glm::dvec2 a, glm::dvec2 b, int px, int py) {
+    const glm::dvec2 d = b - a;
+    const double p[4] = {-d.x, d.x, -d.y, d.y};
+    const double q[4] = {a.x - px, px + 1.0 - a.x, a.y - py, py + 1.0 - a.y};
+    double t0 = 0.0, t1 = 1.0;
+    for (int k = 0; k < 4; ++k) {
+        if (p[k] == 0.0) {
+            if (q[k] < 0.0) return false;
+        } else if (p[k] < 0.0) {
+            t0 = std::max(t0, q[k] / p[k]);
+        } else {
+            t1 = std::min(t1, q[k] / p[k]);
+        }
+    }
+    return t0 <= t1;
+}
+
+}  // namespace
+
+TEST_CASE("view: at spp 1 each pixel is the colour of the ray through its centre, ray(x, y)", "[view][spp]") {
+    // The images written before samples per pixel existed traced camera.ray(x, y) once per pixel. With nothing
+    // but the wall and the background, that ray's colour is one of two values, decided by whether it meets the
+    // wall; every pixel must be exactly that value (tests/test_camera.cpp checks ray(x, y) bit for bit).
+    const SceneDescription scene = edge_scene();
+    const Camera camera(scene.camera.position, scene.camera.look_at, scene.camera.up, scene.camera.fov_deg,
+                        kEdgeImageSize, kEdgeImageSize);
+    for (CompositorKind compositor : {CompositorKind::one_traversal, CompositorKind::retrace}) {
+        RenderOptions o = RenderOptions::from_scene(scene);
+        o.compositor = compositor;
+        REQUIRE(o.render.spp == 1u);  // the default
+        FrameRenderer r(scene, o, texture());
+        ImageRgba img;
+        r.render(0, img);
+        const glm::vec3 wall(img.at(5, 40)), sky(scene.background);
+        REQUIRE(wall != sky);
+        int on_wall = 0, wrong = 0;
+        for (int y = 0; y < kEdgeImageSize; ++y)
+            for (int x = 0; x < kEdgeImageSize; ++x) {
+                const Ray ray = camera.ray(x, y, kViewRayTmin);
+                const bool hit = trace(r.smoke().scene(), ray, ray_flag_none, kGroundMask).hit;
+                on_wall += hit ? 1 : 0;
+                if (glm::vec3(img.at(x, y)) != (hit ? wall : sky)) ++wrong;
+            }
+        CHECK(wrong == 0);
+        CHECK(on_wall > 1000);  // the wall covers about 36 × 37 pixels, the rest is background
+        CHECK(on_wall < kEdgeImageSize * kEdgeImageSize - 500);
+    }
+}
+
+TEST_CASE("view: spp 16 gives edge pixels their covered fraction of the two colours", "[view][spp]") {
+    // Tolerance, derived: at spp 16 every row of sixteenths of the pixel holds one sample, at the row's centre
+    // height (pixel_samples.hpp). Where an edge of slope s (height change per pixel of width) crosses a pixel,
+    // its height there lies in some [c, c + s]: a sample row whose centre is above c + s is wholly covered, one
+    // below c wholly not, so the count of covered samples is within 1/32 of the exact area except for the rows
+    // whose centres fall in [c, c + s]. |estimate − fraction| <= s + 1/32 (with columns for the near-vertical
+    // edge, s its width change per pixel of height). 1e-3 more covers the float rays (sample positions off by
+    // under 1e-4 pixel) and the rounding of the mean. At spp 1 the same pixels are off by up to a half: the
+    // check must fail there.
+    SceneDescription scene = edge_scene();
+    const std::array<glm::dvec2, 4> wall = wall_in_image(scene);
+    double slope[4];
+    for (int k = 0; k < 4; ++k) {
+        const glm::dvec2 d = wall[std::size_t((k + 1) % 4)] - wall[std::size_t(k)];
+        slope[k] = std::min(std::abs(d.y / d.x), std::abs(d.x / d.y));
+    }
+    for (CompositorKind compositor : {CompositorKind::one_traversal, CompositorKind::retrace}) {
+        CAPTURE(compositor == CompositorKind::retrace);
+        RenderOptions o = RenderOptions::from_scene(scene);
+        o.compositor = compositor;
+        ImageRgba one, sixteen;
+        FrameRenderer(scene, o, texture()).render(0, one);
+        o.render.spp = 16;
+        FrameRenderer(scene, o, texture()).render(0, sixteen);
+        const glm::vec3 wall_color(one.at(5, 40)), sky(scene.background);
+        REQUIRE(wall_color.x - sky.x > 0.5f);  // red tells the two apart: 1 on the wall, 0 in the sky
+        REQUIRE(sky.z - wall_color.z > 0.5f);  // and blue, the other way round
+        int edge_pixels[4] = {0, 0, 0, 0}, corner_pixels = 0, one_sample_misses = 0;
+        for (int y = 0; y < kEdgeImageSize; ++y)
+            for (int x = 0; x < kEdgeImageSize; ++x) {
+                CAPTURE(x, y);
+                const double f = covered_fraction(wall, x, y);
+                const glm::vec3 c(sixteen.at(x, y)), c1(one.at(x, y));
+                const double estimate = (c.x - sky.x) / double(wall_color.x - sky.x);
+                int crossing = -1, crossings = 0;
+                for (int k = 0; k < 4; ++k)
+                    if (segment_meets_pixel(wall[std::size_t(k)], wall[std::size_t((k + 1) % 4)], x, y)) {
+                        crossing = k;
+                        ++crossings;
+                    }
+                if (crossings == 0) {  // wholly wall or wholly sky: one colour, up to the rounding of the mean
+                    REQUIRE((f < 1e-9 || f > 1.0 - 1e-9));  // the clipped area, up to double rounding
+                    CHECK(std::abs(estimate - f) < 1e-5);
+                    continue;
+                }
+                if (crossings > 1) {  // the wall's corner: two edges in one pixel, outside the derivation
+                    ++corner_pixels;
+                    continue;
+                }
+                const double tolerance = slope[crossing] + 1.0 / 32.0 + 1e-3;
+                CHECK(std::abs(estimate - f) <= tolerance);
+                if (std::abs((c1.x - sky.x) / double(wall_color.x - sky.x) - f) > tolerance) ++one_sample_misses;
+                // At one sample a pixel is one colour or the other, never between.
+                CHECK((c1 == wall_color || c1 == sky));
+                if (f > tolerance && f < 1.0 - tolerance) {
+                    ++edge_pixels[crossing];
+                    // Strictly between the two colours in the channels where they differ.
+                    CHECK(c.x > sky.x);
+                    CHECK(c.x < wall_color.x);
+                    CHECK(c.z < sky.z);
+                    CHECK(c.z > wall_color.z);
+                }
+            }
+        CHECK(corner_pixels <= 4);
+        CHECK(edge_pixels[2] >= 20);  // the top edge, corner 2 → 3: rows of samples at work
+        CHECK(edge_pixels[1] >= 20);  // the right edge, corner 1 → 2: columns of samples at work
+        CHECK(one_sample_misses >= 20);  // the tolerance is tight enough to tell one sample from sixteen
+    }
+}
+
+TEST_CASE("view: spp 4 gives the same image bytes with 1 and 2 threads, and differs from spp 1", "[view][spp]") {
+    const SceneDescription scene = tubes_scene("two_tubes_right.json");
+    ImageRgba one, two;
+    {
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
+        one = render_spp(scene, 4);
+    }
+    {
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
+        two = render_spp(scene, 4);
+    }
+    REQUIRE(one.pixels == two.pixels);  // the linear image, bit for bit
+    REQUIRE(to_srgb8(one).pixels == to_srgb8(two).pixels);
+    CHECK(render_spp(scene, 1).pixels != one.pixels);  // the samples are taken at all
+}
+
+TEST_CASE("view: samples per pixel outside 1…kMaxSpp are refused before any work", "[view][spp]") {
+    const SceneDescription scene = tubes_scene();
+    for (std::uint32_t spp : {0u, std::uint32_t(kMaxSpp) + 1}) {
+        CAPTURE(spp);
+        RenderOptions o = RenderOptions::from_scene(scene);
+        o.render.spp = spp;
+        CHECK_THROWS_AS(FrameRenderer(scene, o, texture()), std::invalid_argument);
+    }
 }

@@ -7,6 +7,7 @@
 #include "thread_limit.hpp"
 
 #include <smoketrace/render/frame_renderer.hpp>
+#include <smoketrace/render/pixel_samples.hpp>
 #include <smoketrace/io/output_path.hpp>
 #include <smoketrace/io/png_io.hpp>
 #include <smoketrace/io/scene_file.hpp>
@@ -56,6 +57,7 @@ int run_render(const Args& args) {
     const auto threads = in.integer("--threads", 1, 4096);
     const auto compositing = in.string("--compositing");
     const auto compositor = in.string("--compositor");
+    const auto spp = in.integer("--spp", 1, kMaxSpp);
     const auto assets = in.string("--assets");
     const auto textures = in.string("--textures");
     const bool timings = in.flag("--timings");
@@ -106,6 +108,7 @@ int run_render(const Args& args) {
         else if (*compositor == "retrace") options.compositor = CompositorKind::retrace;
         else throw CliError("--compositor: '" + *compositor + "' is not one-traversal or retrace");
     }
+    if (spp) options.render.spp = std::uint32_t(*spp);
     const std::uint32_t frame_count = options.render.frames;
     if (to_stdout && frame_count > 1)
         throw CliError("-o -: standard output takes one frame, not " + std::to_string(frame_count) +
@@ -169,6 +172,8 @@ constexpr OptionHelp kOptions[] = {
      "over: front-to-back over operator; thesis: eq. 4.1 as published"},
     {"--compositor", "one-traversal|retrace", "one-traversal",
      "one-traversal: one billboard traversal per pixel; retrace: the thesis's closest-hit loop (the same image)"},
+    {"--spp", "N", "the scene's render.spp (1)",
+     "samples per pixel, 1…64, on a fixed stratified pattern and averaged (anti-aliasing); 1: the pixel's centre"},
     {"--assets", "DIR", "SMOKETRACE_ASSETS, else <prefix>/share/smoketrace or assets/ beside the binary",
      "folder of the six-way textures (sixway.json, sixway_pos.png, sixway_neg.png)"},
     {"--textures", "DIR", "as --assets", "the same as --assets (its older name)"},
@@ -180,7 +185,7 @@ const RegisterCommand registration{
     {"render",
      "render SCENE.json -o OUT.png|- [--mode basic|simple-shadow|full] [--size WxH] [--frames N] [--groups G] "
      "[--cutoff K] [--shape S] [--threads T] [--timings] [--compositing over|thesis] "
-     "[--compositor one-traversal|retrace] [--assets DIR]",
+     "[--compositor one-traversal|retrace] [--spp N] [--assets DIR]",
      "render a frame (-o -: on standard output), or N frames OUT_0000.png …, of the smoke scene", &run_render,
      kOptions}};
 

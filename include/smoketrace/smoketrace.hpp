@@ -17,6 +17,7 @@
 
 // Frames: the scene description, six-way lighting, the view compositor and the frame loop.
 #include <smoketrace/render/frame_renderer.hpp>
+#include <smoketrace/render/pixel_samples.hpp>
 #include <smoketrace/render/sixway_baker.hpp>
 
 // Files: scene files in, PNG and CSV out, never destroying what an output path names.

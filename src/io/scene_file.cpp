@@ -5,6 +5,7 @@
 #include <smoketrace/io/scene_file.hpp>
 
 #include <smoketrace/render/camera.hpp>
+#include <smoketrace/render/pixel_samples.hpp>
 #include <smoketrace/core/memory_budget.hpp>
 
 #include <nlohmann/json.hpp>
@@ -688,7 +689,8 @@ CameraDescription read_camera(const Reader& r, const Node& n, const SceneDescrip
 }
 
 RenderSettings read_render(const Reader& r, const Node& n) {
-    r.require_object(n, {"mode", "cutoff", "groups", "frames", "softness", "transmittance_threshold", "compositing"});
+    r.require_object(n, {"mode", "cutoff", "groups", "frames", "softness", "transmittance_threshold", "compositing",
+                         "spp"});
     RenderSettings s;
     if (auto v = Reader::optional(n, "mode")) {
         const std::string m = r.string(*v);
@@ -709,6 +711,7 @@ RenderSettings read_render(const Reader& r, const Node& n) {
         else if (c == "thesis") s.compositing = Compositing::thesis;
         else r.fail(*v, "unknown compositing \"" + c + "\" (use \"over\" or \"thesis\")");
     }
+    if (auto v = Reader::optional(n, "spp")) s.spp = r.u32(*v, 1, std::uint32_t(kMaxSpp));
     return s;
 }
 

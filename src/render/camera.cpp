@@ -2,6 +2,7 @@
 
 #include <glm/geometric.hpp>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace smoketrace {
@@ -29,18 +30,22 @@ Camera::Camera(const glm::vec3& position, const glm::vec3& look_at, const glm::v
     half_width_ = half_height_ * float(width) / float(height);
 }
 
-Ray Camera::ray(int x, int y, float tmin) const {
-    const float sx = (2.0f * (float(x) + 0.5f) / float(width_) - 1.0f) * half_width_;
-    const float sy = (1.0f - 2.0f * (float(y) + 0.5f) / float(height_)) * half_height_;
+Ray Camera::ray_through(float image_x, float image_y, float tmin) const {
+    // 2·x/width − 1, in this order: ray() has always computed its pixel centres so, and any other order
+    // would move the default images by a rounding step.
+    const float sx = (2.0f * image_x / float(width_) - 1.0f) * half_width_;
+    const float sy = (1.0f - 2.0f * image_y / float(height_)) * half_height_;
     return Ray{position_, tmin, glm::normalize(forward_ + sx * right_ + sy * up_), std::numeric_limits<float>::infinity()};
 }
 
 RayTile Camera::tile(int x0, int y0, int columns, int rows, glm::vec2 offset, float tmin) const {
-    // ray()'s image-plane coordinates, with the pixel's point at `offset` rather than its centre.
+    // ray_through()'s image-plane coordinates, for the point `offset` of each pixel.
     float x[kTileColumns], y[kTileRows];
     for (int c = 0; c < columns; ++c) x[c] = (2.0f * (float(x0 + c) + offset.x) / float(width_) - 1.0f) * half_width_;
     for (int r = 0; r < rows; ++r) y[r] = (1.0f - 2.0f * (float(y0 + r) + offset.y) / float(height_)) * half_height_;
     return RayTile(position_, forward_, right_, up_, x, unsigned(columns), y, unsigned(rows), tmin);
 }
+
+Ray Camera::ray(int x, int y, float tmin) const { return ray_through(float(x) + 0.5f, float(y) + 0.5f, tmin); }
 
 }  // namespace smoketrace

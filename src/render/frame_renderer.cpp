@@ -1,7 +1,9 @@
 #include <smoketrace/render/frame_renderer.hpp>
+#include <smoketrace/render/pixel_samples.hpp>
 #include <smoketrace/smoke/particle_groups.hpp>
 
 #include <stdexcept>
+#include <string>
 
 namespace smoketrace {
 
@@ -28,6 +30,8 @@ FrameRenderer::FrameRenderer(const SceneDescription& scene, const RenderOptions&
               options.height),
       depths_(particles_.size()) {
     if (options.render.groups < 1) throw std::invalid_argument("render: groups must be >= 1");
+    if (options.render.spp < 1 || options.render.spp > std::uint32_t(kMaxSpp))
+        throw std::invalid_argument("render: spp must be in [1, " + std::to_string(kMaxSpp) + "]");
 }
 
 FrameReport FrameRenderer::render(std::uint64_t frame, ImageRgba& image) {
@@ -89,6 +93,7 @@ FrameReport FrameRenderer::render(std::uint64_t frame, ImageRgba& image) {
     v.background = desc_.background;
     if (desc_.ground) v.ground_color = desc_.ground->color;
     v.flipbook_frame = flipbook_frame;
+    v.spp = int(options_.render.spp);
     render_view(smoke_, particles_.particles(), depths_.lengths(), texture_, camera_, v, image);
     t.view = clock.lap_ms();
     last_flipbook_frame_ = flipbook_frame;

@@ -1,5 +1,6 @@
 #pragma once
-// A pinhole camera: one ray per pixel centre, as in the thesis's view pass (4.3.5).
+// A pinhole camera: a ray through any point of the image, by default through each pixel's centre as in the
+// thesis's view pass (4.3.5).
 #include <smoketrace/geometry/ray.hpp>
 #include <smoketrace/geometry/ray_tile.hpp>
 
@@ -15,7 +16,11 @@ public:
     Camera(const glm::vec3& position, const glm::vec3& look_at, const glm::vec3& up, float fov_deg, int width,
            int height);
 
-    // Ray through the centre of pixel (x, y), y = 0 the top row; unit direction, so t is distance.
+    // Ray through the point (image_x, image_y) of the image in continuous pixel coordinates: pixel (x, y)
+    // covers [x, x + 1) × [y, y + 1), y = 0 the top row, so (0, 0) is the image's top-left corner and
+    // (width, height) its bottom-right one. Unit direction, so t is distance.
+    [[nodiscard]] Ray ray_through(float image_x, float image_y, float tmin) const;
+    // Ray through the centre of pixel (x, y): ray_through(x + 0.5, y + 0.5), bit for bit.
     [[nodiscard]] Ray ray(int x, int y, float tmin) const;
 
     // The rays of pixels [x0, x0 + columns) × [y0, y0 + rows) as a tile (at most kTileColumns × kTileRows),

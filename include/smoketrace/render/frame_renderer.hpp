@@ -21,7 +21,7 @@ namespace smoketrace {
 
 // Everything a render takes besides the scene file (the command line overrides the file's values).
 struct RenderOptions {
-    RenderSettings render;            // mode, cutoff, groups, frames, softness, threshold, compositing
+    RenderSettings render;            // mode, cutoff, groups, frames, softness, threshold, compositing, spp
     StandInShape shape{};
     int width = 512, height = 512;
     CompositorKind compositor = CompositorKind::one_traversal;

@@ -60,6 +60,7 @@ struct RenderSettings {
     float softness = 0.3f;
     float transmittance_threshold = 1.0f / 255.0f;
     Compositing compositing = Compositing::over;
+    std::uint32_t spp = 1;  // samples per pixel, 1…kMaxSpp (pixel_samples.hpp); 1 = the pixel's centre
 };
 
 struct SceneDescription {

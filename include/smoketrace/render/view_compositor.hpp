@@ -41,11 +41,14 @@ struct ViewSettings {
     glm::vec3 background{0.53f, 0.81f, 0.92f};
     glm::vec3 ground_color{0.8f, 0.1f, 0.1f};
     int flipbook_frame = 0;                       // animation frame of the six-way flipbook
+    int spp = 1;                                  // samples per pixel, 1…kMaxSpp (pixel_samples.hpp)
 };
 
 // Renders one image. `lengths` holds each particle's optical path length (ignored in basic mode).
-// Parallel over 16×16 tiles (TBB); each pixel depends on nothing but its own rays, so the image is the
-// same whatever the thread count.
+// Each pixel is the plain mean (a box filter) of its settings.spp samples at the points of pixel_samples.hpp,
+// in linear colour; spp 1 traces camera.ray(x, y) and gives exactly that ray's colour. Parallel over 16×16
+// tiles (TBB); each pixel depends on nothing but its own rays, summed in sample order, so the image is the
+// same whatever the thread count. Throws std::invalid_argument when spp is outside 1…kMaxSpp.
 void render_view(const SmokeScene& scene, std::span<const Particle> particles, std::span<const float> lengths,
                  const SixwayTexture& texture, const Camera& camera, const ViewSettings& settings, ImageRgba& image);
 
