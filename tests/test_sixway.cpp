@@ -10,6 +10,7 @@
 #include <smoketrace/render/sixway_baker.hpp>
 #include <smoketrace/render/sixway_texture.hpp>
 #include <smoketrace/io/sixway_files.hpp>
+#include <smoketrace/core/prng.hpp>
 
 #include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
@@ -17,6 +18,7 @@
 #include <glm/geometric.hpp>
 
 #include <atomic>
+#include <bit>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -161,6 +163,31 @@ TEST_CASE("sixway: bilinear sampling is exact at texel centres and between them 
     check_sample(t.sample({0.5f, 0.5f}, 0), 0.5, 0.5);
     check_sample(t.sample({0.375f, 0.625f}, 0), 0.25, 0.25);
     check_sample(t.sample({0.625f, 0.5f}, 0), 0.75, 0.5);
+}
+
+TEST_CASE("sixway: footprint(), alpha() and light_map() give sample()'s bits", "[sixway]") {
+    // The renderer's split look-up (alpha from its own plane, the light map from the three channels the light
+    // picks) must be the same arithmetic as sample() and sixway_light_map(): equal bits, no tolerance, on
+    // the committed atlases at random coordinates (inside, on texel centres, outside the tile), every frame,
+    // lights from every octant and along the axes.
+    const SixwayTexture t = load_sixway_texture(std::filesystem::path(SMOKETRACE_ASSET_DIR) / std::string(kSixwayLayoutFile));
+    Pcg32 rng(3);
+    int nonzero = 0;
+    for (int k = 0; k < 20000; ++k) {
+        glm::vec2 uv(rng.uniform(-0.1f, 1.1f), rng.uniform(-0.1f, 1.1f));
+        if (k % 5 == 0) uv = (glm::vec2(float(rng.below(128)), float(rng.below(128))) + 0.5f) / 128.0f;
+        const int frame = int(rng.below(unsigned(t.frame_count())));
+        glm::vec3 l(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
+        if (k % 7 == 0) l = glm::vec3(0.0f, k % 2 ? 1.0f : -1.0f, 0.0f);
+        l = glm::normalize(l);
+        const SixwaySample s = t.sample(uv, frame);
+        const SixwayTexture::Footprint f = t.footprint(uv, frame);
+        CAPTURE(k, uv.x, uv.y, frame);
+        REQUIRE(std::bit_cast<std::uint32_t>(t.alpha(f)) == std::bit_cast<std::uint32_t>(s.alpha));
+        REQUIRE(std::bit_cast<std::uint32_t>(t.light_map(f, l)) == std::bit_cast<std::uint32_t>(sixway_light_map(s, l)));
+        nonzero += s.alpha > 0.0f;
+    }
+    CHECK(nonzero > 2000);
 }
 
 TEST_CASE("sixway: sampling clamps to the tile and never reads the neighbouring frame", "[sixway]") {

@@ -83,7 +83,7 @@ std::size_t check_tile(const AccelScene& scene, RayTile tile, std::uint32_t extr
                 CAPTURE(c, r, flags);
                 REQUIRE(results[lane].hit == alone.hit);
                 if (!alone.hit || (flags & ray_flag_accept_first_hit_and_end_search)) continue;
-                const TraceHit& got = results[lane].committed;
+                const TraceHit got = results[lane].committed;
                 CHECK(same_bits(got.t, alone.committed.t));
                 CHECK(t.tmax(lane) == alone.committed.t);
                 if (key_of(got) == key_of(alone.committed)) continue;

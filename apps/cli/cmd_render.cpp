@@ -104,9 +104,10 @@ int run_render(const Args& args) {
         else throw CliError("--compositing: '" + *compositing + "' is not over or thesis");
     }
     if (compositor) {
-        if (*compositor == "one-traversal") options.compositor = CompositorKind::one_traversal;
+        if (*compositor == "tiled") options.compositor = CompositorKind::tiled;
+        else if (*compositor == "one-traversal") options.compositor = CompositorKind::one_traversal;
         else if (*compositor == "retrace") options.compositor = CompositorKind::retrace;
-        else throw CliError("--compositor: '" + *compositor + "' is not one-traversal or retrace");
+        else throw CliError("--compositor: '" + *compositor + "' is not one of tiled, one-traversal, retrace");
     }
     if (spp) options.render.spp = std::uint32_t(*spp);
     const std::uint32_t frame_count = options.render.frames;
@@ -170,8 +171,9 @@ constexpr OptionHelp kOptions[] = {
     {"--threads", "T", "all cores", "worker threads; the image is the same for any T"},
     {"--compositing", "over|thesis", "the scene's render.compositing (over)",
      "over: front-to-back over operator; thesis: eq. 4.1 as published"},
-    {"--compositor", "one-traversal|retrace", "one-traversal",
-     "one-traversal: one billboard traversal per pixel; retrace: the thesis's closest-hit loop (the same image)"},
+    {"--compositor", "tiled|one-traversal|retrace", "tiled",
+     "tiled: 16x16 pixels' camera rays traced together; one-traversal: each pixel's rays alone (the reference); "
+     "retrace: the thesis's closest-hit loop (all three give the same image)"},
     {"--spp", "N", "the scene's render.spp (1)",
      "samples per pixel, 1…64, on a fixed stratified pattern and averaged (anti-aliasing); 1: the pixel's centre"},
     {"--assets", "DIR", "SMOKETRACE_ASSETS, else <prefix>/share/smoketrace or assets/ beside the binary",
@@ -185,7 +187,7 @@ const RegisterCommand registration{
     {"render",
      "render SCENE.json -o OUT.png|- [--mode basic|simple-shadow|full] [--size WxH] [--frames N] [--groups G] "
      "[--cutoff K] [--shape S] [--threads T] [--timings] [--compositing over|thesis] "
-     "[--compositor one-traversal|retrace] [--spp N] [--assets DIR]",
+     "[--compositor tiled|one-traversal|retrace] [--spp N] [--assets DIR]",
      "render a frame (-o -: on standard output), or N frames OUT_0000.png …, of the smoke scene", &run_render,
      kOptions}};
 

@@ -53,6 +53,7 @@ SixwayTexture::SixwayTexture(const Rgba8Image& positive, const Rgba8Image& negat
     tile_height_ = positive.height / grid.rows;
     tile_texels_ = std::size_t(tile_width_) * std::size_t(tile_height_);
     texels_.resize(tile_texels_ * std::size_t(grid.frames));
+    alpha_.resize(texels_.size());
     for (int f = 0; f < grid.frames; ++f) {
         const int x0 = (f % grid.columns) * tile_width_, y0 = (f / grid.columns) * tile_height_;
         for (int y = 0; y < tile_height_; ++y)
@@ -64,6 +65,7 @@ SixwayTexture::SixwayTexture(const Rgba8Image& positive, const Rgba8Image& negat
                     t.pos[c] = p[c];
                     t.neg[c] = n[c];
                 }
+                alpha_[std::size_t(&t - texels_.data())] = p[3];
             }
     }
 }

@@ -24,7 +24,7 @@ struct RenderOptions {
     RenderSettings render;            // mode, cutoff, groups, frames, softness, threshold, compositing, spp
     StandInShape shape{};
     int width = 512, height = 512;
-    CompositorKind compositor = CompositorKind::one_traversal;
+    CompositorKind compositor = CompositorKind::tiled;
     HitSort sort = HitSort::adaptive;
 
     // The scene file's own settings and camera size.

@@ -65,6 +65,12 @@ struct SixwaySample {
 [[nodiscard]] std::string sixway_grid_problem(SixwayAtlasGrid grid);
 
 class SixwayTexture {
+    // Both textures' bytes for one texel side by side: a bilinear look-up touches 4 of these, 32 bytes.
+    struct Texel {
+        std::uint8_t pos[4];
+        std::uint8_t neg[4];
+    };
+
 public:
     SixwayTexture() = default;
     // From atlases in memory. Throws std::invalid_argument unless both have the same size, the grid is
@@ -88,15 +94,27 @@ public:
     // The unfiltered texel at column x, image row y (0 = top) of a frame's tile.
     [[nodiscard]] SixwaySample texel(int x, int y, int frame) const noexcept;
 
-private:
-    // Both textures' bytes for one texel side by side: a bilinear look-up touches 4 of these, 32 bytes.
-    struct Texel {
-        std::uint8_t pos[4];
-        std::uint8_t neg[4];
+    // sample() in two halves, for a renderer that needs a layer's colour only when the layer is seen: the
+    // four texels and weights of a look-up, then its alpha and its six-way light map (sixway_light_map()
+    // of the sample, computed from the three channels the light picks rather than all eight). Each gives
+    // the bits sample() and sixway_light_map(sample(), l) would. alpha() reads a plane of alpha bytes kept
+    // beside the texels, an eighth of their size: a renderer asks every layer it meets for its opacity and
+    // few of them for their colour, so that plane is what stays in the cache.
+    struct Footprint {
+        std::size_t i00, i10, i01, i11;  // texel indices
+        float w00, w10, w01, w11;
     };
+    [[nodiscard]] Footprint footprint(glm::vec2 uv, int frame) const noexcept;
+    [[nodiscard]] float alpha(const Footprint& f) const noexcept;
+    [[nodiscard]] float light_map(const Footprint& f, glm::vec3 light_tangent) const noexcept;
+
+private:
     [[nodiscard]] const Texel& at(int x, int y, int frame) const noexcept {
+        return texels_[index(x, y, frame)];
+    }
+    [[nodiscard]] std::size_t index(int x, int y, int frame) const noexcept {
         assert(frame >= 0 && frame < grid_.frames && x >= 0 && x < tile_width_ && y >= 0 && y < tile_height_);
-        return texels_[std::size_t(frame) * tile_texels_ + std::size_t(y) * std::size_t(tile_width_) + std::size_t(x)];
+        return std::size_t(frame) * tile_texels_ + std::size_t(y) * std::size_t(tile_width_) + std::size_t(x);
     }
     static glm::vec4 unpack(const std::uint8_t* c) noexcept {
         return {float(c[0]), float(c[1]), float(c[2]), float(c[3])};
@@ -108,6 +126,7 @@ private:
     std::size_t tile_texels_ = 0;
     // Frame-major (each tile contiguous, rows top first): a look-up stays within one small block.
     std::vector<Texel> texels_;
+    std::vector<std::uint8_t> alpha_;  // texels_[i].pos[3] at [i]
 };
 
 inline SixwaySample SixwayTexture::texel(int x, int y, int frame) const noexcept {
@@ -117,7 +136,7 @@ inline SixwaySample SixwayTexture::texel(int x, int y, int frame) const noexcept
             float(t.pos[3]) * kScale};
 }
 
-inline SixwaySample SixwayTexture::sample(glm::vec2 uv, int frame) const noexcept {
+inline SixwayTexture::Footprint SixwayTexture::footprint(glm::vec2 uv, int frame) const noexcept {
     // Continuous texel coordinates with texel centres at integers; v grows up, image rows go down.
     float x = uv.x * float(tile_width_) - 0.5f;
     float y = (1.0f - uv.y) * float(tile_height_) - 0.5f;
@@ -129,17 +148,26 @@ inline SixwaySample SixwayTexture::sample(glm::vec2 uv, int frame) const noexcep
     const int x1 = x0 + (x0 < tile_width_ - 1 ? 1 : 0);
     const int y1 = y0 + (y0 < tile_height_ - 1 ? 1 : 0);
     const float fx = x - float(x0), fy = y - float(y0);
+    return {index(x0, y0, frame), index(x1, y0, frame), index(x0, y1, frame), index(x1, y1, frame),
+            (1.0f - fx) * (1.0f - fy), fx * (1.0f - fy), (1.0f - fx) * fy, fx * fy};
+}
 
-    const Texel& t00 = at(x0, y0, frame);
-    const Texel& t10 = at(x1, y0, frame);
-    const Texel& t01 = at(x0, y1, frame);
-    const Texel& t11 = at(x1, y1, frame);
-    const float w00 = (1.0f - fx) * (1.0f - fy), w10 = fx * (1.0f - fy);
-    const float w01 = (1.0f - fx) * fy, w11 = fx * fy;
+inline SixwaySample SixwayTexture::sample(glm::vec2 uv, int frame) const noexcept {
+    const Footprint f = footprint(uv, frame);
+    const Texel &t00 = texels_[f.i00], &t10 = texels_[f.i10], &t01 = texels_[f.i01], &t11 = texels_[f.i11];
     constexpr float kScale = 1.0f / 255.0f;
-    const glm::vec4 p = (unpack(t00.pos) * w00 + unpack(t10.pos) * w10 + unpack(t01.pos) * w01 + unpack(t11.pos) * w11) * kScale;
-    const glm::vec4 n = (unpack(t00.neg) * w00 + unpack(t10.neg) * w10 + unpack(t01.neg) * w01 + unpack(t11.neg) * w11) * kScale;
+    const glm::vec4 p =
+        (unpack(t00.pos) * f.w00 + unpack(t10.pos) * f.w10 + unpack(t01.pos) * f.w01 + unpack(t11.pos) * f.w11) * kScale;
+    const glm::vec4 n =
+        (unpack(t00.neg) * f.w00 + unpack(t10.neg) * f.w10 + unpack(t01.neg) * f.w01 + unpack(t11.neg) * f.w11) * kScale;
     return {glm::vec3(p), glm::vec3(n), p.w};
+}
+
+inline float SixwayTexture::alpha(const Footprint& f) const noexcept {
+    // sample()'s alpha lane: the same products and sums in the same order.
+    constexpr float kScale = 1.0f / 255.0f;
+    return (float(alpha_[f.i00]) * f.w00 + float(alpha_[f.i10]) * f.w10 + float(alpha_[f.i01]) * f.w01 +
+            float(alpha_[f.i11]) * f.w11) * kScale;
 }
 
 // The six-way light map of thesis 4.3.5 (textures of 4.2.2): per tangent axis, the positive texture's
@@ -154,6 +182,19 @@ inline SixwaySample SixwayTexture::sample(glm::vec2 uv, int frame) const noexcep
     const float h = l.x > 0.0f ? s.pos.x : s.neg.x;
     const float v = l.y > 0.0f ? s.pos.y : s.neg.y;
     const float d = l.z > 0.0f ? s.pos.z : s.neg.z;
+    return h * l.x * l.x + v * l.y * l.y + d * l.z * l.z;
+}
+
+inline float SixwayTexture::light_map(const Footprint& f, glm::vec3 light_tangent) const noexcept {
+    // sixway_light_map(sample(uv), l): each picked channel filtered as sample() filters it, then weighted.
+    const glm::vec3& l = light_tangent;
+    constexpr float kScale = 1.0f / 255.0f;
+    const Texel &t00 = texels_[f.i00], &t10 = texels_[f.i10], &t01 = texels_[f.i01], &t11 = texels_[f.i11];
+    auto filtered = [&](bool positive, int k) {
+        auto c = [positive, k](const Texel& t) { return float(positive ? t.pos[k] : t.neg[k]); };
+        return (c(t00) * f.w00 + c(t10) * f.w10 + c(t01) * f.w01 + c(t11) * f.w11) * kScale;
+    };
+    const float h = filtered(l.x > 0.0f, 0), v = filtered(l.y > 0.0f, 1), d = filtered(l.z > 0.0f, 2);
     return h * l.x * l.x + v * l.y * l.y + d * l.z * l.z;
 }
 

@@ -3,15 +3,19 @@
 // lighting and attenuated by their particle's optical depth, composited front to back over the ground
 // (lit, with a shadow ray) or the sky.
 //
-// Two compositors give the same image (tests/test_view_compositor.cpp states the tolerance):
-//  * one_traversal (default): one ray finds the opaque surface, then a single billboard traversal whose
-//    any-hit callback shades every layer in front of it (Multi-Layer Alpha Tracing, Brüll & Grosch
-//    2020, with an unbounded layer list); the layers are sorted by t with the hit resolver's radix sort
-//    and composited until the remaining transmittance drops below a threshold. Once the layers already
-//    met make the pixel opaque, the callback accepts a hit to cut the traversal short (exact: see
-//    view_compositor.cpp);
-//  * retrace (the thesis's loop, kept as the reference): trace the closest billboard, shade it,
-//    composite, and trace again from just behind it, until the ground, the sky or the threshold.
+// Three compositors give the same image (tests/test_view_compositor.cpp states the tolerance):
+//  * tiled (default): the camera rays of a 16×16 block of pixels traced together (trace_tile(), one walk of
+//    the top level per block, each billboard tested for sixteen rays in one SIMD step), then per pixel what
+//    one_traversal does, the ground's shadow rays traced thirty-two at a time (trace_bundle()). Every
+//    sample is bit for bit one_traversal's: the two trace calls give each ray exactly what trace() does.
+//  * one_traversal (the per-ray reference): one ray finds the opaque surface, then a single billboard
+//    traversal whose any-hit callback collects every layer in front of it (Multi-Layer Alpha Tracing, Brüll
+//    & Grosch 2020, with an unbounded layer list); the layers are sorted by t and composited until the
+//    remaining transmittance drops below a threshold, a layer's colour looked up only when it is reached.
+//    Once the layers already met make the pixel opaque, the callback accepts a hit to cut the traversal
+//    short (exact: see src/render/pixel_shading.hpp);
+//  * retrace (the thesis's loop): trace the closest billboard, shade it, composite, and trace again from
+//    just behind it, until the ground, the sky or the threshold.
 #include <smoketrace/render/camera.hpp>
 #include <smoketrace/core/image.hpp>
 #include <smoketrace/render/scene_description.hpp>
@@ -22,7 +26,7 @@
 
 namespace smoketrace {
 
-enum class CompositorKind : std::uint8_t { one_traversal, retrace };
+enum class CompositorKind : std::uint8_t { tiled, one_traversal, retrace };
 
 // TMin of view rays (thesis 4.3.5): 1e-3 in scene units, clear of the camera's own position.
 inline constexpr float kViewRayTmin = 1e-3f;
@@ -30,7 +34,7 @@ inline constexpr float kViewRayTmin = 1e-3f;
 struct ViewSettings {
     RenderMode mode = RenderMode::full;
     Compositing compositing = Compositing::over;
-    CompositorKind compositor = CompositorKind::one_traversal;
+    CompositorKind compositor = CompositorKind::tiled;
     float sigma_t = 1.0f;
     float alpha = 0.5f;
     float softness = 0.3f;                        // soft-particle fade distance (Larsson 2.7); 0 = hard

@@ -40,7 +40,38 @@
 
 namespace smoketrace {
 
-using TileResults = std::array<TraceResult, kTileRays>;  // [lane]; lanes outside the grid are default
+// Each ray's result (trace()'s for it). A ray the tile's walk brought to no instance searched nothing and
+// kept no state: its result is made when asked for, so that a tile of mostly empty sky writes little.
+class TileResults {
+public:
+    [[nodiscard]] TraceResult operator[](unsigned lane) const {
+        if (searched(lane)) return results_[lane];
+        TraceResult r;
+        r.counters.tlas_nodes = tlas_.nodes_visited;
+        r.counters.boxes_tested = tlas_.boxes_tested;
+        return r;
+    }
+    // Whether ray `lane` committed a hit, and its t (the ray's tmax when it did not).
+    [[nodiscard]] bool hit(unsigned lane) const { return searched(lane) && results_[lane].hit; }
+    [[nodiscard]] float t(unsigned lane) const { return results_[lane].committed.t; }
+
+    // For trace_tile(): a new tile's walk, then each searched ray's result.
+    void start(const TraversalStats& tlas) {
+        tlas_ = tlas;
+        for (TileLineSet& s : searched_) s = 0;
+    }
+    void set(unsigned lane, const TraceResult& r) {
+        results_[lane] = r;
+        searched_[lane / kTileColumns] |= 1u << (lane % kTileColumns);
+    }
+
+private:
+    [[nodiscard]] bool searched(unsigned lane) const { return searched_[lane / kTileColumns] >> (lane % kTileColumns) & 1u; }
+
+    std::array<TraceResult, kTileRays> results_;
+    TileLineSet searched_[kTileRows] = {};
+    TraversalStats tlas_;
+};
 
 // What trace_tile() keeps between calls, so that a tile allocates nothing once it has met its largest list:
 // one per thread.
@@ -54,7 +85,8 @@ struct TileScratch {
 };
 
 namespace detail {
-// kTileRays RaySearches, made in place (they are neither copied nor moved) and trivially destroyed.
+// A RaySearch per ray, each made in place (they are neither copied nor moved) when its ray first reaches an
+// instance: most rays of a tile over open sky never do. Trivially destroyed.
 template <class AnyHit>
 class TileSearches {
 public:
@@ -62,18 +94,30 @@ public:
     static_assert(std::is_trivially_destructible_v<Search>);
 
     TileSearches(const AccelScene& scene, RayTile& tile, std::uint32_t flags, AnyHit& any_hit,
-                 const TraceLimits& limits) {
-        for (unsigned lane = 0; lane < kTileRays; ++lane) {
-            hits_[lane] = {&any_hit, lane};
-            new (&storage_[lane]) Search(scene, tile.ray(lane), flags, hits_[lane], limits, tile.tmax_ref(lane));
-        }
-    }
+                 const TraceLimits& limits)
+        : scene_(scene), tile_(tile), flags_(flags), any_hit_(any_hit), limits_(limits) {}
     TileSearches(const TileSearches&) = delete;
     TileSearches& operator=(const TileSearches&) = delete;
 
-    Search& operator[](unsigned lane) { return *std::launder(reinterpret_cast<Search*>(&storage_[lane])); }
+    [[gnu::always_inline]] Search& operator[](unsigned lane) {
+        TileLineSet& made = made_[lane / kTileColumns];
+        const TileLineSet bit = 1u << (lane % kTileColumns);
+        if (!(made & bit)) {
+            made |= bit;
+            hits_[lane] = {&any_hit_, lane};
+            new (&storage_[lane]) Search(scene_, tile_.ray(lane), flags_, hits_[lane], limits_, tile_.tmax_ref(lane));
+        }
+        return *std::launder(reinterpret_cast<Search*>(&storage_[lane]));
+    }
+    [[nodiscard]] TileLineSet made(unsigned row) const { return made_[row]; }
 
 private:
+    const AccelScene& scene_;
+    RayTile& tile_;
+    std::uint32_t flags_;
+    AnyHit& any_hit_;
+    const TraceLimits& limits_;
+    TileLineSet made_[kTileRows] = {};
     std::array<LaneAnyHit<AnyHit>, kTileRays> hits_;
     struct alignas(Search) Slot {
         unsigned char bytes[sizeof(Search)];
@@ -198,10 +242,11 @@ void trace_tile(const AccelScene& scene, RayTile& tile, std::uint32_t flags, std
         }
     }
 
+    results.start(tlas_stats);
     for (unsigned r = 0; r < kTileRows; ++r)
-        for (unsigned c = 0; c < kTileColumns; ++c) {
-            const unsigned lane = RayTile::lane(c, r);
-            results[lane] = r < tile.rows() && c < tile.columns() ? searches[lane].finish(tlas_stats) : TraceResult{};
+        for (TileLineSet m = searches.made(r); m != 0; m &= m - 1) {
+            const unsigned lane = RayTile::lane(unsigned(std::countr_zero(m)), r);
+            results.set(lane, searches[lane].finish(tlas_stats));
         }
 }
 

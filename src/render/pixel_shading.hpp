@@ -1,0 +1,230 @@
+#pragma once
+// What a pixel of the view pass computes once its rays have found their surfaces (thesis 4.3.5), shared by
+// the tiled compositor (tiled_view.cpp) and the per-ray ones (per_ray_view.cpp), so that the two differ in
+// how they find the layers and nothing else:
+//   * a billboard layer's opacity (texture alpha × the scene's alpha × the soft-particle fade), known when
+//     the layer is met, and its colour (six-way light map, eq. 4.2), looked up only for layers the
+//     compositor reaches;
+//   * the ground's colour (eq. 4.4) given its shadow (eq. 4.3), and the shadow ray that finds it;
+//   * front-to-back compositing of the layers sorted by depth, stopping below the transmittance threshold.
+// Internal to the render layer (src/render/), not installed.
+#include <smoketrace/render/sixway_texture.hpp>
+#include <smoketrace/render/view_compositor.hpp>
+#include <smoketrace/smoke/smoke_scene.hpp>
+#include <smoketrace/trace/trace_types.hpp>
+
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <span>
+#include <vector>
+
+namespace smoketrace::view {
+
+// TMin of shadow rays from the ground: the shadow ray sees stand-ins only (the ground cannot shadow
+// itself, billboards are excluded by the thesis's mask ~2), so no self-intersection offset is needed.
+inline constexpr float kShadowRayTmin = 0.0f;
+
+// View rays see stand-ins never and billboards only through the any-hit pass: the rest is opaque.
+inline constexpr std::uint8_t kOpaqueViewMask = kViewRayMask & static_cast<std::uint8_t>(~kBillboardMask);
+
+// Transmittance along an optical path length l: T = exp(−τ) with τ = l·σt (thesis eqs. 2.10, 2.12).
+// σt = 0 means no extinction at all, also for the "fully dark" l = ∞ (where ∞·0 would be NaN).
+inline float beer_lambert(float l, float sigma_t) { return sigma_t == 0.0f ? 1.0f : std::exp(-l * sigma_t); }
+
+// Texture coordinates of a billboard hit: the quad is [−1, 1]² in object xy (smoke_scene.cpp), split
+// into triangles (0, 1, 2) and (0, 2, 3); uv is the tangent space of sixway_texture.hpp (v up).
+inline glm::vec2 billboard_uv(std::uint32_t primitive, glm::vec2 b) {
+    static constexpr glm::vec2 quad[4] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+    const glm::vec2 v0 = quad[0], v1 = quad[primitive == 0 ? 1 : 2], v2 = quad[primitive == 0 ? 2 : 3];
+    const glm::vec2 p = (1.0f - b.x - b.y) * v0 + b.x * v1 + b.y * v2;
+    return {0.5f * (p.x + 1.0f), 0.5f * (p.y + 1.0f)};
+}
+
+// A billboard layer of a pixel, met but not yet coloured: its depth, particle, texture coordinates and
+// opacity.
+struct Layer {
+    float t;
+    std::uint32_t particle;
+    glm::vec2 uv;
+    float alpha;
+};
+
+// Sorts a pixel's layers front to back: by t, and layers at exactly the same t by particle, so that the order
+// does not depend on the order the layers were met in (a tile meets them in another order than a lone ray).
+inline void sort_layers(std::span<Layer> layers) {
+    auto key = [](const Layer& l) {
+        // t ≥ tmin > 0, so its bits order as the numbers do.
+        return std::uint64_t(std::bit_cast<std::uint32_t>(l.t)) << 32 | l.particle;
+    };
+    if (layers.size() <= 16) {  // most pixels: insertion sort, no call
+        for (std::size_t i = 1; i < layers.size(); ++i) {
+            const Layer l = layers[i];
+            const std::uint64_t k = key(l);
+            std::size_t j = i;
+            for (; j > 0 && key(layers[j - 1]) > k; --j) layers[j] = layers[j - 1];
+            layers[j] = l;
+        }
+        return;
+    }
+    std::sort(layers.begin(), layers.end(), [&](const Layer& a, const Layer& b) { return key(a) < key(b); });
+}
+
+class PixelShader {
+public:
+    PixelShader(const SmokeScene& scene, std::span<const Particle> particles, std::span<const float> lengths,
+                const SixwayTexture& texture, const ViewSettings& s)
+        : scene_(scene), texture_(texture), s_(s) {
+        // Per particle, once per frame: the light in its billboard's tangent space (x right, y up, z toward
+        // the eye), its flipbook frame and its Beer–Lambert factor exp(−l·σt) (eqs. 2.10, 2.12; basic mode
+        // has no optical depth: l = 0).
+        const bool optical_depth = s.mode != RenderMode::basic;
+        billboards_.resize(particles.size());
+        for (std::size_t i = 0; i < particles.size(); ++i) {
+            const glm::dmat3& m = scene.scene().instance(std::uint32_t(particles.size() + i)).object_to_world.linear;
+            const glm::dvec3 L(s.to_light);
+            Billboard& b = billboards_[i];
+            b.light_tangent = glm::vec3(glm::dot(L, glm::normalize(m[0])), glm::dot(L, glm::normalize(m[1])),
+                                        glm::dot(L, glm::normalize(m[2])));
+            b.frame = (s.flipbook_frame + int(i)) % texture.frame_count();
+            b.transmittance = optical_depth ? beer_lambert(lengths[i], s.sigma_t) : 1.0f;
+        }
+        if (scene.has_ground()) ground_normal_ = glm::normalize(scene.ground_normal());
+        n_dot_l_ = std::max(glm::dot(ground_normal_, s.to_light), 0.0f);
+    }
+
+    // The opacity of particle p's billboard met at distance t, texture coordinates uv, in front of the opaque
+    // surface at t_opaque: texture alpha × the scene's alpha, faded where the surface behind is closer than
+    // `softness` (soft particles, Larsson 2010, 2.7), so the quad does not cut a hard line into the ground.
+    [[nodiscard]] float layer_alpha(std::uint32_t p, float t, glm::vec2 uv, float t_opaque) const {
+        float alpha = texture_.alpha(texture_.footprint(uv, billboards_[p].frame)) * s_.alpha;
+        if (s_.softness > 0.0f && t_opaque < std::numeric_limits<float>::infinity())
+            alpha *= std::clamp((t_opaque - t) / s_.softness, 0.0f, 1.0f);
+        return alpha;
+    }
+
+    // Its colour. Thesis 4.3.5: light map × light colour, attenuated by the particle's optical depth
+    // (eq. 4.2): c_new = c_p·exp(−l·σt) + c_amb.
+    [[nodiscard]] glm::vec3 layer_color(const Layer& l) const {
+        const Billboard& b = billboards_[l.particle];
+        const float light_map = texture_.light_map(texture_.footprint(l.uv, b.frame), b.light_tangent);
+        return light_map * s_.light_color * b.transmittance + s_.ambient;
+    }
+
+    // Whether the ground at a pixel needs a shadow ray, and the ray's flags and mask (thesis 4.3.5): toward
+    // the light, stand-ins only; simple-shadow asks whether anything is in the way, full the nearest
+    // particle (its optical depth is the shadow's).
+    [[nodiscard]] bool ground_needs_shadow_ray() const { return n_dot_l_ > 0.0f && s_.mode != RenderMode::basic; }
+    [[nodiscard]] std::uint32_t shadow_ray_flags() const {
+        return s_.mode == RenderMode::simple_shadow
+                   ? ray_flag_force_opaque | ray_flag_accept_first_hit_and_end_search | ray_flag_skip_closest_hit_shader
+                   : ray_flag_force_opaque;
+    }
+    // The shadow a shadow ray's result casts (eq. 4.3): exp(−l·σt) of the nearest particle toward the light
+    // (full), 0 if any is in the way (simple-shadow).
+    [[nodiscard]] float shadow(const TraceResult& r) const {
+        if (!r.hit) return 1.0f;
+        return s_.mode == RenderMode::simple_shadow ? 0.0f : billboards_[r.committed.instance_id].transmittance;
+    }
+    // The ground's colour (thesis eq. 4.4 with the shadow of eq. 4.3): c = c_base·(c_light·max(L·N, 0)·shadow
+    // + c_amb); the ambient term keeps shadowed ground from going black, as the particles' c_amb does (eq. 4.2).
+    [[nodiscard]] glm::vec3 ground_color(float shadow) const {
+        return s_.ground_color * (s_.light_color * (n_dot_l_ * shadow) + s_.ambient);
+    }
+
+    [[nodiscard]] const ViewSettings& settings() const { return s_; }
+    [[nodiscard]] const SmokeScene& scene() const { return scene_; }
+
+private:
+    struct Billboard {
+        glm::vec3 light_tangent;
+        int frame;
+        float transmittance;
+    };
+    const SmokeScene& scene_;
+    const SixwayTexture& texture_;
+    const ViewSettings& s_;
+    std::vector<Billboard> billboards_;
+    glm::vec3 ground_normal_{0.0f, 1.0f, 0.0f};
+    float n_dot_l_ = 0.0f;
+};
+
+// Front-to-back compositing of one pixel's layers, then the background (ground or sky) behind them.
+class PixelCompositor {
+public:
+    PixelCompositor() = default;
+    explicit PixelCompositor(const ViewSettings& s) : s_(&s) {}
+
+    // Returns false once nothing behind can contribute (transmittance below the threshold).
+    bool add(const glm::vec3& c, float a) {
+        if (s_->compositing == Compositing::over) {
+            color_ += transmittance_ * a * c;  // the "over" operator: C += T·a·c, T *= 1 − a
+            transmittance_ *= 1.0f - a;
+            return transmittance_ >= s_->transmittance_threshold;
+        }
+        color_ += (1.0f - previous_alpha_) * c * a;  // thesis eq. 4.1: only the previous layer's alpha
+        previous_alpha_ = a;
+        return true;
+    }
+    glm::vec3 finish(const glm::vec3& background) {
+        add(background, 1.0f);
+        return color_;
+    }
+
+private:
+    const ViewSettings* s_ = nullptr;
+    glm::vec3 color_{0.0f};
+    float transmittance_ = 1.0f;
+    float previous_alpha_ = 0.0f;
+};
+
+// A pixel's layers, met in any order, as the one-traversal compositors collect them: the any-hit callback of
+// its billboard ray. A layer of zero opacity is dropped; once the layers met make the pixel opaque (the
+// product of their (1 − a) below the threshold, which is the transmittance in front of the farthest of
+// them), the callback accepts a hit at or behind the farthest, which (DXR rule 6) lowers the ray's tmax to
+// it and prunes everything behind: the compositor would have stopped before reaching it, so the image is
+// the same as with every layer collected (up to the order of the rounded products, far below an 8-bit
+// step). The thesis's eq. 4.1 has no transmittance, so there every layer is collected.
+class LayerCollector {
+public:
+    LayerCollector() = default;
+    LayerCollector(const PixelShader& shader, std::vector<Layer>& layers, float t_opaque)
+        : shader_(&shader), layers_(&layers), t_opaque_(t_opaque),
+          may_stop_(shader.settings().compositing == Compositing::over) {
+        layers.clear();
+    }
+
+    [[gnu::always_inline]] AnyHitDecision operator()(const TraceHit& h) {
+        const glm::vec2 uv = billboard_uv(h.primitive_index, h.barycentrics);
+        const float alpha = shader_->layer_alpha(h.instance_id, h.t, uv, t_opaque_);
+        if (!(alpha > 0.0f)) return AnyHitDecision::ignore;
+        layers_->push_back(Layer{h.t, h.instance_id, uv, alpha});
+        transmittance_ *= 1.0f - alpha;
+        t_farthest_ = std::max(t_farthest_, h.t);
+        if (may_stop_ && transmittance_ < shader_->settings().transmittance_threshold && h.t >= t_farthest_)
+            return AnyHitDecision::accept;
+        return AnyHitDecision::ignore;
+    }
+
+private:
+    const PixelShader* shader_ = nullptr;
+    std::vector<Layer>* layers_ = nullptr;
+    float t_opaque_ = 0.0f;
+    bool may_stop_ = false;
+    float transmittance_ = 1.0f, t_farthest_ = 0.0f;
+};
+
+// A pixel's layers sorted front to back and composited, each coloured as the compositor reaches it. Returns
+// false when they made the pixel opaque: the background is not seen (finish with black).
+inline bool composite_layers(const PixelShader& shader, std::span<Layer> layers, PixelCompositor& comp) {
+    sort_layers(layers);
+    for (const Layer& l : layers)
+        if (!comp.add(shader.layer_color(l), l.alpha)) return false;
+    return true;
+}
+
+}  // namespace smoketrace::view
