@@ -198,7 +198,9 @@ TEST_CASE("ray tile: shear_lanes() is the scalar shear lane by lane, through edg
                 ShearedLanes<W> out;
                 const unsigned keep = shear_lanes<W>(rays, first, W == 32 ? ~0u : (1u << W) - 1u, a, b, c, out);
                 for (unsigned i = 0; i < W; ++i) {
-                    const ShearedTriangle s = shear_triangle(TriangleRay(tile.ray(first + i)), v[0], v[1], v[2]);
+                    const TriangleRay alone(tile.ray(first + i)), from_table = rays.ray(first + i);
+                    REQUIRE(std::memcmp(&alone, &from_table, sizeof(TriangleRay)) == 0);
+                    const ShearedTriangle s = shear_triangle(alone, v[0], v[1], v[2]);
                     CAPTURE(k, j, first, i);
                     REQUIRE(bool(keep >> i & 1u) == !straddles(s));
                     CHECK(same_bits(out.ax[i], s.ax));

@@ -1,6 +1,7 @@
 // Six-way lighting textures: validation and atlas re-layout (see sixway_texture.hpp); files: io/sixway_files.
 #include <smoketrace/render/sixway_texture.hpp>
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 
@@ -54,6 +55,7 @@ SixwayTexture::SixwayTexture(const Rgba8Image& positive, const Rgba8Image& negat
     tile_texels_ = std::size_t(tile_width_) * std::size_t(tile_height_);
     texels_.resize(tile_texels_ * std::size_t(grid.frames));
     alpha_.resize(texels_.size());
+    alpha_support_.assign(std::size_t(grid.frames), AlphaSupport{tile_width_, -1, tile_height_, -1});
     for (int f = 0; f < grid.frames; ++f) {
         const int x0 = (f % grid.columns) * tile_width_, y0 = (f / grid.columns) * tile_height_;
         for (int y = 0; y < tile_height_; ++y)
@@ -66,6 +68,13 @@ SixwayTexture::SixwayTexture(const Rgba8Image& positive, const Rgba8Image& negat
                     t.neg[c] = n[c];
                 }
                 alpha_[std::size_t(&t - texels_.data())] = p[3];
+                if (p[3] != 0) {
+                    AlphaSupport& a = alpha_support_[std::size_t(f)];
+                    a.x_lo = std::min(a.x_lo, x);
+                    a.x_hi = std::max(a.x_hi, x);
+                    a.y_lo = std::min(a.y_lo, y);
+                    a.y_hi = std::max(a.y_hi, y);
+                }
             }
     }
 }

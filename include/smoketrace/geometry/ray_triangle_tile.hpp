@@ -23,14 +23,15 @@ namespace smoketrace {
 
 // The per-ray part of the watertight test for a tile's rays: TriangleRay's shear per lane, and whether every
 // ray of the tile has the same dominant axes (then shear_lanes() applies; else each ray takes the scalar test).
-struct TileTriangleRays {
+class TileTriangleRays {
+public:
     int kx = 0, ky = 1, kz = 2;
     bool shared_axes = true;
     alignas(64) float sx[kTileRays];
     alignas(64) float sy[kTileRays];
     alignas(64) float sz[kTileRays];
 
-    explicit TileTriangleRays(const RayTile& tile) {
+    explicit TileTriangleRays(const RayTile& tile) : origin_(tile.origin()), tmin_(tile.tmin()), tile_(tile) {
         const TriangleRay first(tile.ray(0));
         kx = first.kx;
         ky = first.ky;
@@ -44,10 +45,25 @@ struct TileTriangleRays {
         }
     }
 
-    // Lane `lane`'s TriangleRay, as TriangleRay(tile.ray(lane)) makes it.
-    [[nodiscard]] TriangleRay ray(const RayTile& tile, unsigned lane) const {
-        return TriangleRay(tile.ray(lane));
+    // Lane `lane`'s TriangleRay, field for field TriangleRay(tile.ray(lane)) (axes shared), without its division.
+    [[nodiscard]] TriangleRay ray(unsigned lane) const {
+        TriangleRay r;
+        r.origin = origin_;
+        r.direction = tile_.direction(lane);
+        r.kx = kx;
+        r.ky = ky;
+        r.kz = kz;
+        r.sx = sx[lane];
+        r.sy = sy[lane];
+        r.sz = sz[lane];
+        r.tmin = tmin_;
+        return r;
     }
+
+private:
+    glm::vec3 origin_;
+    float tmin_;
+    const RayTile& tile_;
 };
 
 // One triangle's sheared vertices and edge functions for a block of W lanes: lane i is the tile's ray

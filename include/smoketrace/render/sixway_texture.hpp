@@ -103,6 +103,7 @@ public:
     struct Footprint {
         std::size_t i00, i10, i01, i11;  // texel indices
         float w00, w10, w01, w11;
+        bool clear;  // all four texels have alpha 0 (outside the frame's puff): alpha() is 0 unread
     };
     [[nodiscard]] Footprint footprint(glm::vec2 uv, int frame) const noexcept;
     [[nodiscard]] float alpha(const Footprint& f) const noexcept;
@@ -127,6 +128,12 @@ private:
     // Frame-major (each tile contiguous, rows top first): a look-up stays within one small block.
     std::vector<Texel> texels_;
     std::vector<std::uint8_t> alpha_;  // texels_[i].pos[3] at [i]
+    // Per frame, the texel rectangle holding every texel of nonzero alpha (empty: lo > hi): most of a
+    // billboard's quad lies outside its puff, and there a look-up need not touch the texture at all.
+    struct AlphaSupport {
+        int x_lo, x_hi, y_lo, y_hi;
+    };
+    std::vector<AlphaSupport> alpha_support_;
 };
 
 inline SixwaySample SixwayTexture::texel(int x, int y, int frame) const noexcept {
@@ -148,8 +155,10 @@ inline SixwayTexture::Footprint SixwayTexture::footprint(glm::vec2 uv, int frame
     const int x1 = x0 + (x0 < tile_width_ - 1 ? 1 : 0);
     const int y1 = y0 + (y0 < tile_height_ - 1 ? 1 : 0);
     const float fx = x - float(x0), fy = y - float(y0);
+    const AlphaSupport& a = alpha_support_[std::size_t(frame)];
     return {index(x0, y0, frame), index(x1, y0, frame), index(x0, y1, frame), index(x1, y1, frame),
-            (1.0f - fx) * (1.0f - fy), fx * (1.0f - fy), (1.0f - fx) * fy, fx * fy};
+            (1.0f - fx) * (1.0f - fy), fx * (1.0f - fy), (1.0f - fx) * fy, fx * fy,
+            x1 < a.x_lo || x0 > a.x_hi || y1 < a.y_lo || y0 > a.y_hi};
 }
 
 inline SixwaySample SixwayTexture::sample(glm::vec2 uv, int frame) const noexcept {
@@ -164,7 +173,9 @@ inline SixwaySample SixwayTexture::sample(glm::vec2 uv, int frame) const noexcep
 }
 
 inline float SixwayTexture::alpha(const Footprint& f) const noexcept {
-    // sample()'s alpha lane: the same products and sums in the same order.
+    // sample()'s alpha lane: the same products and sums in the same order, which for four zero texels and
+    // weights >= 0 is +0.
+    if (f.clear) return 0.0f;
     constexpr float kScale = 1.0f / 255.0f;
     return (float(alpha_[f.i00]) * f.w00 + float(alpha_[f.i10]) * f.w10 + float(alpha_[f.i01]) * f.w01 +
             float(alpha_[f.i11]) * f.w11) * kScale;

@@ -219,7 +219,7 @@ void trace_tile(const AccelScene& scene, RayTile& tile, std::uint32_t flags, std
                             const unsigned i = unsigned(std::countr_zero(m));
                             const unsigned lane = first + i;
                             TriangleHit th;
-                            if (!finish_triangle_hit(TriangleRay(tile.ray(lane)), sheared.lane(i), tri.v0, normal,
+                            if (!finish_triangle_hit(triangle_rays.ray(lane), sheared.lane(i), tri.v0, normal,
                                                      tmax[lane], th))
                                 continue;
                             if (searches[lane].report_world_triangle(cand.index, inst, cand.opaque, k, th))
