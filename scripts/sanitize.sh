@@ -37,7 +37,7 @@ if [ "$which" = all ] || [ "$which" = tsan ]; then
   # Test names (ctest -R): optical-depth pass, hit resolver, view compositor and frame loop, BVH/TLAS builds
   # and refits, the six-way bake's thread-count test, and the stress suite (which renders with 1 and 2 threads);
   # and the scalar kernels: the lanes, ray bundles, box tests, the triangle block and the sorts.
-  parallel='^(optical depth: |resolve_optical_path_lengths|the three HitSort|occluded and cutoff|view: |BVH builder: |BVH refit|Grouped build|scene: |sixway bake: same settings|stability: |trace_bundle: |bundle_order: |radix, rank and insertion|sort_by_float_key|simd lanes: |stable_ranks: |BVH traversal: the paired|Wide BVH traversal: |Watertight triangle: the 8-wide)'
+  parallel='^(optical depth: |resolve_optical_path_lengths|the three HitSort|occluded and cutoff|view: |BVH builder: |BVH refit|Grouped build|scene: |sixway bake: same settings|stability: |trace_bundle: |trace_tile: |ray tile: |bundle_order: |radix, rank and insertion|sort_by_float_key|simd lanes: |stable_ranks: |BVH traversal: the paired|Wide BVH traversal: |Watertight triangle: the 8-wide)'
   # No suppressions: Debian's oneTBB is not built with TSan, so tests/support/tsan_tbb.cpp (linked into this
   # build only) tells TSan about the scheduler's hand-overs instead; every report is a finding.
   (cd "$root/build-tsan" &&
