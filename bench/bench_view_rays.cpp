@@ -19,6 +19,12 @@
 // slower. Headline figures are single-threaded (the stable ones on a shared machine); all-thread rows are
 // printed and written too. From 10k particles on (the full run) the particle radius shrinks with the count
 // (bench_util.hpp), so that a ray meets about as many billboards as at 750; layers per ray are printed.
+// Ours also runs tiled, as the tiled compositor does: the same rays 16x16 pixels at a time through trace_tile()
+// (trace_tile.hpp), the same flags, masks and any-hit work as our single rays, timed in the same rounds. Each
+// tile is made from the camera before timing, as the rays are, and copied per trace (trace_tile() lowers its
+// tmax), as Embree's packets are loaded from the rays. Its answers are checked against our single rays: per
+// ray the closest hit's t (bit for bit) and instance, the ground's t and the layers in front of it.
+// view_rays.csv's ours_over_this is our single rays' time over the row's, tiled_over_this our tiled time.
 #include "bench_registry.hpp"
 #include "bench_util.hpp"
 #include "support/embree_reference.hpp"
@@ -27,16 +33,19 @@
 #include <smoketrace/render/camera.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>
 #include <smoketrace/trace/trace.hpp>
+#include <smoketrace/trace/trace_tile.hpp>
 #include <smoketrace/render/view_compositor.hpp>
 
 #include <tbb/blocked_range.h>
 #include <tbb/combinable.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/info.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -47,6 +56,7 @@
 #include <memory>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -66,6 +76,12 @@ constexpr float kSameT = 1e-4f;
 
 bool same_t(float a, float b) {
     return (std::isinf(a) && std::isinf(b)) || std::abs(a - b) <= kSameT * std::max(1.0f, std::abs(a));
+}
+
+// Bit for bit: trace_tile() promises each ray the t trace() gives it.
+bool same_bits(float a, float b) { return std::bit_cast<std::uint32_t>(a) == std::bit_cast<std::uint32_t>(b); }
+bool same_bits(const glm::vec3& a, const glm::vec3& b) {
+    return same_bits(a.x, b.x) && same_bits(a.y, b.y) && same_bits(a.z, b.z);
 }
 
 struct LayerRecord {
@@ -376,12 +392,82 @@ RangePass layers_packet_pass(const std::vector<Ray>& rays, int width, const Embr
     };
 }
 
+// --- ours, a 16x16 tile at a time (trace_tile()) ---
+
+// The image's kTileColumns x kTileRows tiles in row order: lane (c, r) of tile k is the ray of pixel
+// (x0 + c, y0 + r). The index of that pixel's ray in the row-order rays.
+std::size_t tile_pixel(int width, std::size_t tile, unsigned lane) {
+    const std::size_t tiles_x = std::size_t(width) / kTileColumns;
+    const std::size_t x = (tile % tiles_x) * kTileColumns + lane % kTileColumns;
+    const std::size_t y = (tile / tiles_x) * kTileRows + lane / kTileColumns;
+    return y * std::size_t(width) + x;
+}
+
+struct AcceptEvery {
+    AnyHitDecision operator()(unsigned, const TraceHit&) const { return AnyHitDecision::accept; }
+};
+
+// What a thread keeps from tile to tile, as the tiled compositor does, so that a tile allocates nothing.
+struct TileState {
+    TileResults results;
+    TileScratch scratch;
+    std::unique_ptr<LayerRecord[]> records;  // the layers' pass: one per ray of the tile
+};
+using TileStates = tbb::enumerable_thread_specific<TileState>;
+
+// Our closest hits over tiles [b, e) of `tiles`: the same work as closest_pass with trace() (the same flags,
+// the same mask).
+RangePass closest_tile_pass(const std::vector<RayTile>& tiles, const AccelScene& scene, std::uint8_t mask) {
+    auto states = std::make_shared<TileStates>();
+    return [&tiles, &scene, mask, states](std::size_t b, std::size_t e) {
+        TileState& st = states->local();
+        Work w;
+        for (std::size_t k = b; k < e; ++k) {
+            RayTile tile = tiles[k];
+            trace_tile(scene, tile, ray_flag_force_opaque, mask, AcceptEvery{}, st.results, st.scratch);
+            for (unsigned lane = 0; lane < kTileRays; ++lane)
+                if (st.results.hit(lane)) {
+                    ++w.hits;
+                    w.t_sum += st.results.t(lane);
+                }
+        }
+        return w;
+    };
+}
+
+// Our layers over tiles [b, e): the same work as layers_pass (every billboard recorded and ignored, the
+// ground opaque, the layers in front of it counted).
+RangePass layers_tile_pass(const std::vector<RayTile>& tiles, const AccelScene& scene, std::uint8_t mask) {
+    auto states = std::make_shared<TileStates>();
+    return [&tiles, &scene, mask, states](std::size_t b, std::size_t e) {
+        TileState& st = states->local();
+        if (!st.records) st.records = std::make_unique<LayerRecord[]>(kTileRays);  // 512 KB: once per thread
+        LayerRecord* records = st.records.get();
+        Work w;
+        for (std::size_t k = b; k < e; ++k) {
+            RayTile tile = tiles[k];
+            for (unsigned lane = 0; lane < kTileRays; ++lane) records[lane].count = 0;
+            trace_tile(scene, tile, ray_flag_none, mask,
+                       [records](unsigned lane, const TraceHit& h) {
+                           records[lane].add(h.t);
+                           return AnyHitDecision::ignore;
+                       },
+                       st.results, st.scratch);
+            for (unsigned lane = 0; lane < kTileRays; ++lane)
+                w.hits += records[lane].in_front(st.results.hit(lane) ? st.results.t(lane)
+                                                                      : std::numeric_limits<float>::infinity());
+        }
+        return w;
+    };
+}
+
 struct Contender {
     std::string name;
     bool robust;  // Embree's robust mode (ours: always watertight)
     bool ours;
     RangePass pass;
-    bool packets = false;  // pass over tiles of kPacket rays (Embree's rtcIntersect16)
+    bool packets = false;       // Embree's rtcIntersect16 over tiles of kPacket rays
+    unsigned item_rays = 1;     // rays per item of the pass: 1, kPacket (Embree's packets), kTileRays (ours tiled)
     std::vector<double> ms{};
     Work work{};
 };
@@ -391,8 +477,8 @@ void time_round_robin(std::vector<Contender>& cs, int repeats, bool parallel, st
     for (int r = 0; r < repeats; ++r)
         for (Contender& c : cs) {
             const auto t0 = std::chrono::steady_clock::now();
-            c.work = c.packets ? run_pass(parallel, n / kPacket, 1024 / kPacket, c.pass)
-                               : run_pass(parallel, n, 1024, c.pass);
+            // About 1024 rays per task whatever the item.
+            c.work = run_pass(parallel, n / c.item_rays, std::max(1u, 1024 / c.item_rays), c.pass);
             c.ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
         }
 }
@@ -405,20 +491,28 @@ std::string fmt(double v, int precision = 3) {
 
 void run_view_rays(const BenchOptions& options) {
     const int size = 512;
-    static_assert(512 % kTile == 0, "the image is cut into whole tiles");
+    static_assert(512 % kTile == 0 && 512 % kTileColumns == 0 && 512 % kTileRows == 0,
+                  "the image is cut into whole tiles, Embree's and ours");
     const std::vector<std::uint32_t> counts = options.quick ? std::vector<std::uint32_t>{750}
                                                             : std::vector<std::uint32_t>{750, 1500, 10'000};
     const int repeats = std::max(options.repeats, 3);
     const int all_threads = tbb::info::default_concurrency();
     const er::Device device;
-    CsvFile csv("particles,measure,implementation,robust,threads,rays,median_ms,min_ms,max_ms,ours_over_this,work");
+    CsvFile csv("particles,measure,implementation,robust,threads,rays,median_ms,min_ms,max_ms,ours_over_this,work,"
+                "tiled_over_this");
     // Headline figures (750 particles, one thread): ours / the best Embree contender, over every one, over
-    // the robust ones, over single rays only; whether the best one is a packet query; layers per ray.
+    // the robust ones, over single rays only; whether the best one is a packet query; layers per ray. Ours
+    // tiled: its time over the best Embree contender's, its rays per second (millions); at one thread and
+    // at all threads (_mt).
     struct Headline {
         double ratio = 0, ratio_robust = 0, ratio_x1 = 0, best_is_packet = 0;
+        double tiled_ratio = 0, tiled_mrays = 0, tiled_ratio_mt = 0, tiled_mrays_mt = 0;
     } headline_closest, headline_layers;
     double headline_build = 0, headline_layers_per_ray = 0;
-    std::size_t disagreements_total = 0, packet_disagreements_total = 0;
+    std::size_t disagreements_total = 0, packet_disagreements_total = 0, tiled_disagreements_total = 0,
+                tiled_ties_total = 0;
+    // The contenders' order: ours first (per ray, then tiled; the smoke scene, then billboards only).
+    constexpr std::size_t kOurs = 0, kOursBillboards = 1, kOursTiled = 2, kOursBillboardsTiled = 3;
 
     for (const std::uint32_t n : counts) {
         const SceneDescription desc = animated_scene(n, size);
@@ -430,6 +524,20 @@ void run_view_rays(const BenchOptions& options) {
         rays.reserve(std::size_t(size) * size);
         for (int y = 0; y < size; ++y)
             for (int x = 0; x < size; ++x) rays.push_back(camera.ray(x, y, kViewRayTmin));
+        // Our tiles of the same rays (Camera::tile() promises each lane bit for bit its pixel's ray; the
+        // comparison rests on it, so it is checked).
+        std::vector<RayTile> ray_tiles;
+        for (int y0 = 0; y0 < size; y0 += int(kTileRows))
+            for (int x0 = 0; x0 < size; x0 += int(kTileColumns))
+                ray_tiles.push_back(
+                    camera.tile(x0, y0, int(kTileColumns), int(kTileRows), glm::vec2(0.5f), kViewRayTmin));
+        for (std::size_t k = 0; k < ray_tiles.size(); ++k)
+            for (unsigned lane = 0; lane < kTileRays; ++lane) {
+                const Ray a = ray_tiles[k].ray(lane), &b = rays[tile_pixel(size, k, lane)];
+                if (!same_bits(a.origin, b.origin) || !same_bits(a.direction, b.direction) || a.tmin != b.tmin ||
+                    a.tmax != b.tmax)
+                    throw std::runtime_error("view_rays: a tile's ray is not its pixel's camera ray");
+            }
         std::cout << "  " << n << " particles, " << rays.size() << " camera rays (" << size << "x" << size
                   << ", two_tubes_right.json's camera); ms, medians of " << repeats << " round-robin repeats\n";
 
@@ -533,6 +641,60 @@ void run_view_rays(const BenchOptions& options) {
             }
             packet_disagreements_total += packet_differ[k];
         }
+        // Ours tiled against our single rays, on both our scenes: the closest hit bit for bit, and its
+        // instance (the same t on another instance is a tie at exactly that t, which trace_tile() may commit
+        // in another order: counted apart); the ground's t and every layer in front of it, t bit for bit
+        // (which layers behind the ground a ray meets before it commits the ground depends on the order).
+        struct TiledCheck {
+            std::size_t closest = 0, ties = 0, layers = 0;
+        } tiled_check;
+        {
+            TileState st;
+            st.records = std::make_unique<LayerRecord[]>(kTileRays);
+            LayerRecord single;
+            for (const auto& [s, mask] : {std::pair<const AccelScene*, std::uint8_t>{&smoke->scene(), kViewRayMask},
+                                          {&billboards->scene, std::uint8_t(0xFF)}})
+                for (std::size_t k = 0; k < ray_tiles.size(); ++k) {
+                    RayTile tile = ray_tiles[k];
+                    trace_tile(*s, tile, ray_flag_force_opaque, mask, AcceptEvery{}, st.results, st.scratch);
+                    for (unsigned lane = 0; lane < kTileRays; ++lane) {
+                        const TraceResult alone =
+                            trace(*s, rays[tile_pixel(size, k, lane)], ray_flag_force_opaque, mask);
+                        const TraceResult tiled = st.results[lane];
+                        if (tiled.hit != alone.hit || (alone.hit && !same_bits(tiled.committed.t, alone.committed.t)))
+                            ++tiled_check.closest;
+                        else if (alone.hit && tiled.committed.instance_index != alone.committed.instance_index)
+                            ++tiled_check.ties;
+                    }
+                    tile = ray_tiles[k];
+                    LayerRecord* records = st.records.get();
+                    for (unsigned lane = 0; lane < kTileRays; ++lane) records[lane].count = 0;
+                    trace_tile(*s, tile, ray_flag_none, mask,
+                               [records](unsigned lane, const TraceHit& h) {
+                                   records[lane].add(h.t);
+                                   return AnyHitDecision::ignore;
+                               },
+                               st.results, st.scratch);
+                    for (unsigned lane = 0; lane < kTileRays; ++lane) {
+                        single.count = 0;
+                        const TraceResult alone = trace(*s, rays[tile_pixel(size, k, lane)], ray_flag_none, mask,
+                                                        [&single](const TraceHit& h) {
+                                                            single.add(h.t);
+                                                            return AnyHitDecision::ignore;
+                                                        });
+                        const TraceResult tiled = st.results[lane];
+                        const float ground = alone.hit ? alone.committed.t : std::numeric_limits<float>::infinity();
+                        const std::vector<float> a = single.sorted_in_front(ground),
+                                                 b = records[lane].sorted_in_front(ground);
+                        bool same = tiled.hit == alone.hit && (!alone.hit || same_bits(tiled.committed.t, ground)) &&
+                                    a.size() == b.size();
+                        for (std::size_t i = 0; same && i < a.size(); ++i) same = same_bits(a[i], b[i]);
+                        tiled_check.layers += !same;
+                    }
+                }
+            tiled_disagreements_total += tiled_check.closest + tiled_check.layers;
+            tiled_ties_total += tiled_check.ties;
+        }
 
         // ---- traversal: closest and layers, 1 thread and all threads ----
         const AccelScene& smoke_scene = smoke->scene();
@@ -561,23 +723,33 @@ void run_view_rays(const BenchOptions& options) {
                 if (closest) {
                     cs.push_back({"smoketrace_smoke_scene", true, true, closest_pass(rays, ours_closest(smoke_scene, kViewRayMask))});
                     cs.push_back({"smoketrace_billboards", true, true, closest_pass(rays, ours_closest(bb_scene, 0xFF))});
+                    cs.push_back({"smoketrace_smoke_scene_tiled", true, true,
+                                  closest_tile_pass(ray_tiles, smoke_scene, kViewRayMask), false, kTileRays});
+                    cs.push_back({"smoketrace_billboards_tiled", true, true,
+                                  closest_tile_pass(ray_tiles, bb_scene, 0xFF), false, kTileRays});
                     for (const EmbreeVariant& v : embree) {
                         const EmbreeBillboards* e = v.closest.get();
                         cs.push_back({v.name, v.robust, false, closest_pass(rays, [e](const Ray& r, float& t) { return e->closest(r, t); })});
-                        cs.push_back({v.name + "_x16", v.robust, false, closest_packet_pass(rays, size, e), true});
+                        cs.push_back(
+                            {v.name + "_x16", v.robust, false, closest_packet_pass(rays, size, e), true, kPacket});
                     }
                 } else {
                     cs.push_back({"smoketrace_smoke_scene", true, true, layers_pass(rays, ours_layers(smoke_scene, kViewRayMask))});
                     cs.push_back({"smoketrace_billboards", true, true, layers_pass(rays, ours_layers(bb_scene, 0xFF))});
+                    cs.push_back({"smoketrace_smoke_scene_tiled", true, true,
+                                  layers_tile_pass(ray_tiles, smoke_scene, kViewRayMask), false, kTileRays});
+                    cs.push_back({"smoketrace_billboards_tiled", true, true,
+                                  layers_tile_pass(ray_tiles, bb_scene, 0xFF), false, kTileRays});
                     for (const EmbreeVariant& v : embree) {
                         const EmbreeBillboards* e = v.layers.get();
                         cs.push_back({v.name, v.robust, false, layers_pass(rays, [e](const Ray& r, LayerRecord& rec) { return e->layers(r, rec); })});
-                        cs.push_back({v.name + "_x16", v.robust, false, layers_packet_pass(rays, size, e), true});
+                        cs.push_back(
+                            {v.name + "_x16", v.robust, false, layers_packet_pass(rays, size, e), true, kPacket});
                     }
                 }
                 tbb::task_arena arena(threads);
                 arena.execute([&] { time_round_robin(cs, repeats, threads > 1, rays.size()); });
-                const double ours = stats_of(cs[0].ms).median;
+                const double ours = stats_of(cs[kOurs].ms).median, tiled = stats_of(cs[kOursTiled].ms).median;
                 double best = std::numeric_limits<double>::infinity(), best_robust = best, best_x1 = best;
                 const Contender* best_one = nullptr;
                 std::ostringstream line;
@@ -585,9 +757,9 @@ void run_view_rays(const BenchOptions& options) {
                      << " thr:";
                 for (std::size_t k = 0; k < cs.size(); ++k) {
                     const Stats s = stats_of(cs[k].ms);
-                    line << (k % 4 == 2 ? "\n       " : "") << "  " << cs[k].name << " " << fmt(s.median, 2);
+                    line << (k > 0 && k % 4 == 0 ? "\n       " : "") << "  " << cs[k].name << " " << fmt(s.median, 2);
                     csv.row(n, measure, cs[k].name, int(cs[k].robust && !cs[k].ours), threads, rays.size(), s.median,
-                            s.min, s.max, ours / s.median, cs[k].work.hits);
+                            s.min, s.max, ours / s.median, cs[k].work.hits, tiled / s.median);
                     if (!cs[k].ours) {
                         if (s.median < best) best_one = &cs[k];
                         best = std::min(best, s.median);
@@ -597,15 +769,30 @@ void run_view_rays(const BenchOptions& options) {
                 }
                 line << "\n      ours/best Embree " << fmt(ours / best, 2) << " (best: " << best_one->name
                      << "; robust " << fmt(ours / best_robust, 2) << ", single rays " << fmt(ours / best_x1, 2)
-                     << "), billboards-only ours/best " << fmt(stats_of(cs[1].ms).median / best, 2) << "; work:";
+                     << "), billboards-only ours/best " << fmt(stats_of(cs[kOursBillboards].ms).median / best, 2)
+                     << "\n      tiled ours/best Embree " << fmt(tiled / best, 2) << " (" << best_one->name << "; "
+                     << fmt(double(rays.size()) / tiled / 1e3, 1) << " Mrays/s, " << fmt(ours / tiled, 2)
+                     << "x our single rays), billboards-only tiled ours/best "
+                     << fmt(stats_of(cs[kOursBillboardsTiled].ms).median / best, 2) << "; work:";
                 for (const Contender& c : cs) line << " " << c.work.hits;
                 if (!closest)
-                    line << " (" << fmt(double(cs[0].work.hits) / double(rays.size()), 2) << " layers per ray)";
+                    line << " (" << fmt(double(cs[kOurs].work.hits) / double(rays.size()), 2) << " layers per ray)";
                 std::cout << line.str() << "\n" << std::flush;
-                if (n == 750 && threads == 1) {
+                if (n == 750) {
                     Headline& h = closest ? headline_closest : headline_layers;
-                    h = {ours / best, ours / best_robust, ours / best_x1, best_one->packets ? 1.0 : 0.0};
-                    if (!closest) headline_layers_per_ray = double(cs[0].work.hits) / double(rays.size());
+                    const double mrays = double(rays.size()) / tiled / 1e3;
+                    if (threads == 1) {
+                        h.ratio = ours / best;
+                        h.ratio_robust = ours / best_robust;
+                        h.ratio_x1 = ours / best_x1;
+                        h.best_is_packet = best_one->packets ? 1.0 : 0.0;
+                        h.tiled_ratio = tiled / best;
+                        h.tiled_mrays = mrays;
+                        if (!closest) headline_layers_per_ray = double(cs[kOurs].work.hits) / double(rays.size());
+                    } else {
+                        h.tiled_ratio_mt = tiled / best;
+                        h.tiled_mrays_mt = mrays;
+                    }
                 }
             }
         }
@@ -614,7 +801,10 @@ void run_view_rays(const BenchOptions& options) {
         std::cout << " of " << rays.size() << "\n    packet answers differing from the same scene's single rays "
                   << "(closest t, or layers and ground t):";
         for (std::size_t k = 0; k < embree.size(); ++k) std::cout << " " << embree[k].name << " " << packet_differ[k];
-        std::cout << " of " << 2 * rays.size() << "\n";
+        std::cout << " of " << 2 * rays.size() << "\n    tiled answers differing from our single rays (both our scenes;"
+                  << " t bit for bit): closest hit " << tiled_check.closest << " (and " << tiled_check.ties
+                  << " ties: another instance at the same t), layers " << tiled_check.layers << ", of "
+                  << 2 * rays.size() << " each\n";
         if (n == 750) headline_build = ours_bb_build / best_embree_build;
     }
     csv.write(std::filesystem::path(options.results_dir) / "view_rays.csv");
@@ -629,6 +819,20 @@ void run_view_rays(const BenchOptions& options) {
     report("smoke_build_ratio_vs_embree", headline_build);
     report("view_rays_embree_disagreements", double(disagreements_total));
     report("view_rays_embree_packet_disagreements", double(packet_disagreements_total));
+    report("view_rays_tiled_ratio_vs_embree", headline_closest.tiled_ratio);
+    report("view_rays_tiled_mrays_per_s", headline_closest.tiled_mrays);
+    report("view_layers_tiled_ratio_vs_embree", headline_layers.tiled_ratio);
+    report("view_layers_tiled_mrays_per_s", headline_layers.tiled_mrays);
+    if (all_threads > 1) {
+        // Named by the thread count: _2t on a two-core machine.
+        const std::string t = "_" + std::to_string(all_threads) + "t";
+        report("view_rays_tiled_ratio_vs_embree" + t, headline_closest.tiled_ratio_mt);
+        report("view_rays_tiled_mrays_per_s" + t, headline_closest.tiled_mrays_mt);
+        report("view_layers_tiled_ratio_vs_embree" + t, headline_layers.tiled_ratio_mt);
+        report("view_layers_tiled_mrays_per_s" + t, headline_layers.tiled_mrays_mt);
+    }
+    report("view_rays_tiled_disagreements", double(tiled_disagreements_total));
+    report("view_rays_tiled_ties", double(tiled_ties_total));
 }
 
 const RegisterSection kViewRaysSection{{"view_rays",
