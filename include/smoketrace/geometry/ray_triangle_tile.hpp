@@ -113,14 +113,15 @@ template <unsigned W>
     store(out.cx, cx);
     store(out.cy, cy);
     unsigned keep = certain & ~straddling & lanes;
-    // The rest (a ray through an edge or a vertex, or an overflow) with shear_triangle()'s expressions,
-    // and the survivors' exact edge functions.
-    for (unsigned m = (~certain & lanes) | keep; m != 0; m &= m - 1) {
+    const unsigned uncertain = ~certain & lanes;
+    // The survivors' exact edge functions, and the rest (a ray through an edge or a vertex, or an overflow)
+    // decided with them, all with shear_triangle()'s expressions.
+    for (unsigned m = uncertain | keep; m != 0; m &= m - 1) {
         const unsigned i = unsigned(__builtin_ctz(m));
         out.u[i] = double(out.cx[i]) * double(out.by[i]) - double(out.cy[i]) * double(out.bx[i]);
         out.v[i] = double(out.ax[i]) * double(out.cy[i]) - double(out.ay[i]) * double(out.cx[i]);
         out.w[i] = double(out.bx[i]) * double(out.ay[i]) - double(out.by[i]) * double(out.ax[i]);
-        if (!straddles(out.lane(i))) keep |= 1u << i;
+        if ((uncertain >> i & 1u) && !straddles(out.lane(i))) keep |= 1u << i;
     }
     return keep;
 }

@@ -202,13 +202,12 @@ private:
         return false;
     }
 
-public:
-    // A world_triangles instance tested for this ray outside visit(), by a tile (trace_tile.hpp): counted as
-    // visit() counts its own.
     [[gnu::always_inline]] void count_world_triangles(const InstanceRecord& inst) {
         ++world_leaves_;
         result_.counters.primitives_tested += inst.world_triangle_count;
     }
+
+public:
 
     // Triangle k of a world_triangles instance, met by this ray at `th` (t within [tmin, tmax]): rule 4 on the
     // object-space facing, then rules 5-8. Returns true when the search has ended.

@@ -45,20 +45,39 @@ namespace smoketrace {
 class TileResults {
 public:
     [[nodiscard]] TraceResult operator[](unsigned lane) const {
-        if (searched(lane)) return results_[lane];
         TraceResult r;
-        r.counters.tlas_nodes = tlas_.nodes_visited;
-        r.counters.boxes_tested = tlas_.boxes_tested;
+        if (searched(lane)) {
+            r = results_[lane];
+        } else {
+            r.counters.tlas_nodes = tlas_.nodes_visited;
+            r.counters.boxes_tested = tlas_.boxes_tested;
+        }
+        // The world_triangles instances the tile tested for this ray, counted as trace() counts a visit.
+        r.counters.blas_nodes += world_instances_[lane];
+        r.counters.instances_entered += world_instances_[lane];
+        r.counters.primitives_tested += world_triangles_[lane];
         return r;
     }
     // Whether ray `lane` committed a hit, and its t (the ray's tmax when it did not).
     [[nodiscard]] bool hit(unsigned lane) const { return searched(lane) && results_[lane].hit; }
     [[nodiscard]] float t(unsigned lane) const { return results_[lane].committed.t; }
 
-    // For trace_tile(): a new tile's walk, then each searched ray's result.
+    // For trace_tile(): a new tile's walk, the world-triangles tests per ray, then each searched ray's result.
     void start(const TraversalStats& tlas) {
         tlas_ = tlas;
         for (TileLineSet& s : searched_) s = 0;
+        for (std::uint32_t& n : world_instances_) n = 0;
+        for (std::uint32_t& n : world_triangles_) n = 0;
+    }
+    // One world_triangles instance of `triangles` triangles tested for the lanes `lanes` from `first` on.
+    template <unsigned W>
+    [[gnu::always_inline]] void count_world_triangles(unsigned first, unsigned lanes, std::uint32_t triangles) {
+        using UInts = simd::UInts<W>;
+        const auto m = simd::Mask<std::uint32_t, W>::from_bits(lanes);
+        store(world_instances_ + first,
+              simd::masked_add(UInts::load(world_instances_ + first), m, UInts::broadcast(1u)));
+        store(world_triangles_ + first,
+              simd::masked_add(UInts::load(world_triangles_ + first), m, UInts::broadcast(triangles)));
     }
     void set(unsigned lane, const TraceResult& r) {
         results_[lane] = r;
@@ -71,6 +90,8 @@ private:
     std::array<TraceResult, kTileRays> results_;
     TileLineSet searched_[kTileRows] = {};
     TraversalStats tlas_;
+    alignas(64) std::uint32_t world_instances_[kTileRays] = {};
+    alignas(64) std::uint32_t world_triangles_[kTileRays] = {};
 };
 
 // What trace_tile() keeps between calls, so that a tile allocates nothing once it has met its largest list:
@@ -172,6 +193,7 @@ void trace_tile(const AccelScene& scene, RayTile& tile, std::uint32_t flags, std
                   return a.distance < b.distance || (a.distance == b.distance && a.index < b.index);
               });
 
+    results.start(tlas_stats);
     const float* tmax = tile.tmax_data();
     for (const TileScratch::Candidate& cand : candidates) {
         TileLineSet columns, rows;
@@ -197,9 +219,8 @@ void trace_tile(const AccelScene& scene, RayTile& tile, std::uint32_t flags, std
                 const unsigned r = unsigned(std::countr_zero(rs));
                 for (unsigned b = 0; b < kTileColumns / W; ++b) {
                     tested[r][b] = block_lanes(r, b);
-                    const unsigned first = RayTile::lane(b * W, r);
-                    for (unsigned m = tested[r][b]; m != 0; m &= m - 1)
-                        searches[first + unsigned(std::countr_zero(m))].count_world_triangles(inst);
+                    if (tested[r][b] != 0)
+                        results.count_world_triangles<W>(RayTile::lane(b * W, r), tested[r][b], inst.world_triangle_count);
                 }
             }
             for (std::uint32_t k = 0; k < inst.world_triangle_count; ++k) {
@@ -242,7 +263,6 @@ void trace_tile(const AccelScene& scene, RayTile& tile, std::uint32_t flags, std
         }
     }
 
-    results.start(tlas_stats);
     for (unsigned r = 0; r < kTileRows; ++r)
         for (TileLineSet m = searches.made(r); m != 0; m &= m - 1) {
             const unsigned lane = RayTile::lane(unsigned(std::countr_zero(m)), r);
