@@ -166,13 +166,14 @@ TEST_CASE("ray tile: lane (c, r) is the camera's ray of that pixel, bit for bit"
         }
 }
 
-TEST_CASE("ray tile: shear_lanes() is the scalar shear lane by lane, through edges and vertices too", "[trace-tile]") {
+TEST_CASE("ray tile: shear_lanes() and finish_lanes() are the scalar test lane by lane, through edges and vertices too",
+          "[trace-tile]") {
     // Tiles whose middle column and row have x = y = 0 exactly, looking along an axis: their middle ray is
     // the axis itself, and triangles with an edge or a vertex on that axis give float edge functions of
     // exactly 0 (the double path). Random triangles around them, some sharing that vertex.
     Pcg32 rng(23);
     constexpr unsigned W = simd::kFloatLanes;
-    std::size_t kept = 0, zero_edges = 0;
+    std::size_t kept = 0, zero_edges = 0, finished = 0, finished_on_edge = 0;
     for (int k = 0; k < 400; ++k) {
         float x[kTileColumns], y[kTileRows];
         const float spread = rng.uniform(0.01f, 1.5f);
@@ -194,9 +195,36 @@ TEST_CASE("ray tile: shear_lanes() is the scalar shear lane by lane, through edg
             if (j % 2 == 0) v[j % 3] = on_axis;  // a vertex on the middle ray
             if (j % 4 == 1) v[1] = on_axis + (v[0] - on_axis) * -1.0f;  // an edge through the middle ray
             const glm::vec3 a = v[0] - eye, b = v[1] - eye, c = v[2] - eye;
+            const glm::dvec3 normal = triangle_normal(v[0], v[1], v[2]);
+            const glm::dvec3 p = glm::dvec3(v[0]) - glm::dvec3(eye);
+            const double n_dot_p = normal.x * p.x + normal.y * p.y + normal.z * p.z;
             for (unsigned first = 0; first < kTileRays; first += W) {
                 ShearedLanes<W> out;
                 const unsigned keep = shear_lanes<W>(rays, first, W == 32 ? ~0u : (1u << W) - 1u, a, b, c, out);
+                // finish_lanes() against finish_triangle_hit(), lane by lane.
+                FinishedLanes<W> done;
+                finish_lanes<W>(tile, first, keep, out, normal, n_dot_p, done);
+                CHECK((done.hit & done.on_edge) == 0);
+                CHECK(((done.hit | done.on_edge) & ~keep) == 0);
+                for (unsigned m = keep; m != 0; m &= m - 1) {
+                    const unsigned i = unsigned(std::countr_zero(m));
+                    TriangleHit expected;
+                    const bool hit = finish_triangle_hit(rays.ray(first + i), out.lane(i), v[0], normal,
+                                                         tile.tmax(first + i), expected);
+                    CAPTURE(k, j, first, i);
+                    if (done.on_edge >> i & 1u) {
+                        ++finished_on_edge;
+                        continue;
+                    }
+                    const float t = static_cast<float>(done.t[i]);
+                    REQUIRE(bool(done.hit >> i & 1u && t >= tile.tmin() && t <= tile.tmax(first + i)) == hit);
+                    if (!hit) continue;
+                    ++finished;
+                    CHECK(same_bits(t, expected.t));
+                    CHECK(same_bits(float(done.b1[i]), expected.barycentrics.x));
+                    CHECK(same_bits(float(done.b2[i]), expected.barycentrics.y));
+                    CHECK(bool(done.front >> i & 1u) == expected.front_face);
+                }
                 for (unsigned i = 0; i < W; ++i) {
                     const TriangleRay alone(tile.ray(first + i)), from_table = rays.ray(first + i);
                     REQUIRE(std::memcmp(&alone, &from_table, sizeof(TriangleRay)) == 0);
@@ -221,6 +249,8 @@ TEST_CASE("ray tile: shear_lanes() is the scalar shear lane by lane, through edg
     }
     CHECK(kept > 10000);
     CHECK(zero_edges > 100);
+    CHECK(finished > 5000);
+    CHECK(finished_on_edge > 50);
 }
 
 TEST_CASE("trace_tile: every ray of a tile meets what trace() shows it alone (every instance kind)", "[trace-tile]") {

@@ -18,6 +18,7 @@
 #include <smoketrace/geometry/ray_triangle.hpp>
 
 #include <cstdint>
+#include <limits>
 
 namespace smoketrace {
 
@@ -71,7 +72,7 @@ private:
 template <unsigned W>
 struct ShearedLanes {
     alignas(64) float ax[W], ay[W], bx[W], by[W], cx[W], cy[W];
-    double u[W], v[W], w[W];
+    alignas(64) double u[W], v[W], w[W];
 
     [[nodiscard]] ShearedTriangle lane(unsigned i) const {
         return {ax[i], ay[i], bx[i], by[i], cx[i], cy[i], u[i], v[i], w[i]};
@@ -114,16 +115,83 @@ template <unsigned W>
     store(out.cy, cy);
     unsigned keep = certain & ~straddling & lanes;
     const unsigned uncertain = ~certain & lanes;
-    // The survivors' exact edge functions, and the rest (a ray through an edge or a vertex, or an overflow)
-    // decided with them, all with shear_triangle()'s expressions.
-    for (unsigned m = uncertain | keep; m != 0; m &= m - 1) {
+    if ((keep | uncertain) == 0) return 0;
+    // The exact edge functions, with shear_triangle()'s expressions: for the survivors, and to decide the rest
+    // (a ray through an edge or a vertex, or an overflow).
+    if constexpr (W >= 2) {
+        using Doubles = simd::Doubles<W / 2>;
+        for (unsigned h = 0; h < W; h += W / 2) {
+            const Doubles dax = Doubles::widen(out.ax + h), day = Doubles::widen(out.ay + h);
+            const Doubles dbx = Doubles::widen(out.bx + h), dby = Doubles::widen(out.by + h);
+            const Doubles dcx = Doubles::widen(out.cx + h), dcy = Doubles::widen(out.cy + h);
+            store(out.u + h, dcx * dby - dcy * dbx);
+            store(out.v + h, dax * dcy - day * dcx);
+            store(out.w + h, dbx * day - dby * dax);
+        }
+    } else {
+        out.u[0] = double(out.cx[0]) * double(out.by[0]) - double(out.cy[0]) * double(out.bx[0]);
+        out.v[0] = double(out.ax[0]) * double(out.cy[0]) - double(out.ay[0]) * double(out.cx[0]);
+        out.w[0] = double(out.bx[0]) * double(out.ay[0]) - double(out.by[0]) * double(out.ax[0]);
+    }
+    for (unsigned m = uncertain; m != 0; m &= m - 1) {
         const unsigned i = unsigned(__builtin_ctz(m));
-        out.u[i] = double(out.cx[i]) * double(out.by[i]) - double(out.cy[i]) * double(out.bx[i]);
-        out.v[i] = double(out.ax[i]) * double(out.cy[i]) - double(out.ay[i]) * double(out.cx[i]);
-        out.w[i] = double(out.bx[i]) * double(out.ay[i]) - double(out.by[i]) * double(out.ax[i]);
-        if ((uncertain >> i & 1u) && !straddles(out.lane(i))) keep |= 1u << i;
+        if (!straddles(out.lane(i))) keep |= 1u << i;
     }
     return keep;
+}
+
+// finish_triangle_hit() for the lanes `keep` of a block that shear_lanes() kept, in lanes of doubles: the
+// same operations on the same numbers, so each lane gets the scalar function's t, barycentrics and facing,
+// bit for bit. The plane's distance n·(v0 − origin) is the same for every ray of the tile (`n_dot_p`, formed
+// as the scalar function forms it). Lanes with an edge function or determinant of exactly 0 (or NaN: an
+// overflow), where the tie-break decides, are returned in `on_edge` for finish_triangle_hit() itself; `hit`
+// holds the others whose t lies in [tmin, tmax] (the tile's tmax of each ray, in double; the float t is
+// checked by the caller, as the scalar function checks it last).
+template <unsigned W>
+struct FinishedLanes {
+    alignas(64) double t[W], b1[W], b2[W];
+    unsigned hit = 0, front = 0, on_edge = 0;
+};
+
+template <unsigned W>
+[[gnu::always_inline]] inline void finish_lanes(const RayTile& tile, unsigned first, unsigned keep,
+                                                const ShearedLanes<W>& s, const glm::dvec3& n, double n_dot_p,
+                                                FinishedLanes<W>& out) {
+    out.hit = out.front = out.on_edge = 0;
+    if constexpr (W >= 2) {
+        constexpr unsigned D = W / 2;
+        using Doubles = simd::Doubles<D>;
+        const Doubles zero = Doubles::broadcast(0.0);
+        const Doubles inf = Doubles::broadcast(std::numeric_limits<double>::infinity());
+        auto nonzero = [&](Doubles x) { return bits((x < zero) | (x > zero)); };
+        for (unsigned h = 0; h < W; h += D) {
+            const unsigned lanes = (keep >> h) & ((1u << D) - 1u);
+            if (lanes == 0) continue;
+            const Doubles u = Doubles::load(s.u + h), v = Doubles::load(s.v + h), w = Doubles::load(s.w + h);
+            const Doubles det = u + v + w;
+            const unsigned exact = nonzero(u) & nonzero(v) & nonzero(w) & nonzero(det);
+            const Doubles dx = Doubles::widen(tile.direction_x() + first + h);
+            const Doubles dy = Doubles::widen(tile.direction_y() + first + h);
+            const Doubles dz = Doubles::widen(tile.direction_z() + first + h);
+            const Doubles n_dot_d =
+                Doubles::broadcast(n.x) * dx + Doubles::broadcast(n.y) * dy + Doubles::broadcast(n.z) * dz;
+            const Doubles t = Doubles::broadcast(n_dot_p) / n_dot_d;
+            const Doubles tmin = Doubles::broadcast(double(tile.tmin()));
+            const Doubles tmax = Doubles::widen(tile.tmax_data() + first + h);
+            // t >= tmin && t <= tmax, false for NaN, from the ordered < and > the lanes have.
+            const unsigned not_nan = bits((t > -inf) | (t < inf));
+            const unsigned in_range = not_nan & ~bits(t < tmin) & ~bits(t > tmax);
+            store(out.t + h, t);
+            store(out.b1 + h, v / det);
+            store(out.b2 + h, w / det);
+            out.on_edge |= (lanes & ~exact) << h;
+            out.hit |= (lanes & exact & nonzero(n_dot_d) & in_range) << h;
+            out.front |= bits(det > zero) << h;
+        }
+    } else {
+        if (keep & 1u) out.on_edge = 1u;  // the scalar twin: finish_triangle_hit() itself
+        (void)tile, (void)first, (void)s, (void)n, (void)n_dot_p;
+    }
 }
 
 }  // namespace smoketrace
