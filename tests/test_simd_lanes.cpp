@@ -109,6 +109,8 @@ void check_floats(Pcg32& rng) {
         c.check("+", [](auto x, auto y) { return x + y; });
         c.check("-", [](auto x, auto y) { return x - y; });
         c.check("*", [](auto x, auto y) { return x * y; });
+        c.check("/", [](auto x, auto y) { return x / y; });
+        c.check("abs", [](auto x, auto) { return abs(x); });
         c.check("max", [](auto x, auto y) { return max(x, y); });
         c.check("min", [](auto x, auto y) { return min(x, y); });
         c.check("<", [](auto x, auto y) { return x < y; });

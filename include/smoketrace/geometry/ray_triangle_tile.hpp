@@ -37,12 +37,30 @@ public:
         kx = first.kx;
         ky = first.ky;
         kz = first.kz;
-        for (unsigned lane = 0; lane < kTileRays; ++lane) {
-            const TriangleRay r(tile.ray(lane));
-            shared_axes = shared_axes && r.kx == kx && r.ky == ky && r.kz == kz;
-            sx[lane] = r.sx;
-            sy[lane] = r.sy;
-            sz[lane] = r.sz;
+        // TriangleRay's set-up in lanes: the same comparisons pick each ray's axes, the same division and
+        // products make its shear, so a lane holds TriangleRay(tile.ray(lane))'s numbers when its axes are
+        // lane 0's; if one ray's differ, the table is not used (shared_axes false).
+        using Floats = simd::Floats<simd::kFloatLanes>;
+        const float* d[3] = {tile.direction_x(), tile.direction_y(), tile.direction_z()};
+        const Floats zero = Floats::broadcast(0.0f), one = Floats::broadcast(1.0f);
+        const bool negative = d[kz][0] < 0.0f;
+        for (unsigned lane = 0; lane < kTileRays; lane += simd::kFloatLanes) {
+            const Floats x = Floats::load(d[0] + lane), y = Floats::load(d[1] + lane), z = Floats::load(d[2] + lane);
+            const Floats ax = abs(x), ay = abs(y), az = abs(z);
+            const unsigned x_over_y = bits(ax > ay);
+            const unsigned on_x = x_over_y & bits(ax > az), on_y = ~x_over_y & bits(ay > az);
+            const unsigned all = simd::kFloatLanes == 32 ? ~0u : (1u << simd::kFloatLanes) - 1u;
+            const unsigned on_kz = kz == 0 ? on_x : kz == 1 ? on_y : ~(on_x | on_y) & all;
+            const Floats dkz = Floats::load(d[kz] + lane);
+            const unsigned sign = bits(dkz < zero);
+            if (on_kz != all || sign != (negative ? all : 0u)) {
+                shared_axes = false;
+                return;
+            }
+            const Floats s = one / dkz;
+            store(sz + lane, s);
+            store(sx + lane, Floats::load(d[kx] + lane) * s);
+            store(sy + lane, Floats::load(d[ky] + lane) * s);
         }
     }
 

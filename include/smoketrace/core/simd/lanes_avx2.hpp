@@ -29,6 +29,8 @@ struct Lanes<float, 8> {
 [[gnu::always_inline]] inline Floats<8> operator+(Floats<8> a, Floats<8> b) { return {_mm256_add_ps(a.v, b.v)}; }
 [[gnu::always_inline]] inline Floats<8> operator-(Floats<8> a, Floats<8> b) { return {_mm256_sub_ps(a.v, b.v)}; }
 [[gnu::always_inline]] inline Floats<8> operator*(Floats<8> a, Floats<8> b) { return {_mm256_mul_ps(a.v, b.v)}; }
+[[gnu::always_inline]] inline Floats<8> operator/(Floats<8> a, Floats<8> b) { return {_mm256_div_ps(a.v, b.v)}; }
+[[gnu::always_inline]] inline Floats<8> abs(Floats<8> a) { return {_mm256_andnot_ps(_mm256_set1_ps(-0.0f), a.v)}; }
 [[gnu::always_inline]] inline Floats<8> max(Floats<8> a, Floats<8> b) { return {_mm256_max_ps(a.v, b.v)}; }
 [[gnu::always_inline]] inline Floats<8> min(Floats<8> a, Floats<8> b) { return {_mm256_min_ps(a.v, b.v)}; }
 [[gnu::always_inline]] inline Mask<float, 8> operator<(Floats<8> a, Floats<8> b) {

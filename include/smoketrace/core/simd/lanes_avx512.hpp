@@ -33,6 +33,8 @@ struct Lanes<float, 16> {
 [[gnu::always_inline]] inline Floats<16> operator+(Floats<16> a, Floats<16> b) { return {_mm512_add_ps(a.v, b.v)}; }
 [[gnu::always_inline]] inline Floats<16> operator-(Floats<16> a, Floats<16> b) { return {_mm512_sub_ps(a.v, b.v)}; }
 [[gnu::always_inline]] inline Floats<16> operator*(Floats<16> a, Floats<16> b) { return {_mm512_mul_ps(a.v, b.v)}; }
+[[gnu::always_inline]] inline Floats<16> operator/(Floats<16> a, Floats<16> b) { return {_mm512_div_ps(a.v, b.v)}; }
+[[gnu::always_inline]] inline Floats<16> abs(Floats<16> a) { return {_mm512_abs_ps(a.v)}; }
 [[gnu::always_inline]] inline Floats<16> max(Floats<16> a, Floats<16> b) {
     return {_mm512_maskz_max_ps(__mmask16(0xFFFF), a.v, b.v)};
 }

@@ -27,6 +27,8 @@ struct Lanes<float, 4> {
 [[gnu::always_inline]] inline Floats<4> operator+(Floats<4> a, Floats<4> b) { return {_mm_add_ps(a.v, b.v)}; }
 [[gnu::always_inline]] inline Floats<4> operator-(Floats<4> a, Floats<4> b) { return {_mm_sub_ps(a.v, b.v)}; }
 [[gnu::always_inline]] inline Floats<4> operator*(Floats<4> a, Floats<4> b) { return {_mm_mul_ps(a.v, b.v)}; }
+[[gnu::always_inline]] inline Floats<4> operator/(Floats<4> a, Floats<4> b) { return {_mm_div_ps(a.v, b.v)}; }
+[[gnu::always_inline]] inline Floats<4> abs(Floats<4> a) { return {_mm_andnot_ps(_mm_set1_ps(-0.0f), a.v)}; }
 [[gnu::always_inline]] inline Floats<4> max(Floats<4> a, Floats<4> b) { return {_mm_max_ps(a.v, b.v)}; }
 [[gnu::always_inline]] inline Floats<4> min(Floats<4> a, Floats<4> b) { return {_mm_min_ps(a.v, b.v)}; }
 [[gnu::always_inline]] inline Mask<float, 4> operator<(Floats<4> a, Floats<4> b) { return {_mm_cmplt_ps(a.v, b.v)}; }
