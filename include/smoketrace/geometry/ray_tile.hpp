@@ -17,6 +17,7 @@
 // own shadow coordinates differ from x[c], y[r] by a few units in the 7th digit of 1 + |x| + |y|. Every
 // test here widens the grid by kTileMargin times that, four hundred times the error and a fifth of a pixel
 // of a 1024-pixel image at 45°: a ray is never culled from a box it meets, and few rays are tested in vain.
+#include <smoketrace/core/simd/lanes.hpp>
 #include <smoketrace/geometry/aabb.hpp>
 #include <smoketrace/geometry/ray.hpp>
 
@@ -71,6 +72,9 @@ public:
         y_hi_ = y_hi + margin_;
         // A point q (relative to the origin) is outside the frustum when n·q > 0 for one of these.
         const glm::dvec3 f(forward), rt(right), u(up);
+        forward_d_ = f;
+        right_d_ = rt;
+        up_d_ = u;
         planes_[0] = rt - double(x_hi_) * f;
         planes_[1] = double(x_lo_) * f - rt;
         planes_[2] = u - double(y_hi_) * f;
@@ -128,24 +132,38 @@ public:
 
     // The columns and rows whose rays can meet anything inside `box` (see above); false when none can.
     bool shadow_lanes(const Aabb& box, TileLineSet& columns, TileLineSet& rows) const {
-        // In double (see outside()); then the shadow itself carries no error worth a margin.
-        const glm::dvec3 o(origin_), f(forward_), rt(right_), u(up_);
-        double sx_lo = std::numeric_limits<double>::infinity(), sx_hi = -sx_lo, sy_lo = sx_lo, sy_hi = -sx_lo;
+        // In double (see outside()); then the shadow itself carries no error worth a margin. The eight corners
+        // in lanes: two divisions per block of lanes rather than sixteen one by one.
+        using Doubles = simd::Doubles<simd::kDoubleLanes>;
+        const glm::dvec3 o(origin_);
+        alignas(64) double qx[8], qy[8], qz[8], sx[8], sy[8];
         for (unsigned k = 0; k < 8; ++k) {
-            const glm::dvec3 q = glm::dvec3(k & 1 ? box.hi.x : box.lo.x, k & 2 ? box.hi.y : box.lo.y,
-                                            k & 4 ? box.hi.z : box.lo.z) - o;
-            const double z = glm::dot(q, f);
+            qx[k] = double(k & 1 ? box.hi.x : box.lo.x) - o.x;
+            qy[k] = double(k & 2 ? box.hi.y : box.lo.y) - o.y;
+            qz[k] = double(k & 4 ? box.hi.z : box.lo.z) - o.z;
+        }
+        const Doubles zero = Doubles::broadcast(0.0);
+        for (unsigned k = 0; k < 8; k += simd::kDoubleLanes) {
+            const Doubles x = Doubles::load(qx + k), y = Doubles::load(qy + k), z = Doubles::load(qz + k);
+            const Doubles depth = x * Doubles::broadcast(forward_d_.x) + y * Doubles::broadcast(forward_d_.y) +
+                                  z * Doubles::broadcast(forward_d_.z);
             // At or behind the eye's plane the shadow is unbounded (or the corner is the eye itself).
-            if (!(z > 0.0)) {
+            if (bits(depth > zero) != (simd::kDoubleLanes == 32 ? ~0u : (1u << simd::kDoubleLanes) - 1u)) {
                 columns = all_columns_;
                 rows = all_rows_;
                 return true;
             }
-            const double sx = glm::dot(q, rt) / z, sy = glm::dot(q, u) / z;
-            sx_lo = std::min(sx_lo, sx);
-            sx_hi = std::max(sx_hi, sx);
-            sy_lo = std::min(sy_lo, sy);
-            sy_hi = std::max(sy_hi, sy);
+            store(sx + k, (x * Doubles::broadcast(right_d_.x) + y * Doubles::broadcast(right_d_.y) +
+                           z * Doubles::broadcast(right_d_.z)) / depth);
+            store(sy + k, (x * Doubles::broadcast(up_d_.x) + y * Doubles::broadcast(up_d_.y) +
+                           z * Doubles::broadcast(up_d_.z)) / depth);
+        }
+        double sx_lo = sx[0], sx_hi = sx[0], sy_lo = sy[0], sy_hi = sy[0];
+        for (unsigned k = 1; k < 8; ++k) {
+            sx_lo = std::min(sx_lo, sx[k]);
+            sx_hi = std::max(sx_hi, sx[k]);
+            sy_lo = std::min(sy_lo, sy[k]);
+            sy_hi = std::max(sy_hi, sy[k]);
         }
         sx_lo -= margin_;
         sx_hi += margin_;
@@ -165,6 +183,7 @@ private:
     float x_[kTileColumns] = {}, y_[kTileRows] = {};
     float margin_, x_lo_, x_hi_, y_lo_, y_hi_;
     glm::dvec3 planes_[4];
+    glm::dvec3 forward_d_, right_d_, up_d_;
     TileLineSet all_columns_, all_rows_;
     alignas(64) float dx_[kTileRays];
     alignas(64) float dy_[kTileRays];

@@ -165,11 +165,16 @@ void trace_tile(const AccelScene& scene, RayTile& tile, std::uint32_t flags, std
 
     // The rays still searching, a set of columns per row.
     TileLineSet alive[kTileRows] = {};
-    float reach = 0.0f;
+    // The farthest any ray reaches (lanes outside the grid repeat its first ray, so all lanes may count).
+    Floats reach_lanes = Floats::broadcast(0.0f);
     for (unsigned r = 0; r < tile.rows(); ++r) {
         alive[r] = tile.all_columns();
-        for (unsigned c = 0; c < tile.columns(); ++c) reach = std::max(reach, tile.tmax(RayTile::lane(c, r)));
+        for (unsigned b = 0; b < kTileColumns / W; ++b)
+            reach_lanes = simd::max(reach_lanes, Floats::load(tile.tmax_data() + RayTile::lane(b * W, r)));
     }
+    alignas(64) float reach_of[W];
+    store(reach_of, reach_lanes);
+    const float reach = *std::max_element(reach_of, reach_of + W);
 
     // The instances the tile can see, near to far.
     std::vector<TileScratch::Candidate>& candidates = scratch.candidates;
