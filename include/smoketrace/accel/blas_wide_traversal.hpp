@@ -115,27 +115,37 @@ inline bool traverse_blas_wide(const BlasWideBvh<W>& bvh, const BoxRay& ray, con
     StackEntry stack[(W - 1) * kMaxBvhDepth + 1];
     int sp = 0;
     std::uint32_t ref = 0;
+    // Counted in registers and added to `stats` on the way out: the leaf callback writes to `stats` too, so
+    // counting there directly would be a store and a reload per node.
+    std::uint32_t visited = 0, boxes = 0;
+    auto finish = [&](bool ended) {
+        stats.nodes_visited += visited;
+        stats.boxes_tested += boxes;
+        return ended;
+    };
     for (;;) {
-        ++stats.nodes_visited;
+        ++visited;
         if (ref & kLeafRef) {
             const std::uint32_t k = ref & ~kLeafRef;
             const BlasWideNode<W>& p = nodes[k / W];
-            if (leaf(p.child[k % W], p.count[k % W])) return true;
+            if (leaf(p.child[k % W], p.count[k % W])) return finish(true);
         } else {
             const BlasWideNode<W>& n = nodes[ref];
-            stats.boxes_tested += n.used;
+            boxes += n.used;
             alignas(4 * W) float t[W];
             unsigned hits = box_test.test(n, tmax, t);
+            // Without a branch: whether a hit child is a leaf is as unpredictable as which children are hit.
             auto ref_of = [&](unsigned i) {
-                return (n.leaves >> i) & 1u ? kLeafRef | (ref * W + i) : n.child[i];
+                const std::uint32_t leaf_bits = 0u - ((unsigned(n.leaves) >> i) & 1u);
+                return (n.child[i] & ~leaf_bits) | ((kLeafRef | (ref * W + i)) & leaf_bits);
             };
             if constexpr (Order == BlasWalkOrder::any_order) {
                 // Leaves at once; the first inner child next, the others pushed.
                 for (unsigned m = hits & n.leaves; m != 0; m &= m - 1) {
                     const unsigned i = unsigned(std::countr_zero(m));
                     if (!(t[i] <= tmax * kSlabFarScale)) continue;
-                    ++stats.nodes_visited;
-                    if (leaf(n.child[i], n.count[i])) return true;
+                    ++visited;
+                    if (leaf(n.child[i], n.count[i])) return finish(true);
                 }
                 hits &= ~unsigned(n.leaves);
                 if (hits != 0) {
@@ -159,8 +169,8 @@ inline bool traverse_blas_wide(const BlasWideBvh<W>& bvh, const BoxRay& ray, con
                 }
                 if ((rest & (rest - 1)) == 0) {
                     const unsigned second = unsigned(std::countr_zero(rest));
-                    const bool swap = t[second] < t[first];
-                    const unsigned near = swap ? second : first, far = swap ? first : second;
+                    const unsigned swap = unsigned(t[second] < t[first]) * (first ^ second);
+                    const unsigned near = first ^ swap, far = second ^ swap;
                     stack[sp++] = StackEntry{ref_of(far), t[far]};
                     ref = ref_of(near);
                     continue;
@@ -168,7 +178,7 @@ inline bool traverse_blas_wide(const BlasWideBvh<W>& bvh, const BoxRay& ray, con
                 // Three or more: keys (entry distance, slot), the misses last, sorted by the network.
                 std::uint64_t key[W];
                 for (unsigned i = 0; i < W; ++i)
-                    key[i] = (hits >> i) & 1u ? std::uint64_t(detail::ordered_bits(t[i])) << 32 | i : ~std::uint64_t(0);
+                    key[i] = (std::uint64_t(detail::ordered_bits(t[i])) << 32 | i) | (0 - std::uint64_t((~hits >> i) & 1u));
                 detail::sort_keys<W>(key);
                 const int count = std::popcount(hits);
                 for (int j = count - 1; j >= 1; --j) {
@@ -179,7 +189,7 @@ inline bool traverse_blas_wide(const BlasWideBvh<W>& bvh, const BoxRay& ray, con
                 continue;
             }
         }
-        if (!pop_live_entry(stack, sp, tmax, ref)) return false;
+        if (!pop_live_entry(stack, sp, tmax, ref)) return finish(false);
     }
 }
 
