@@ -26,7 +26,7 @@
 //   build_ratio_vs_embree_medium_1t  our build time / Embree medium build time, one thread
 //   build_ratio_vs_embree_medium_2t  the same at two threads
 //   build_ratio_vs_embree_high_1t, build_ratio_vs_embree_high_2t: against the high-quality build (extra)
-//   closest_hit_ratio_vs_embree  our rays/s / the fastest Embree configuration's   (target ≥ 0.5)
+//   closest_hit_ratio_vs_embree  our rays/s / the fastest Embree configuration's   (target ≥ 1)
 //   all_hits_ratio_vs_embree     our rays/s / the fastest Embree configuration's   (target ≥ 1)
 //   closest_hit_coherent_ratio_vs_embree, all_hits_coherent_ratio_vs_embree: the same, coherent rays
 //   *_objects_*: the same on the second mesh; *_binary_*: the binary walk's ratio (before the wide tree)
