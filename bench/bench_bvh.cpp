@@ -15,12 +15,21 @@
 // it) against our any-hit traversal with a callback that records the hit and ignores it; both record
 // into the same fixed per-ray buffer, so neither allocates.
 //
+// Rays: incoherent (random, below) and coherent (a pinhole camera's 1024×1024 pixel rays in 8×8 tiles, the
+// order a tiled renderer traces them; Embree also gets them as rtcIntersect16 packets of 4×4 pixels with
+// RTC_INTERSECT_CONTEXT_FLAG_COHERENT, closest hit only). Two meshes: the sphere over terrain (the build
+// rows' mesh) and "objects", many small icospheres merged into one mesh (overlapping boxes, empty space).
+// Our rows: "smoketrace" is the API (closest_hit / any_hit_traversal, the 8-wide tree); extra rows walk the
+// 4-wide tree ("smoketrace_wide4") and the binary tree ("smoketrace_binary", the walk before the wide tree).
+//
 // Headline ratios (report()):
 //   build_ratio_vs_embree_medium_1t  our build time / Embree medium build time, one thread
 //   build_ratio_vs_embree_medium_2t  the same at two threads
 //   build_ratio_vs_embree_high_1t, build_ratio_vs_embree_high_2t: against the high-quality build (extra)
-//   closest_hit_ratio_vs_embree  our rays/s / the fastest Embree configuration's   (target ≥ 0.5)
+//   closest_hit_ratio_vs_embree  our rays/s / the fastest Embree configuration's   (target ≥ 1)
 //   all_hits_ratio_vs_embree     our rays/s / the fastest Embree configuration's   (target ≥ 1)
+//   closest_hit_coherent_ratio_vs_embree, all_hits_coherent_ratio_vs_embree: the same, coherent rays
+//   *_objects_*: the same on the second mesh; *_binary_*: the binary walk's ratio (before the wide tree)
 #include "bench_registry.hpp"
 #include "bench_util.hpp"
 #include "timing.hpp"
@@ -28,6 +37,8 @@
 #include "support/embree_reference.hpp"
 
 #include <smoketrace/trace/blas_traversal.hpp>
+#include <smoketrace/render/camera.hpp>
+#include <smoketrace/smoke/stand_in_shapes.hpp>
 #include <smoketrace/core/prng.hpp>
 
 #include <glm/geometric.hpp>
@@ -37,7 +48,9 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include <algorithm>
 #include <array>
+#include <cstddef>
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
@@ -87,6 +100,37 @@ std::vector<Ray> bench_rays(std::size_t n, std::uint64_t seed) {
         rays.push_back(r);
     }
     return rays;
+}
+
+// A pinhole camera's pixel rays, side × side, looking at the mesh from above one side, in 8×8 tiles (row by
+// row inside a tile, tiles row by row): neighbouring rays in the array are neighbours in the image.
+std::vector<Ray> camera_rays(int side) {
+    const Camera camera({0.0f, -6.5f, 2.5f}, {0.0f, 0.0f, -0.8f}, {0.0f, 0.0f, 1.0f}, 45.0f, side, side);
+    constexpr int kTile = 8;
+    std::vector<Ray> rays;
+    rays.reserve(std::size_t(side) * std::size_t(side));
+    for (int ty = 0; ty < side; ty += kTile)
+        for (int tx = 0; tx < side; tx += kTile)
+            for (int y = ty; y < std::min(ty + kTile, side); ++y)
+                for (int x = tx; x < std::min(tx + kTile, side); ++x) rays.push_back(camera.ray(x, y, 0.0f));
+    return rays;
+}
+
+// The second mesh: `count` small closed icospheres (level 2, 320 triangles each, radii 0.02–0.12) at random
+// places in the box [−3, 3]² × [−2, 1], merged into one mesh: many disjoint objects with overlapping
+// boxes and empty space between them, unlike the two large connected surfaces of the first.
+TriangleMesh make_many_objects(int count, std::uint64_t seed) {
+    const TriangleMesh ico = make_icosphere(2, 1.0f);
+    Pcg32 rng(seed);
+    TriangleMesh m;
+    for (int k = 0; k < count; ++k) {
+        const glm::vec3 c(rng.uniform(-3, 3), rng.uniform(-3, 3), rng.uniform(-2, 1));
+        const float r = rng.uniform(0.02f, 0.12f);
+        const auto base = static_cast<std::uint32_t>(m.vertices.size());
+        for (const glm::vec3& v : ico.vertices) m.vertices.push_back(c + r * v);
+        for (const glm::uvec3& t : ico.triangles) m.triangles.push_back(t + glm::uvec3(base));
+    }
+    return m;
 }
 
 // Per-ray hit record with a fixed capacity: both tracers write every candidate here (beyond the
@@ -144,6 +188,54 @@ PassResult ours_all_hits(const MeshBlas& blas, const std::vector<Ray>& rays, std
     return res;
 }
 
+// The same queries through a given walk of the mesh's trees: the binary tree (the walk before the wide
+// tree) or a wide tree of another width than the API's.
+template <class Walk>
+PassResult ours_closest_walk(const MeshBlas& blas, const std::vector<Ray>& rays, std::size_t begin, std::size_t end,
+                             const Walk& walk) {
+    PassResult res;
+    for (std::size_t i = begin; i < end; ++i) {
+        const BlasRay r(rays[i]);
+        float tmax = rays[i].tmax;
+        bool hit = false;
+        TraversalStats stats;
+        walk(BoxRay(rays[i]), tmax, [&](std::uint32_t f, std::uint32_t c) {
+            return mesh_leaf_hits(blas, r, tmax, f, c, stats, [&](const BlasHit& h) {
+                tmax = h.t;
+                hit = true;
+                return false;
+            });
+        }, stats);
+        if (hit) {
+            ++res.hits;
+            res.t_sum += tmax;
+        }
+    }
+    return res;
+}
+
+template <class Walk>
+PassResult ours_all_hits_walk(const MeshBlas& blas, const std::vector<Ray>& rays, std::size_t begin, std::size_t end,
+                              const Walk& walk) {
+    PassResult res;
+    HitRecord record;
+    for (std::size_t i = begin; i < end; ++i) {
+        record.count = 0;
+        const BlasRay r(rays[i]);
+        const float tmax = rays[i].tmax;
+        TraversalStats stats;
+        walk(BoxRay(rays[i]), tmax, [&](std::uint32_t f, std::uint32_t c) {
+            return mesh_leaf_hits(blas, r, tmax, f, c, stats, [&](const BlasHit& h) {
+                record.add(h.primitive, h.t);
+                return false;
+            });
+        }, stats);
+        res.hits += record.count;
+        if (record.count) res.t_sum += record.t[0];
+    }
+    return res;
+}
+
 // --- Embree -------------------------------------------------------------------------------------------
 
 PassResult embree_closest(const er::Scene& scene, const std::vector<Ray>& rays, std::size_t begin, std::size_t end) {
@@ -158,6 +250,46 @@ PassResult embree_closest(const er::Scene& scene, const std::vector<Ray>& rays, 
             ++res.hits;
             res.t_sum += rh.ray.tfar;
         }
+    }
+    return res;
+}
+
+// Closest hit in packets of 16 rays (consecutive rays: a 4×4 block of an 8×8 tile when the rays come from
+// camera_rays()), with the coherent flag.
+PassResult embree_closest16(const er::Scene& scene, const std::vector<Ray>& rays, std::size_t begin, std::size_t end) {
+    PassResult res;
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    for (std::size_t i0 = begin; i0 < end; i0 += 16) {
+        alignas(64) RTCRayHit16 rh;
+        alignas(64) int valid[16];
+        for (unsigned j = 0; j < 16; ++j) {
+            const std::size_t i = i0 + j;
+            valid[j] = i < end ? -1 : 0;
+            const Ray& r = rays[i < end ? i : begin];
+            rh.ray.org_x[j] = r.origin.x;
+            rh.ray.org_y[j] = r.origin.y;
+            rh.ray.org_z[j] = r.origin.z;
+            rh.ray.tnear[j] = r.tmin;
+            rh.ray.dir_x[j] = r.direction.x;
+            rh.ray.dir_y[j] = r.direction.y;
+            rh.ray.dir_z[j] = r.direction.z;
+            rh.ray.time[j] = 0.0f;
+            rh.ray.tfar[j] = r.tmax;
+            rh.ray.mask[j] = ~0u;
+            rh.ray.id[j] = j;
+            rh.ray.flags[j] = 0;
+            rh.hit.geomID[j] = RTC_INVALID_GEOMETRY_ID;
+            rh.hit.primID[j] = RTC_INVALID_GEOMETRY_ID;
+            rh.hit.instID[0][j] = RTC_INVALID_GEOMETRY_ID;
+        }
+        rtcIntersect16(valid, scene.handle(), &context, &rh);
+        for (unsigned j = 0; j < 16; ++j)
+            if (valid[j] && rh.hit.geomID[j] != RTC_INVALID_GEOMETRY_ID) {
+                ++res.hits;
+                res.t_sum += rh.ray.tfar[j];
+            }
     }
     return res;
 }
@@ -243,6 +375,89 @@ void print_row(const Row& r) {
     std::cout << line.str();
 }
 
+struct TraversalContext {
+    int all_threads, repeats;
+    std::vector<Row>& rows;
+};
+
+// Our rays/s over the fastest Embree configuration's, one thread: the API's and the binary walk's.
+struct Ratios {
+    double closest = 0, all = 0, closest_binary = 0, all_binary = 0;
+};
+
+// Closest hit and all hits over one mesh and one ray set, at one thread and at all: our API, the 4-wide
+// and binary walks, every Embree configuration (and, for coherent rays, every one in packets of 16).
+// Rows are named measure + suffix ("closest_coherent", ...).
+Ratios run_traversal(const TraversalContext& ctx, const std::string& suffix, const MeshBlas& blas,
+                     const std::vector<std::unique_ptr<er::Scene>>& scenes, const std::vector<Ray>& rays,
+                     bool coherent, std::size_t tris) {
+    BlasWideBvh<4> wide4;
+    wide4.collapse(blas.bvh());
+    const auto binary = [&](const BoxRay& br, const float& tmax, auto&& leaf, TraversalStats& st) {
+        traverse_bvh(blas.bvh(), br, tmax, leaf, st);
+    };
+    const auto wide4_nearest = [&](const BoxRay& br, const float& tmax, auto&& leaf, TraversalStats& st) {
+        traverse_blas_wide<BlasWalkOrder::nearest_first>(wide4, br, tmax, leaf, st);
+    };
+    const auto wide4_any = [&](const BoxRay& br, const float& tmax, auto&& leaf, TraversalStats& st) {
+        traverse_blas_wide<BlasWalkOrder::any_order>(wide4, br, tmax, leaf, st);
+    };
+    const std::size_t n = rays.size();
+    Ratios ratios;
+    for (int threads : {1, ctx.all_threads}) {
+        if (threads == ctx.all_threads && ctx.all_threads == 1) break;
+        const bool parallel = threads > 1;
+        for (const bool closest : {true, false}) {
+            const std::string measure = (closest ? "closest" : "all_hits") + suffix;
+            std::vector<Contender> passes;
+            auto ours = [&](const char* name, auto closest_pass, auto all_pass) {
+                passes.push_back({name, threads, [=, &rays] {
+                                      return closest ? run_pass(parallel, n, [&](std::size_t b, std::size_t e) { return closest_pass(rays, b, e); })
+                                                     : run_pass(parallel, n, [&](std::size_t b, std::size_t e) { return all_pass(rays, b, e); });
+                                  }});
+            };
+            ours("smoketrace",
+                 [&](const std::vector<Ray>& r, std::size_t b, std::size_t e) { return ours_closest(blas, r, b, e); },
+                 [&](const std::vector<Ray>& r, std::size_t b, std::size_t e) { return ours_all_hits(blas, r, b, e); });
+            ours("smoketrace_wide4",
+                 [&](const std::vector<Ray>& r, std::size_t b, std::size_t e) { return ours_closest_walk(blas, r, b, e, wide4_nearest); },
+                 [&](const std::vector<Ray>& r, std::size_t b, std::size_t e) { return ours_all_hits_walk(blas, r, b, e, wide4_any); });
+            ours("smoketrace_binary",
+                 [&](const std::vector<Ray>& r, std::size_t b, std::size_t e) { return ours_closest_walk(blas, r, b, e, binary); },
+                 [&](const std::vector<Ray>& r, std::size_t b, std::size_t e) { return ours_all_hits_walk(blas, r, b, e, binary); });
+            constexpr std::size_t kOurs = 3;
+            for (std::size_t i = 0; i < std::size(kEmbreeConfigs); ++i) {
+                if (!closest && !kEmbreeConfigs[i].options.context_filter) continue;
+                const er::Scene& scene = *scenes[i];
+                passes.push_back({kEmbreeConfigs[i].name, threads, [&, closest, parallel] {
+                                      return closest ? run_pass(parallel, n, [&](std::size_t b, std::size_t e) { return embree_closest(scene, rays, b, e); })
+                                                     : run_pass(parallel, n, [&](std::size_t b, std::size_t e) { return embree_all_hits(scene, rays, b, e); });
+                                  }});
+                if (closest && coherent)
+                    passes.push_back({std::string(kEmbreeConfigs[i].name) + "_p16", threads, [&, parallel] {
+                                          return run_pass(parallel, n, [&](std::size_t b, std::size_t e) { return embree_closest16(scene, rays, b, e); });
+                                      }});
+            }
+            time_round_robin(passes, ctx.repeats);
+            const double ours_rps = n / (stats_of(passes[0].ms).median * 1e-3);
+            double best = 0;
+            for (const Contender& c : passes) {
+                const Stats st = stats_of(c.ms);
+                const double rps = n / (st.median * 1e-3);
+                ctx.rows.push_back({measure, c.name, threads, tris, n, st, rps, ours_rps / rps, c.result.hits});
+                print_row(ctx.rows.back());
+                if (&c - passes.data() >= std::ptrdiff_t(kOurs)) best = std::max(best, rps);
+            }
+            if (threads == 1) {
+                const double binary_rps = n / (stats_of(passes[2].ms).median * 1e-3);
+                (closest ? ratios.closest : ratios.all) = ours_rps / best;
+                (closest ? ratios.closest_binary : ratios.all_binary) = binary_rps / best;
+            }
+        }
+    }
+    return ratios;
+}
+
 void run_bvh(const BenchOptions& options) {
     const int level = options.quick ? 6 : 7;
     const int grid = options.quick ? 160 : 384;
@@ -311,38 +526,28 @@ void run_bvh(const BenchOptions& options) {
     std::cout << "  smoketrace SAH cost " << sah << " (" << blas->bvh().node_count() << " nodes, depth "
               << blas->bvh().depth() << ")\n";
 
-    // ---- traversal: closest hit and all hits, one thread (headline) and all threads (extra) ----
-    double best_closest = 0, best_all = 0, ours_closest_rps = 0, ours_all_rps = 0;
-    for (int threads : {1, all_threads}) {
-        if (threads == all_threads && all_threads == 1) break;
-        const bool parallel = threads > 1;
-        for (const char* measure : {"closest", "all_hits"}) {
-            const bool closest = std::string(measure) == "closest";
-            std::vector<Contender> passes;
-            passes.push_back({"smoketrace", threads, [&] {
-                                  return closest ? run_pass(parallel, ray_count, [&](std::size_t b, std::size_t e) { return ours_closest(*blas, rays, b, e); })
-                                                 : run_pass(parallel, ray_count, [&](std::size_t b, std::size_t e) { return ours_all_hits(*blas, rays, b, e); });
-                              }});
-            for (std::size_t i = 0; i < std::size(kEmbreeConfigs); ++i) {
-                if (!closest && !kEmbreeConfigs[i].options.context_filter) continue;
-                const er::Scene& scene = *scenes[i];
-                passes.push_back({kEmbreeConfigs[i].name, threads, [&, closest] {
-                                      return closest ? run_pass(parallel, ray_count, [&](std::size_t b, std::size_t e) { return embree_closest(scene, rays, b, e); })
-                                                     : run_pass(parallel, ray_count, [&](std::size_t b, std::size_t e) { return embree_all_hits(scene, rays, b, e); });
-                                  }});
-            }
-            time_round_robin(passes, options.repeats);
-            const double ours_rps = ray_count / (stats_of(passes[0].ms).median * 1e-3);
-            for (const Contender& c : passes) {
-                const Stats st = stats_of(c.ms);
-                const double rps = ray_count / (st.median * 1e-3);
-                rows.push_back({measure, c.name, threads, tris, ray_count, st, rps, ours_rps / rps, c.result.hits});
-                print_row(rows.back());
-                if (threads == 1 && c.name != "smoketrace") (closest ? best_closest : best_all) = std::max(closest ? best_closest : best_all, rps);
-            }
-            if (threads == 1) (closest ? ours_closest_rps : ours_all_rps) = ours_rps;
-        }
+    // ---- traversal: two meshes, incoherent and coherent rays, closest hit and all hits ----
+    const TraversalContext ctx{all_threads, options.repeats, rows};
+    const std::vector<Ray> camera = camera_rays(options.quick ? 512 : 1024);
+    std::cout << "  coherent rays: " << camera.size() << " pinhole camera rays in 8x8 tiles\n";
+    const Ratios incoherent = run_traversal(ctx, "", *blas, scenes, rays, false, tris);
+    const Ratios coherent = run_traversal(ctx, "_coherent", *blas, scenes, camera, true, tris);
+
+    const TriangleMesh objects = make_many_objects(options.quick ? 400 : 2000, 7);
+    const std::size_t object_tris = objects.triangles.size();
+    std::unique_ptr<MeshBlas> object_blas;
+    arena_2.execute([&] { object_blas = std::make_unique<MeshBlas>(objects); });
+    std::vector<std::unique_ptr<er::Scene>> object_scenes(std::size(kEmbreeConfigs));
+    for (std::size_t i = 0; i < std::size(kEmbreeConfigs); ++i) {
+        object_scenes[i] = std::make_unique<er::Scene>(device, kEmbreeConfigs[i].options);
+        object_scenes[i]->attach_mesh(objects);
+        arena_2.execute([&] { object_scenes[i]->commit(); });
     }
+    std::cout << "  second mesh \"objects\": " << objects.triangles.size() / 320
+              << " level-2 icospheres merged, " << object_tris << " triangles\n";
+    const Ratios objects_incoherent = run_traversal(ctx, "_objects", *object_blas, object_scenes, rays, false, object_tris);
+    const Ratios objects_coherent =
+        run_traversal(ctx, "_objects_coherent", *object_blas, object_scenes, camera, true, object_tris);
 
     // ---- CSV (written whole or not at all) ----
     CsvFile file("measure,implementation,threads,triangles,rays,median_ms,min_ms,max_ms,per_second,ours_over_this,work");
@@ -358,8 +563,17 @@ void run_bvh(const BenchOptions& options) {
     report("build_ratio_vs_embree_medium_2t", ours_build_2 / embree_medium_ms[2]);
     report("build_ratio_vs_embree_high_1t", ours_build_1 / embree_high_ms[1]);
     report("build_ratio_vs_embree_high_2t", ours_build_2 / embree_high_ms[2]);
-    report("closest_hit_ratio_vs_embree", ours_closest_rps / best_closest);
-    report("all_hits_ratio_vs_embree", ours_all_rps / best_all);
+    report("closest_hit_ratio_vs_embree", incoherent.closest);
+    report("all_hits_ratio_vs_embree", incoherent.all);
+    report("closest_hit_coherent_ratio_vs_embree", coherent.closest);
+    report("all_hits_coherent_ratio_vs_embree", coherent.all);
+    report("closest_hit_objects_ratio_vs_embree", objects_incoherent.closest);
+    report("all_hits_objects_ratio_vs_embree", objects_incoherent.all);
+    report("closest_hit_objects_coherent_ratio_vs_embree", objects_coherent.closest);
+    report("all_hits_objects_coherent_ratio_vs_embree", objects_coherent.all);
+    report("closest_hit_binary_ratio_vs_embree", incoherent.closest_binary);
+    report("all_hits_binary_ratio_vs_embree", incoherent.all_binary);
+    report("closest_hit_coherent_binary_ratio_vs_embree", coherent.closest_binary);
 }
 
 const RegisterSection kBvhSection{{"bvh",

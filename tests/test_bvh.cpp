@@ -4,6 +4,7 @@
 #include <smoketrace/accel/bvh.hpp>
 #include <smoketrace/accel/bvh_builder.hpp>
 #include <smoketrace/accel/bvh_traversal.hpp>
+#include <smoketrace/accel/blas_wide_traversal.hpp>
 #include <smoketrace/accel/wide_bvh_traversal.hpp>
 #include <smoketrace/core/prng.hpp>
 #include <smoketrace/smoke/stand_in_shapes.hpp>
@@ -560,22 +561,35 @@ TEST_CASE("Any-hit decisions: ignore, accept and accept_and_end", "[bvh]") {
     CHECK(multi_hit_rays > 300);
 }
 
-// The exact counters of an ignore-everything traversal: tmax never shrinks, so the traversal visits
-// exactly the nodes whose box and all of whose ancestors' boxes the ray enters.
+// The exact counters of an ignore-everything traversal of a mesh BLAS's wide tree: tmax never shrinks, so
+// the traversal visits exactly the wide nodes and leaves whose box and all of whose ancestors' boxes the
+// ray enters, and tests the boxes of every filled slot of each node it visits (the root's own box is not
+// tested). Boxes are tested here with the scalar intersect().
 struct ExpectedCounters {
     std::uint32_t nodes = 0, boxes = 0, prims = 0;
 };
-void expected_counters(const Bvh& bvh, const BoxRay& br, float tmax, std::uint32_t node, ExpectedCounters& c) {
+template <unsigned W>
+Aabb slot_box(const BlasWideNode<W>& n, unsigned i) {
+    Aabb b;
+    b.lo = glm::vec3(n.bounds[0][i], n.bounds[1][i], n.bounds[2][i]);
+    b.hi = glm::vec3(n.bounds[3][i], n.bounds[4][i], n.bounds[5][i]);
+    return b;
+}
+template <unsigned W>
+void expected_counters(const BlasWideBvh<W>& bvh, const BoxRay& br, float tmax, std::uint32_t node,
+                       ExpectedCounters& c) {
     ++c.nodes;
-    const BvhNode& n = bvh.nodes[node];
-    if (n.is_leaf()) {
-        c.prims += n.count;
-        return;
-    }
-    for (std::uint32_t child : {n.first, n.first + 1}) {
+    const BlasWideNode<W>& n = bvh.nodes()[node];
+    for (unsigned i = 0; i < n.used; ++i) {
         ++c.boxes;
         float t;
-        if (intersect(bvh.nodes[child].bounds, br, tmax, t)) expected_counters(bvh, br, tmax, child, c);
+        if (!intersect(slot_box(n, i), br, tmax, t)) continue;
+        if ((n.leaves >> i) & 1u) {
+            ++c.nodes;
+            c.prims += n.count[i];
+        } else {
+            expected_counters(bvh, br, tmax, n.child[i], c);
+        }
     }
 }
 
@@ -585,9 +599,7 @@ TEST_CASE("Traversal counters: exact for an ignore-all search, plausible for clo
     long closest_nodes = 0, all_nodes = 0;
     for (const Ray& r : random_rays(3000, 82)) {
         ExpectedCounters want;
-        want.boxes = 1;  // the root
-        float t;
-        if (intersect(blas.bvh().nodes[0].bounds, BoxRay(r), r.tmax, t)) expected_counters(blas.bvh(), BoxRay(r), r.tmax, 0, want);
+        expected_counters(blas.wide(), BoxRay(r), r.tmax, 0, want);
         const auto hits = brute_force_hits(m, r);
 
         BlasHit committed;
@@ -602,7 +614,7 @@ TEST_CASE("Traversal counters: exact for an ignore-all search, plausible for clo
         closest_hit(blas, r, committed, closest);
         const TraversalStats& s = closest.traversal;
         REQUIRE(s.nodes_visited <= s.boxes_tested);  // a node is visited only after its box was tested
-        REQUIRE(s.boxes_tested <= 1 + 2 * s.nodes_visited);
+        REQUIRE(s.boxes_tested <= kMeshBlasWidth * s.nodes_visited);  // at most W slots per node
         REQUIRE(s.nodes_visited <= all.traversal.nodes_visited);  // shrinking tmax only prunes
         REQUIRE(s.primitives_tested <= all.traversal.primitives_tested);
         REQUIRE(s.primitives_tested <= blas.leaf_triangles().size());
@@ -957,4 +969,144 @@ TEST_CASE("Wide BVH traversal: the four-child box test equals the scalar slab te
     }
     CHECK(hits > checked / 20);  // both outcomes well represented
     CHECK(hits < checked - checked / 4);
+}
+
+// BlasWideBoxTest at both widths (W = 4: SSE2; W = 8: AVX2 where the build has it, else the lanes' scalar
+// definition) against the scalar slab test, child by child, bit for bit as above. Unused slots carry the
+// empty box, which every ray must miss.
+template <unsigned W>
+void check_blas_wide_box_test(std::uint64_t seed) {
+    Pcg32 rng(seed);
+    const float planes[] = {-1.0f, -0.5f, 0.0f, 0.5f, 1.0f};
+    auto pick = [&](std::span<const float> v) { return v[rng.next_u32() % v.size()]; };
+    std::uint64_t checked = 0, hits = 0;
+    for (int i = 0; i < 50000; ++i) {
+        BlasWideNode<W> n{};
+        n.used = std::uint8_t(1 + rng.next_u32() % W);
+        for (unsigned c = 0; c < W; ++c) {
+            Aabb box;  // empty
+            if (c < n.used)
+                for (int k = 0; k < 3; ++k) {
+                    const float a = rng.next_u32() % 4 ? pick(planes) : rng.uniform(-1.0f, 1.0f);
+                    const float b = rng.next_u32() % 4 ? pick(planes) : rng.uniform(-1.0f, 1.0f);
+                    box.lo[k] = std::min(a, b);
+                    box.hi[k] = std::max(a, b);
+                }
+            for (int k = 0; k < 3; ++k) {
+                n.bounds[k][c] = box.lo[k];
+                n.bounds[k + 3][c] = box.hi[k];
+            }
+        }
+        float tmax = 0.0f;
+        const Ray r = box_test_ray(rng, tmax);
+        const BoxRay br(r);
+        alignas(4 * W) float t[W];
+        const unsigned bits = BlasWideBoxTest<W>(br).test(n, tmax, t);
+        INFO("W " << W << ", ray " << i);
+        REQUIRE((bits >> W) == 0u);
+        for (unsigned c = 0; c < W; ++c) {
+            float t_scalar = -1.0f;
+            const bool hit = intersect(slot_box(n, c), br, tmax, t_scalar);
+            REQUIRE(((bits >> c) & 1u) == unsigned(hit));
+            if (c >= n.used) REQUIRE_FALSE(hit);
+            if (hit) REQUIRE(std::bit_cast<std::uint32_t>(t[c]) == std::bit_cast<std::uint32_t>(t_scalar));
+            hits += hit;
+            checked += c < n.used;
+        }
+    }
+    CHECK(hits > checked / 20);  // both outcomes well represented
+    CHECK(hits < checked - checked / 4);
+}
+
+TEST_CASE("Mesh BLAS wide tree: the W-child box test equals the scalar slab test on every ray", "[bvh]") {
+    check_blas_wide_box_test<4>(91);
+    check_blas_wide_box_test<8>(92);
+}
+
+// The collapse keeps every leaf of the binary tree exactly once (same primitive ranges), and the walks in
+// both orders at both widths find the binary walk's closest hit and the same set of all hits.
+template <unsigned W>
+void check_blas_wide_walks(const MeshBlas& blas, const std::vector<Ray>& rays) {
+    BlasWideBvh<W> wide;
+    wide.collapse(blas.bvh());
+    std::multiset<std::pair<std::uint32_t, std::uint32_t>> binary_leaves, wide_leaves;
+    for (const BvhNode& n : blas.bvh().nodes)
+        if (n.is_leaf()) binary_leaves.insert({n.first, n.count});
+    for (std::size_t k = 0; k < wide.node_count(); ++k) {
+        const BlasWideNode<W>& n = wide.nodes()[k];
+        REQUIRE(n.used >= 1);
+        for (unsigned i = 0; i < n.used; ++i)
+            if ((n.leaves >> i) & 1u) wide_leaves.insert({n.child[i], n.count[i]});
+    }
+    REQUIRE(wide_leaves == binary_leaves);
+
+    for (const Ray& r : rays) {
+        const BlasRay br(r);
+        // The binary walk's closest hit, the reference.
+        float tmax_ref = r.tmax;
+        BlasHit ref;
+        TraversalStats s;
+        auto closest_leaf = [&](float& tmax, BlasHit& best) {
+            return [&](std::uint32_t f, std::uint32_t c) {
+                return mesh_leaf_hits(blas, br, tmax, f, c, s, [&](const BlasHit& h) {
+                    best = h;
+                    tmax = h.t;
+                    return false;
+                });
+            };
+        };
+        traverse_bvh(blas.bvh(), BoxRay(r), tmax_ref, closest_leaf(tmax_ref, ref), s);
+        float tmax_near = r.tmax, tmax_any = r.tmax;
+        BlasHit near, any;
+        traverse_blas_wide<BlasWalkOrder::nearest_first>(wide, BoxRay(r), tmax_near, closest_leaf(tmax_near, near), s);
+        traverse_blas_wide<BlasWalkOrder::any_order>(wide, BoxRay(r), tmax_any, closest_leaf(tmax_any, any), s);
+        REQUIRE(tmax_near == tmax_ref);
+        REQUIRE(tmax_any == tmax_ref);
+        REQUIRE(near.primitive == ref.primitive);
+        REQUIRE(any.primitive == ref.primitive);
+        // All hits: the same (primitive, t) multiset in any order.
+        auto all = [&](auto&& walk) {
+            std::multiset<std::pair<std::uint32_t, float>> got;
+            const float tmax = r.tmax;
+            walk(tmax, [&](std::uint32_t f, std::uint32_t c) {
+                return mesh_leaf_hits(blas, br, tmax, f, c, s, [&](const BlasHit& h) {
+                    got.insert({h.primitive, h.t});
+                    return false;
+                });
+            });
+            return got;
+        };
+        const auto all_ref = all([&](const float& tmax, auto&& leaf) { traverse_bvh(blas.bvh(), BoxRay(r), tmax, leaf, s); });
+        REQUIRE(all([&](const float& tmax, auto&& leaf) {
+                    traverse_blas_wide<BlasWalkOrder::nearest_first>(wide, BoxRay(r), tmax, leaf, s);
+                }) == all_ref);
+        REQUIRE(all([&](const float& tmax, auto&& leaf) {
+                    traverse_blas_wide<BlasWalkOrder::any_order>(wide, BoxRay(r), tmax, leaf, s);
+                }) == all_ref);
+    }
+}
+
+TEST_CASE("Mesh BLAS wide tree: collapse keeps every leaf; both walks at both widths match the binary walk", "[bvh]") {
+    const TriangleMesh m = random_soup(3000, 0.1f, 93);
+    const MeshBlas blas(m);
+    const std::vector<Ray> rays = random_rays(2000, 94);
+    check_blas_wide_walks<4>(blas, rays);
+    check_blas_wide_walks<8>(blas, rays);
+}
+
+TEST_CASE("Mesh BLAS wide walk: the key sorting networks sort every input", "[bvh]") {
+    // 0/1 principle: a comparator network sorts every input iff it sorts every sequence of zeros and ones.
+    for (unsigned v = 0; v < 256; ++v) {
+        std::uint64_t k8[8], k4[4];
+        for (unsigned i = 0; i < 8; ++i) k8[i] = (v >> i) & 1u;
+        for (unsigned i = 0; i < 4; ++i) k4[i] = (v >> i) & 1u;
+        detail::sort_keys<8>(k8);
+        detail::sort_keys<4>(k4);
+        CAPTURE(v);
+        REQUIRE(std::is_sorted(k8, k8 + 8));
+        REQUIRE(std::is_sorted(k4, k4 + 4));
+    }
+    const float ts[] = {-2.0f, -0.0f, 0.0f, 1e-30f, 0.5f, 1.0f, 3e38f};
+    for (std::size_t i = 0; i + 1 < std::size(ts); ++i)
+        REQUIRE(detail::ordered_bits(ts[i]) <= detail::ordered_bits(ts[i + 1]));
 }

@@ -41,6 +41,7 @@ MeshBlas::MeshBlas(const TriangleMesh& mesh, const BvhBuildSettings& settings) :
         normals_[k] = triangle_normal(triangles_[k].v0, triangles_[k].v1, triangles_[k].v2);
         bvh_.prim_indices[k] = id;  // leaf slot k now names the input triangle directly
     }
+    wide_.collapse(bvh_);
     // Planes padded to whole blocks plus one, so that a block read starting at any triangle stays inside
     // (the padding is zeros: lanes past a leaf's end are masked off, never used).
     const std::size_t n = triangles_.size();

@@ -1,5 +1,6 @@
 #pragma once
 // Triangle meshes and their bottom-level acceleration structure (BLAS).
+#include <smoketrace/accel/blas_wide_bvh.hpp>
 #include <smoketrace/accel/bvh.hpp>
 #include <smoketrace/accel/bvh_builder.hpp>
 #include <smoketrace/geometry/ray_triangle_block.hpp>
@@ -29,6 +30,9 @@ struct TriangleMesh {
 // test and its build settings".
 inline constexpr BvhBuildSettings kMeshBuildSettings{SahCosts{1.0f, 1.0f / 8.0f}, 24};
 
+// Children per node of a mesh BLAS's wide tree (blas_wide_bvh.hpp), the one its rays walk.
+inline constexpr unsigned kMeshBlasWidth = 8;
+
 // A BVH over a mesh's triangles. Triangles are copied into leaf order, once as records (three vertices
 // each, 36 bytes) and once as planes for the 8-wide test, so that a leaf's tests read consecutive memory
 // instead of chasing indices. Degenerate triangles are left out of the tree: they can never be hit.
@@ -41,7 +45,10 @@ public:
     MeshBlas() = default;
     explicit MeshBlas(const TriangleMesh& mesh, const BvhBuildSettings& settings = kMeshBuildSettings);
 
+    // The binary SAH tree: the master copy (SAH cost, single-leaf check, refit).
     [[nodiscard]] const Bvh& bvh() const { return bvh_; }
+    // The wide tree collapsed from it, which the queries walk (blas_wide_traversal.hpp).
+    [[nodiscard]] const BlasWideBvh<kMeshBlasWidth>& wide() const { return wide_; }
     [[nodiscard]] Aabb bounds() const { return bvh_.empty() ? Aabb{} : bvh_.bounds(); }
     // Leaf order: triangle k of a leaf range is leaf_triangles()[k], input triangle primitive_id(k).
     [[nodiscard]] const std::vector<Triangle>& leaf_triangles() const { return triangles_; }
@@ -56,6 +63,7 @@ public:
 
 private:
     Bvh bvh_;
+    BlasWideBvh<kMeshBlasWidth> wide_;
     std::vector<Triangle> triangles_;
     std::vector<glm::dvec3> normals_;
     std::vector<float, AlignedAllocator<float, 32>> planes_;

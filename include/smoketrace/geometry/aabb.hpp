@@ -62,8 +62,8 @@ struct BoxRay {
           inv_far(inv_dir * kSlabFarScale), tmin(r.tmin) {
         for (int a = 0; a < 3; ++a) {
             const bool negative = std::signbit(inv_dir[a]);
-            near[a] = negative ? a + 3 : a;
-            far[a] = negative ? a : a + 3;
+            near[a] = a + 3 * int(negative);  // arithmetic, not a branch on the ray's direction
+            far[a] = a + 3 - 3 * int(negative);
         }
     }
 };

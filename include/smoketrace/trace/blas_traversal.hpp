@@ -5,6 +5,7 @@
 //
 // The kernels mesh_leaf_hits / sphere_leaf_hits are also what trace() runs inside each instance.
 #include <smoketrace/trace/any_hit.hpp>
+#include <smoketrace/accel/blas_wide_traversal.hpp>
 #include <smoketrace/accel/bvh_traversal.hpp>
 #include <smoketrace/geometry/ray_sphere.hpp>
 #include <smoketrace/geometry/ray_triangle.hpp>
@@ -100,8 +101,9 @@ inline bool sphere_leaf_hits(const SphereBlas& blas, const SphereRay& r, const f
 }
 
 namespace detail {
-// One any-hit search over either BLAS kind: the callback decides every candidate.
-template <class Blas, class AnyHit>
+// One any-hit search over either BLAS kind: the callback decides every candidate. A mesh BLAS is walked
+// through its wide tree in `Order` (blas_wide_traversal.hpp); a sphere BLAS through its binary tree.
+template <BlasWalkOrder Order, class Blas, class AnyHit>
 inline bool blas_any_hit_search(const Blas& blas, const Ray& ray, AnyHit&& any_hit, BlasHit& committed,
                                 BlasCounters& counters) {
     using KernelRay = std::conditional_t<std::is_same_v<Blas, MeshBlas>, BlasRay, SphereRay>;
@@ -117,35 +119,39 @@ inline bool blas_any_hit_search(const Blas& blas, const Ray& ray, AnyHit&& any_h
         tmax = candidate.t;
         return d == AnyHitDecision::accept_and_end;
     };
-    traverse_bvh(blas.bvh(), BoxRay(ray), tmax, [&](std::uint32_t first, std::uint32_t count) {
-        if constexpr (std::is_same_v<Blas, MeshBlas>)
+    if constexpr (std::is_same_v<Blas, MeshBlas>) {
+        traverse_blas_wide<Order>(blas.wide(), BoxRay(ray), tmax, [&](std::uint32_t first, std::uint32_t count) {
             return mesh_leaf_hits(blas, r, tmax, first, count, counters.traversal, on_hit);
-        else
+        }, counters.traversal);
+    } else {
+        traverse_bvh(blas.bvh(), BoxRay(ray), tmax, [&](std::uint32_t first, std::uint32_t count) {
             return sphere_leaf_hits(blas, r, tmax, first, count, counters.traversal, on_hit);
-    }, counters.traversal);
+        }, counters.traversal);
+    }
     return hit;
 }
 }  // namespace detail
 
 // Any-hit traversal: any_hit(const BlasHit&) -> AnyHitDecision is called for every candidate hit with
-// t in [tmin, committed tmax], in no particular order of t. Returns true with `committed` set when a
-// candidate was accepted (the last one accepted is the closest accepted, since tmax shrinks).
+// t in [tmin, committed tmax], in no particular order of t (a mesh's wide tree is walked in slot order,
+// the cheapest). Returns true with `committed` set when a candidate was accepted (the last one accepted
+// is the closest accepted, since tmax shrinks).
 template <class AnyHit>
 inline bool any_hit_traversal(const MeshBlas& blas, const Ray& ray, AnyHit&& any_hit, BlasHit& committed,
                               BlasCounters& counters) {
-    return detail::blas_any_hit_search(blas, ray, any_hit, committed, counters);
+    return detail::blas_any_hit_search<BlasWalkOrder::any_order>(blas, ray, any_hit, committed, counters);
 }
 template <class AnyHit>
 inline bool any_hit_traversal(const SphereBlas& blas, const Ray& ray, AnyHit&& any_hit, BlasHit& committed,
                               BlasCounters& counters) {
-    return detail::blas_any_hit_search(blas, ray, any_hit, committed, counters);
+    return detail::blas_any_hit_search<BlasWalkOrder::any_order>(blas, ray, any_hit, committed, counters);
 }
 
 // Closest hit: every candidate is accepted, so tmax shrinks to the nearest hit.
 template <class Blas>
 inline bool closest_hit(const Blas& blas, const Ray& ray, BlasHit& hit, BlasCounters& counters) {
     const std::uint32_t invocations = counters.any_hit_invocations;
-    const bool found = detail::blas_any_hit_search(
+    const bool found = detail::blas_any_hit_search<BlasWalkOrder::nearest_first>(
         blas, ray, [](const BlasHit&) { return AnyHitDecision::accept; }, hit, counters);
     counters.any_hit_invocations = invocations;  // closest hit runs no any-hit shader
     return found;

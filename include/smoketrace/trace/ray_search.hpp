@@ -10,6 +10,7 @@
 #include <smoketrace/trace/trace_types.hpp>
 
 #include <cstdint>
+#include <type_traits>
 
 namespace smoketrace {
 
@@ -294,11 +295,15 @@ private:
             return report(opaque, [&]() -> const TraceHit& { return cand; });
         };
         // A BLAS that is a single leaf (a billboard quad, a particle's unit sphere) needs no
-        // traversal: the TLAS has already tested a box around it.
-        auto run = [&](const Bvh& bvh, auto&& leaf) {
+        // traversal: the TLAS has already tested a box around it. Otherwise a mesh's wide tree is walked
+        // nearest first (blas_wide_traversal.hpp), a sphere set's binary tree.
+        auto run = [&](const Bvh& bvh, auto is_mesh, auto&& leaf) {
             if (bvh.nodes[0].is_leaf()) {
                 ++blas_stats_.nodes_visited;
                 leaf(bvh.nodes[0].first, bvh.nodes[0].count);
+            } else if constexpr (decltype(is_mesh)::value) {
+                traverse_blas_wide<BlasWalkOrder::nearest_first>(blas.mesh.wide(), BoxRay(obj_ray), tmax_, leaf,
+                                                                 blas_stats_);
             } else {
                 traverse_bvh(bvh, BoxRay(obj_ray), tmax_, leaf, blas_stats_);
             }
@@ -308,12 +313,12 @@ private:
             tri.origin = obj_ray.origin;
             tri.tmin = obj_ray.tmin;
             const BlasRay obj(obj_ray, tri);
-            run(blas.mesh.bvh(), [&](std::uint32_t f, std::uint32_t n) {
+            run(blas.mesh.bvh(), std::true_type{}, [&](std::uint32_t f, std::uint32_t n) {
                 return mesh_leaf_hits(blas.mesh, obj, tmax_, f, n, blas_stats_, on_hit);
             });
         } else {
             const SphereRay obj(o, d, ray_.tmin);
-            run(blas.spheres.bvh(), [&](std::uint32_t f, std::uint32_t n) {
+            run(blas.spheres.bvh(), std::false_type{}, [&](std::uint32_t f, std::uint32_t n) {
                 return sphere_leaf_hits(blas.spheres, obj, tmax_, f, n, blas_stats_, on_hit);
             });
         }

@@ -1,0 +1,196 @@
+#pragma once
+// The walks of a mesh BLAS's wide tree (blas_wide_bvh.hpp), for blas_traversal.hpp's queries and trace()'s
+// object-space instance path (ray_search.hpp). Two orders:
+//
+// * nearest_first (closest hit, trace()): the children the ray enters are ordered by entry distance with
+//   no branch on the data (one compare for two, a fixed sorting network over W keys for more), the
+//   nearest taken next and the others pushed far first with their entry distances; an entry popped after
+//   a hit has shrunk tmax beyond it is skipped. Leaves are stack entries like inner nodes, so a leaf is
+//   tested only when nothing nearer is left.
+// * any_order (all hits): slot order, leaves at once, no ordering work. A search that reports every hit
+//   gains nothing from an order.
+//
+// Counters: nodes_visited counts wide nodes and leaves, boxes_tested the filled child slots of each node
+// visited.
+#include <smoketrace/core/simd/lanes.hpp>
+#include <smoketrace/geometry/aabb.hpp>
+#include <smoketrace/accel/blas_wide_bvh.hpp>
+#include <smoketrace/accel/bvh_traversal.hpp>
+
+#include <bit>
+#include <cstdint>
+
+namespace smoketrace {
+
+// The W child boxes of a node against one ray: bit i of the result set when the ray meets child i's box
+// in [tmin, tmax], with its entry distance in t_enter[i]. Lane by lane exactly the scalar intersect() of
+// aabb.hpp (same operations, roundings and NaN rule: max / min return the accumulator, their second
+// operand, when the slab distance is NaN). Over W lanes of floats (core/simd/lanes.hpp): W = 4 is one SSE2
+// operation per step, W = 8 one AVX2 operation; without AVX2 the 8-wide test is its scalar twin.
+template <unsigned W>
+class BlasWideBoxTest {
+    using Floats = simd::Floats<W>;
+
+public:
+    explicit BlasWideBoxTest(const BoxRay& r) {
+        for (int a = 0; a < 3; ++a) {
+            origin_[a] = Floats::broadcast(r.origin[a]);
+            inv_dir_[a] = Floats::broadcast(r.inv_dir[a]);
+            inv_far_[a] = Floats::broadcast(r.inv_far[a]);
+            near_[a] = r.near[a];
+            far_[a] = r.far[a];
+        }
+        tmin_ = Floats::broadcast(r.tmin);
+    }
+
+    // t_enter: W floats aligned to 4·W bytes.
+    [[gnu::always_inline]] unsigned test(const BlasWideNode<W>& n, float tmax, float* t_enter) const {
+        Floats t0 = tmin_, t1 = Floats::broadcast(tmax * kSlabFarScale);
+#pragma GCC unroll 3
+        for (int a = 0; a < 3; ++a) {
+            const Floats t_near = (Floats::load(n.bounds[near_[a]]) - origin_[a]) * inv_dir_[a];
+            const Floats t_far = (Floats::load(n.bounds[far_[a]]) - origin_[a]) * inv_far_[a];
+            t0 = max(t_near, t0);
+            t1 = min(t_far, t1);
+        }
+        store(t_enter, t0);
+        return bits(t0 <= t1);
+    }
+
+private:
+    Floats origin_[3], inv_dir_[3], inv_far_[3], tmin_;
+    int near_[3], far_[3];
+};
+
+enum class BlasWalkOrder : std::uint8_t { nearest_first, any_order };
+
+namespace detail {
+
+// A float's bits as an unsigned integer of the same order (negative values below positive ones).
+[[gnu::always_inline]] inline std::uint32_t ordered_bits(float t) {
+    const std::uint32_t u = std::bit_cast<std::uint32_t>(t);
+    return u ^ (std::uint32_t(std::int32_t(u) >> 31) | 0x80000000u);
+}
+
+[[gnu::always_inline]] inline void compare_swap(std::uint64_t* k, int a, int b) {
+    const std::uint64_t lo = k[a] < k[b] ? k[a] : k[b];
+    const std::uint64_t hi = k[a] < k[b] ? k[b] : k[a];
+    k[a] = lo;
+    k[b] = hi;
+}
+
+// Sorts W keys ascending with a fixed network (compiled to conditional moves: no branch on the data).
+template <unsigned W>
+[[gnu::always_inline]] inline void sort_keys(std::uint64_t* k) {
+    if constexpr (W == 4) {
+        compare_swap(k, 0, 1), compare_swap(k, 2, 3);
+        compare_swap(k, 0, 2), compare_swap(k, 1, 3);
+        compare_swap(k, 1, 2);
+    } else {
+        compare_swap(k, 0, 2), compare_swap(k, 1, 3), compare_swap(k, 4, 6), compare_swap(k, 5, 7);
+        compare_swap(k, 0, 4), compare_swap(k, 1, 5), compare_swap(k, 2, 6), compare_swap(k, 3, 7);
+        compare_swap(k, 0, 1), compare_swap(k, 2, 3), compare_swap(k, 4, 5), compare_swap(k, 6, 7);
+        compare_swap(k, 2, 4), compare_swap(k, 3, 5);
+        compare_swap(k, 1, 4), compare_swap(k, 3, 6);
+        compare_swap(k, 1, 2), compare_swap(k, 3, 4), compare_swap(k, 5, 6);
+    }
+}
+
+// Stack references: an inner node's index, or kLeafRef | (node · W + slot) for the leaf in that slot.
+inline constexpr std::uint32_t kLeafRef = 0x80000000u;
+
+}  // namespace detail
+
+// Calls leaf(first, count) for every leaf whose box the ray enters before tmax; `tmax` is read through the
+// reference at every step, so a leaf callback that commits a hit narrows the search. leaf returns true to
+// end the traversal; the function then returns true. The root's own box is not tested: its children's are.
+template <BlasWalkOrder Order, unsigned W, class LeafFn>
+inline bool traverse_blas_wide(const BlasWideBvh<W>& bvh, const BoxRay& ray, const float& tmax, LeafFn&& leaf,
+                               TraversalStats& stats) {
+    using detail::kLeafRef;
+    if (bvh.empty()) return false;
+    const BlasWideNode<W>* nodes = bvh.nodes();
+    const BlasWideBoxTest<W> box_test(ray);
+    // Each node pushes at most W − 1 entries, and the wide tree is no deeper than the binary one.
+    StackEntry stack[(W - 1) * kMaxBvhDepth + 1];
+    int sp = 0;
+    std::uint32_t ref = 0;
+    // Counted in registers and added to `stats` on the way out: the leaf callback writes to `stats` too, so
+    // counting there directly would be a store and a reload per node.
+    std::uint32_t visited = 0, boxes = 0;
+    auto finish = [&](bool ended) {
+        stats.nodes_visited += visited;
+        stats.boxes_tested += boxes;
+        return ended;
+    };
+    for (;;) {
+        ++visited;
+        if (ref & kLeafRef) {
+            const std::uint32_t k = ref & ~kLeafRef;
+            const BlasWideNode<W>& p = nodes[k / W];
+            if (leaf(p.child[k % W], p.count[k % W])) return finish(true);
+        } else {
+            const BlasWideNode<W>& n = nodes[ref];
+            boxes += n.used;
+            alignas(4 * W) float t[W];
+            unsigned hits = box_test.test(n, tmax, t);
+            // Without a branch: whether a hit child is a leaf is as unpredictable as which children are hit.
+            auto ref_of = [&](unsigned i) {
+                const std::uint32_t leaf_bits = 0u - ((unsigned(n.leaves) >> i) & 1u);
+                return (n.child[i] & ~leaf_bits) | ((kLeafRef | (ref * W + i)) & leaf_bits);
+            };
+            if constexpr (Order == BlasWalkOrder::any_order) {
+                // Leaves at once; the first inner child next, the others pushed.
+                for (unsigned m = hits & n.leaves; m != 0; m &= m - 1) {
+                    const unsigned i = unsigned(std::countr_zero(m));
+                    if (!(t[i] <= tmax * kSlabFarScale)) continue;
+                    ++visited;
+                    if (leaf(n.child[i], n.count[i])) return finish(true);
+                }
+                hits &= ~unsigned(n.leaves);
+                if (hits != 0) {
+                    const unsigned first = unsigned(std::countr_zero(hits));
+                    for (unsigned m = hits & (hits - 1); m != 0; m &= m - 1) {
+                        const unsigned i = unsigned(std::countr_zero(m));
+                        stack[sp++] = StackEntry{n.child[i], t[i]};
+                    }
+                    // Tested again: a leaf above may have shrunk tmax since the box test.
+                    if (t[first] <= tmax * kSlabFarScale) {
+                        ref = n.child[first];
+                        continue;
+                    }
+                }
+            } else if (hits != 0) {
+                const unsigned first = unsigned(std::countr_zero(hits));
+                const unsigned rest = hits & (hits - 1);
+                if (rest == 0) {
+                    ref = ref_of(first);
+                    continue;
+                }
+                if ((rest & (rest - 1)) == 0) {
+                    const unsigned second = unsigned(std::countr_zero(rest));
+                    const unsigned swap = unsigned(t[second] < t[first]) * (first ^ second);
+                    const unsigned near = first ^ swap, far = second ^ swap;
+                    stack[sp++] = StackEntry{ref_of(far), t[far]};
+                    ref = ref_of(near);
+                    continue;
+                }
+                // Three or more: keys (entry distance, slot), the misses last, sorted by the network.
+                std::uint64_t key[W];
+                for (unsigned i = 0; i < W; ++i)
+                    key[i] = (std::uint64_t(detail::ordered_bits(t[i])) << 32 | i) | (0 - std::uint64_t((~hits >> i) & 1u));
+                detail::sort_keys<W>(key);
+                const int count = std::popcount(hits);
+                for (int j = count - 1; j >= 1; --j) {
+                    const unsigned i = unsigned(key[j] & 0xFFu);
+                    stack[sp++] = StackEntry{ref_of(i), t[i]};
+                }
+                ref = ref_of(unsigned(key[0] & 0xFFu));
+                continue;
+            }
+        }
+        if (!pop_live_entry(stack, sp, tmax, ref)) return finish(false);
+    }
+}
+
+}  // namespace smoketrace

@@ -1,0 +1,88 @@
+// Collapsing a mesh BLAS's binary tree into a W-wide one (see blas_wide_bvh.hpp).
+#include <smoketrace/accel/blas_wide_bvh.hpp>
+
+#include <algorithm>
+#include <limits>
+#include <stdexcept>
+
+namespace smoketrace {
+
+template <unsigned W>
+void BlasWideBvh<W>::collapse(const Bvh& binary) {
+    nodes_.clear();
+    if (binary.nodes.empty()) return;
+    // Breadth of the work list, not the binary tree's depth, bounds the memory: no native recursion.
+    struct Job {
+        std::uint32_t binary;
+        std::uint32_t wide;
+    };
+    std::vector<Job> jobs{{0u, 0u}};
+    nodes_.emplace_back();
+    while (!jobs.empty()) {
+        const Job job = jobs.back();
+        jobs.pop_back();
+        std::uint32_t slot[W];
+        unsigned n = 0;
+        const BvhNode& top = binary.nodes[job.binary];
+        if (top.is_leaf()) {
+            slot[n++] = job.binary;
+        } else {
+            slot[n++] = top.first;
+            slot[n++] = top.first + 1;
+        }
+        while (n < W) {
+            int best = -1;
+            float best_area = -1.0f;
+            for (unsigned i = 0; i < n; ++i) {
+                const BvhNode& c = binary.nodes[slot[i]];
+                if (!c.is_leaf() && c.bounds.area() > best_area) {
+                    best = int(i);
+                    best_area = c.bounds.area();
+                }
+            }
+            if (best < 0) break;
+            const std::uint32_t opened = slot[best];
+            slot[best] = binary.nodes[opened].first;
+            slot[n++] = binary.nodes[opened].first + 1;
+        }
+        // Slot order: by box centre along the axis of widest centre spread (stable: ties keep the binary
+        // tree's left-right order).
+        Aabb centres;
+        for (unsigned i = 0; i < n; ++i) centres.grow(binary.nodes[slot[i]].bounds.center());
+        const glm::vec3 spread = centres.extent();
+        const int axis = spread.x >= spread.y ? (spread.x >= spread.z ? 0 : 2) : (spread.y >= spread.z ? 1 : 2);
+        std::stable_sort(slot, slot + n, [&](std::uint32_t a, std::uint32_t b) {
+            return binary.nodes[a].bounds.center()[axis] < binary.nodes[b].bounds.center()[axis];
+        });
+
+        Node w{};
+        w.axis = static_cast<std::uint8_t>(axis);
+        w.used = static_cast<std::uint8_t>(n);
+        const Aabb empty;  // lo = +∞, hi = −∞
+        for (unsigned i = 0; i < W; ++i) {
+            const float* p = planes(i < n ? binary.nodes[slot[i]].bounds : empty);
+            for (int k = 0; k < 6; ++k) w.bounds[k][i] = p[k];
+        }
+        for (unsigned i = 0; i < n; ++i) {
+            const BvhNode& c = binary.nodes[slot[i]];
+            if (c.is_leaf()) {
+                if (c.count > 255) throw std::length_error("BlasWideBvh: a leaf of more than 255 primitives");
+                w.child[i] = c.first;
+                w.count[i] = static_cast<std::uint8_t>(c.count);
+                w.leaves |= std::uint8_t(1u << i);
+            } else {
+                if (nodes_.size() >= std::numeric_limits<std::int32_t>::max() / W)
+                    throw std::length_error("BlasWideBvh: too many nodes");
+                w.child[i] = static_cast<std::uint32_t>(nodes_.size());
+                jobs.push_back({slot[i], w.child[i]});
+                nodes_.emplace_back();
+            }
+        }
+        nodes_[job.wide] = w;
+    }
+}
+
+template class BlasWideBvh<4>;
+template class BlasWideBvh<8>;
+
+}  // namespace smoketrace
