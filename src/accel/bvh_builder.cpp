@@ -11,6 +11,8 @@
 #include <bit>
 #include <cassert>
 #include <limits>
+#include <memory>
+#include <type_traits>
 #include <stdexcept>
 #include <utility>
 #include <vector>
@@ -23,12 +25,20 @@ constexpr int kBins = BvhBuildSettings::kBins;
 // A primitive as the builder moves it: its box and its index, 32 bytes, so that a node's primitives are
 // one contiguous run that partitioning reorders in place (sequential memory access at every level, where
 // an index into the input boxes would be a cache miss per primitive on a large mesh). lo and hi are
-// each followed by a fourth float so that either loads as one 4-wide vector.
+// each followed by a fourth float so that either loads as one 4-wide vector. The index rides in lo's
+// fourth lane, where the vector arithmetic sees it as a float: stored as is, an index below 2^23 is a
+// subnormal float, and every addition with it took a microcode assist. Stored with bit 30 flipped, it
+// is a normal number (up to 2^30 primitives; past that only slower).
 struct alignas(32) PrimRef {
     glm::vec3 lo;
-    std::uint32_t id;
+    std::uint32_t id_bits;
     glm::vec3 hi;
     float unused = 0.0f;
+
+    static constexpr std::uint32_t kIdFlip = 1u << 30;
+    PrimRef() = default;
+    PrimRef(const Aabb& b, std::uint32_t id) : lo(b.lo), id_bits(id ^ kIdFlip), hi(b.hi) {}
+    [[nodiscard]] std::uint32_t id() const { return id_bits ^ kIdFlip; }
 
     // Exactly Aabb::center(): the split decisions are those of the boxes themselves. (Indexed through a
     // pointer: glm's operator[] is a switch.)
@@ -66,12 +76,20 @@ struct Bounds4 {
     }
 };
 
+// A scratch node: BvhNode's fields without its default member initialisers, so that the scratch array
+// (two slots per primitive, most of them never used) is allocated without being written.
+struct ScratchNode {
+    float lo[3], hi[3];
+    std::uint32_t first, count;
+};
+static_assert(std::is_trivially_default_constructible_v<ScratchNode>);
+
 // Building happens in a scratch tree whose slots are reserved per subtree (a node over n primitives
 // owns 2n − 2 descendant slots), so parallel subtrees never share a counter; the scratch tree is then
 // compacted depth-first into the final node array.
 struct Builder {
     std::vector<PrimRef> refs;
-    std::vector<BvhNode> scratch;
+    std::unique_ptr<ScratchNode[]> scratch;
     BvhBuildSettings settings;
 
     struct Bin {
@@ -107,8 +125,7 @@ struct Builder {
         }
     }
 
-    Aabb range_bounds(std::uint32_t begin, std::uint32_t end, Aabb& centroid_bounds) const {
-        Bounds4 box, cent;
+    void range_bounds(std::uint32_t begin, std::uint32_t end, Bounds4& box, Bounds4& cent) const {
         if (end - begin >= settings.parallel_threshold * 4) {
             using Acc = std::pair<Bounds4, Bounds4>;
             const Acc r = tbb::parallel_reduce(
@@ -127,8 +144,6 @@ struct Builder {
         } else {
             range_bounds_serial(begin, end, box, cent);
         }
-        centroid_bounds = cent.aabb();
-        return box.aabb();
     }
 
     static int bin_of(float c, float lo, float scale) {
@@ -142,22 +157,34 @@ struct Builder {
     // extent gets exactly kBins / e, as before.
     static float bin_scale(float e) { return std::min(float(kBins) / e, std::numeric_limits<float>::max()); }
 
+    // The binning transform of all three axes as lanes: a primitive's three bin positions are one
+    // subtraction and one multiplication, the operations of bin_of() lane by lane (the same bits).
     struct BinScale {
-        glm::vec3 lo, scale;
-        explicit BinScale(const Aabb& cb) : lo(cb.lo) {
+        Floats4 lo, scale;
+        explicit BinScale(const Aabb& cb) {
+            alignas(16) float l[4] = {cb.lo.x, cb.lo.y, cb.lo.z, 0.0f}, s[4] = {0.0f, 0.0f, 0.0f, 0.0f};
             for (int a = 0; a < 3; ++a) {
                 const float e = cb.hi[a] - cb.lo[a];
-                scale[a] = e > 0.0f ? bin_scale(e) : 0.0f;
+                s[a] = e > 0.0f ? bin_scale(e) : 0.0f;
             }
+            lo = Floats4::load(l);
+            scale = Floats4::load(s);
         }
     };
 
+    static int clamp_bin(float position) { return std::clamp(static_cast<int>(position), 0, kBins - 1); }
+
     void bin_serial(std::uint32_t begin, std::uint32_t end, const BinScale& s, Binning& acc) const {
+        const Floats4 half = Floats4::broadcast(0.5f);
         for (std::uint32_t i = begin; i < end; ++i) {
             const PrimRef& r = refs[i];
+            const Floats4 lo = Floats4::load(&r.lo.x), hi = Floats4::load(&r.hi.x);
+            alignas(16) float pos[4];
+            store(pos, (half * (lo + hi) - s.lo) * s.scale);  // PrimRef::centroid, then bin_of's arithmetic
             for (int a = 0; a < 3; ++a) {
-                Bin& bin = acc.bins[a][bin_of(r.centroid(a), s.lo[a], s.scale[a])];
-                bin.bounds.grow(r);
+                Bin& bin = acc.bins[a][clamp_bin(pos[a])];
+                bin.bounds.lo = min(bin.bounds.lo, lo);
+                bin.bounds.hi = max(bin.bounds.hi, hi);
                 ++bin.count;
             }
         }
@@ -229,9 +256,46 @@ struct Builder {
         std::nth_element(refs.begin() + begin, refs.begin() + mid, refs.begin() + end,
                          [&](const PrimRef& a, const PrimRef& b) {
                              const float ca = a.centroid(axis), cb2 = b.centroid(axis);
-                             return ca < cb2 || (ca == cb2 && a.id < b.id);
+                             return ca < cb2 || (ca == cb2 && a.id() < b.id());
                          });
         return mid;
+    }
+
+    // Partitions refs[begin, end) in place, those for which goes_left() holds first, and accumulates the
+    // box and centroid bounds of each side as it classifies each primitive (exactly once), so a child's
+    // bounds need no pass of their own. Returns the first primitive of the right side.
+    template <class GoesLeft>
+    std::uint32_t partition(std::uint32_t begin, std::uint32_t end, const GoesLeft& goes_left, Bounds4 (&box)[2],
+                            Bounds4 (&cent)[2]) {
+        const Floats4 half = Floats4::broadcast(0.5f);
+        // Locals rather than the output arrays, so that the bounds stay in registers through the loop.
+        Bounds4 box_l, box_r, cent_l, cent_r;
+        auto grow = [&](Bounds4& b, Bounds4& c, const PrimRef& r) {
+            const Floats4 lo = Floats4::load(&r.lo.x), hi = Floats4::load(&r.hi.x);
+            b.lo = min(b.lo, lo);
+            b.hi = max(b.hi, hi);
+            const Floats4 centre = half * (lo + hi);
+            c.lo = min(c.lo, centre);
+            c.hi = max(c.hi, centre);
+        };
+        PrimRef* l = refs.data() + begin;
+        PrimRef* r = refs.data() + end;
+        while (true) {
+            while (l < r && goes_left(*l)) grow(box_l, cent_l, *l++);
+            while (l < r && !goes_left(*(r - 1))) grow(box_r, cent_r, *--r);
+            if (l == r) break;
+            // *l goes right and *(r − 1) left: swap them into place.
+            --r;
+            grow(box_r, cent_r, *l);
+            grow(box_l, cent_l, *r);
+            std::swap(*l, *r);
+            ++l;
+        }
+        box[0] = box_l;
+        box[1] = box_r;
+        cent[0] = cent_l;
+        cent[1] = cent_r;
+        return static_cast<std::uint32_t>(l - refs.data());
     }
 
     void make_leaf(std::uint32_t node, std::uint32_t begin, std::uint32_t end) {
@@ -239,12 +303,15 @@ struct Builder {
         scratch[node].count = end - begin;
     }
 
-    // Builds the subtree of scratch[node] over refs[begin, end); its descendants go to the slots
-    // starting at `slots` (2·(end − begin) − 2 of them, an even offset so pairs stay aligned).
-    void build(std::uint32_t node, std::uint32_t begin, std::uint32_t end, std::uint32_t slots, int depth) {
+    // Builds the subtree of scratch[node] over refs[begin, end), whose box and centroid bounds are given;
+    // its descendants go to the slots starting at `slots` (2·(end − begin) − 2 of them, an even offset so
+    // pairs stay aligned).
+    void build(std::uint32_t node, std::uint32_t begin, std::uint32_t end, std::uint32_t slots, int depth,
+               const Bounds4& box, const Bounds4& cent) {
         const std::uint32_t n = end - begin;
-        Aabb cb;
-        scratch[node].bounds = range_bounds(begin, end, cb);
+        const Aabb bounds = box.aabb(), cb = cent.aabb();
+        std::copy_n(&bounds.lo.x, 3, scratch[node].lo);
+        std::copy_n(&bounds.hi.x, 3, scratch[node].hi);
         if (n == 1) return make_leaf(node, begin, end);
 
         // Levels still needed if every later split halved the count exactly; past the budget, halve.
@@ -252,10 +319,11 @@ struct Builder {
         const bool must_halve = depth + levels_needed >= kMaxBvhDepth - 1;
 
         std::uint32_t mid = begin;
+        Bounds4 child_box[2], child_cent[2];
         if (!must_halve) {
             Binning binning;
             bin_range(begin, end, cb, binning);
-            const float area = scratch[node].bounds.area();
+            const float area = bounds.area();
             const Split split = area > 0.0f ? best_split(binning, area) : Split{};
             const float leaf_cost = settings.costs.intersection * float(n);
             if (n <= settings.max_leaf_size && !(split.cost < leaf_cost)) return make_leaf(node, begin, end);
@@ -263,15 +331,17 @@ struct Builder {
                 const int a = split.axis;
                 const float lo = cb.lo[a];
                 const float scale = bin_scale(cb.hi[a] - lo);
-                mid = static_cast<std::uint32_t>(
-                    std::partition(refs.begin() + begin, refs.begin() + end,
-                                   [&](const PrimRef& r) { return bin_of(r.centroid(a), lo, scale) <= split.bin; }) -
-                    refs.begin());
+                mid = partition(
+                    begin, end, [&](const PrimRef& r) { return bin_of(r.centroid(a), lo, scale) <= split.bin; },
+                    child_box, child_cent);
             }
         }
         if (mid == begin || mid == end) {
             if (n <= settings.max_leaf_size && !must_halve) return make_leaf(node, begin, end);
             mid = median_split(begin, end, cb);
+            child_box[0] = child_box[1] = child_cent[0] = child_cent[1] = Bounds4{};
+            range_bounds(begin, mid, child_box[0], child_cent[0]);
+            range_bounds(mid, end, child_box[1], child_cent[1]);
         }
 
         const std::uint32_t left = slots, right = slots + 1;
@@ -280,20 +350,25 @@ struct Builder {
         const std::uint32_t left_slots = slots + 2;
         const std::uint32_t right_slots = left_slots + 2 * (mid - begin) - 2;
         if (n >= settings.parallel_threshold) {
-            tbb::parallel_invoke([&] { build(left, begin, mid, left_slots, depth + 1); },
-                                 [&] { build(right, mid, end, right_slots, depth + 1); });
+            tbb::parallel_invoke(
+                [&] { build(left, begin, mid, left_slots, depth + 1, child_box[0], child_cent[0]); },
+                [&] { build(right, mid, end, right_slots, depth + 1, child_box[1], child_cent[1]); });
         } else {
-            build(left, begin, mid, left_slots, depth + 1);
-            build(right, mid, end, right_slots, depth + 1);
+            build(left, begin, mid, left_slots, depth + 1, child_box[0], child_cent[0]);
+            build(right, mid, end, right_slots, depth + 1, child_box[1], child_cent[1]);
         }
     }
 };
 
+BvhNode to_node(const ScratchNode& s) {
+    return BvhNode{Aabb{{s.lo[0], s.lo[1], s.lo[2]}, {s.hi[0], s.hi[1], s.hi[2]}}, s.first, s.count};
+}
+
 // Depth-first compaction of the scratch tree: the root at 0, padding at 1, then each node's pair.
-void compact(const std::vector<BvhNode>& scratch, Bvh& out) {
+void compact(const ScratchNode* scratch, std::size_t slots, Bvh& out) {
     out.nodes.clear();
-    out.nodes.reserve(scratch.size());
-    out.nodes.push_back(scratch[0]);
+    out.nodes.reserve(slots);
+    out.nodes.push_back(to_node(scratch[0]));
     out.nodes.push_back(BvhNode{});  // padding: pairs start at an even index
     struct Item {
         std::uint32_t src, dst;
@@ -306,8 +381,8 @@ void compact(const std::vector<BvhNode>& scratch, Bvh& out) {
         if (dst.is_leaf()) continue;
         const std::uint32_t src_left = scratch[it.src].first;
         const auto pair = static_cast<std::uint32_t>(out.nodes.size());
-        out.nodes.push_back(scratch[src_left]);
-        out.nodes.push_back(scratch[src_left + 1]);
+        out.nodes.push_back(to_node(scratch[src_left]));
+        out.nodes.push_back(to_node(scratch[src_left + 1]));
         out.nodes[it.dst].first = pair;
         // Right first on the stack so the left subtree is laid out next (depth-first, left first).
         stack.push_back({src_left + 1, pair + 1});
@@ -331,12 +406,15 @@ Bvh build_bvh(std::span<const Aabb> prim_boxes, const BvhBuildSettings& settings
     b.refs.resize(n);
     for (std::uint32_t i = 0; i < n; ++i) {
         if (prim_boxes[i].empty()) throw std::invalid_argument("build_bvh: empty primitive box");
-        b.refs[i] = PrimRef{prim_boxes[i].lo, i, prim_boxes[i].hi};
+        b.refs[i] = PrimRef(prim_boxes[i], i);
     }
-    b.scratch.resize(2 * std::size_t(n));  // root + 2n − 2 descendants (+1 spare)
-    b.build(0, 0, n, 2, 0);
-    for (std::uint32_t i = 0; i < n; ++i) bvh.prim_indices[i] = b.refs[i].id;
-    compact(b.scratch, bvh);
+    const std::size_t slots = 2 * std::size_t(n);  // root + 2n − 2 descendants (+1 spare)
+    b.scratch.reset(new ScratchNode[slots]);
+    Bounds4 box, cent;
+    b.range_bounds(0, n, box, cent);
+    b.build(0, 0, n, 2, 0, box, cent);
+    for (std::uint32_t i = 0; i < n; ++i) bvh.prim_indices[i] = b.refs[i].id();
+    compact(b.scratch.get(), slots, bvh);
     return bvh;
 }
 
