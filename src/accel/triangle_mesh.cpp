@@ -3,6 +3,7 @@
 #include <smoketrace/geometry/ray_triangle.hpp>
 
 #include <glm/geometric.hpp>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
@@ -13,7 +14,16 @@ bool is_degenerate(const glm::vec3& v0, const glm::vec3& v1, const glm::vec3& v2
     return n.x == 0.0 && n.y == 0.0 && n.z == 0.0;
 }
 
-MeshBlas::MeshBlas(const TriangleMesh& mesh, const BvhBuildSettings& settings) : input_count_(mesh.triangles.size()) {
+const char* to_string(BlasUpdate u) {
+    switch (u) {
+        case BlasUpdate::refit: return "refit";
+        case BlasUpdate::rebuild: return "rebuild";
+    }
+    return "?";
+}
+
+MeshBlas::MeshBlas(const TriangleMesh& mesh, const BvhBuildSettings& settings)
+    : settings_(settings), vertex_count_(mesh.vertices.size()), input_count_(mesh.triangles.size()) {
     std::vector<Aabb> boxes;
     std::vector<std::uint32_t> kept;
     boxes.reserve(mesh.triangles.size());
@@ -23,7 +33,10 @@ MeshBlas::MeshBlas(const TriangleMesh& mesh, const BvhBuildSettings& settings) :
         if (t.x >= mesh.vertices.size() || t.y >= mesh.vertices.size() || t.z >= mesh.vertices.size())
             throw std::out_of_range("MeshBlas: triangle " + std::to_string(i) + " indexes a missing vertex");
         const glm::vec3 &a = mesh.vertices[t.x], &b = mesh.vertices[t.y], &c = mesh.vertices[t.z];
-        if (is_degenerate(a, b, c)) continue;
+        if (is_degenerate(a, b, c)) {
+            degenerate_.emplace_back(static_cast<std::uint32_t>(i), t);
+            continue;
+        }
         Aabb box;
         box.grow(a);
         box.grow(b);
@@ -33,24 +46,91 @@ MeshBlas::MeshBlas(const TriangleMesh& mesh, const BvhBuildSettings& settings) :
     }
     bvh_ = build_bvh(boxes, settings);
     triangles_.resize(bvh_.prim_indices.size());
-    normals_.resize(bvh_.prim_indices.size());
+    leaf_indices_.resize(bvh_.prim_indices.size());
     for (std::size_t k = 0; k < bvh_.prim_indices.size(); ++k) {
         const std::uint32_t id = kept[bvh_.prim_indices[k]];
         const glm::uvec3 t = mesh.triangles[id];
+        leaf_indices_[k] = t;
         triangles_[k] = {mesh.vertices[t.x], mesh.vertices[t.y], mesh.vertices[t.z]};
-        normals_[k] = triangle_normal(triangles_[k].v0, triangles_[k].v1, triangles_[k].v2);
         bvh_.prim_indices[k] = id;  // leaf slot k now names the input triangle directly
     }
-    // Planes padded to whole blocks plus one, so that a block read starting at any triangle stays inside
-    // (the padding is zeros: lanes past a leaf's end are masked off, never used).
+    refresh_leaf_data();
+    sah_at_build_ = sah_current_ = bvh_.sah_cost(settings_.costs);
+}
+
+void MeshBlas::refresh_leaf_data() {
     const std::size_t n = triangles_.size();
-    plane_stride_ = (n + 2 * kTriangleBlockLanes - 1) / kTriangleBlockLanes * kTriangleBlockLanes;
-    planes_.assign(9 * plane_stride_, 0.0f);
+    normals_.resize(n);
+    for (std::size_t k = 0; k < n; ++k) normals_[k] = triangle_normal(triangles_[k].v0, triangles_[k].v1, triangles_[k].v2);
+    // Planes padded to whole blocks plus one, so that a block read starting at any triangle stays inside
+    // (the padding is zeros: lanes past a leaf's end are masked off, never used). A refit keeps the size
+    // and overwrites the triangles' columns only.
+    const std::size_t stride = (n + 2 * kTriangleBlockLanes - 1) / kTriangleBlockLanes * kTriangleBlockLanes;
+    if (stride != plane_stride_ || planes_.size() != 9 * stride) {
+        plane_stride_ = stride;
+        planes_.assign(9 * plane_stride_, 0.0f);
+    }
     for (std::size_t k = 0; k < n; ++k) {
         const glm::vec3* v = &triangles_[k].v0;
         for (int j = 0; j < 3; ++j)
             for (int a = 0; a < 3; ++a) planes_[std::size_t(3 * j + a) * plane_stride_ + k] = (&v[j].x)[a];
     }
+}
+
+// One backward sweep (children before parents: the layout is depth-first), leaf boxes from the leaf-ordered
+// triangles, as the build's boxes were made (Aabb::grow over the three vertices).
+void MeshBlas::refit_boxes() {
+    auto& nodes = bvh_.nodes;
+    for (std::size_t i = nodes.size(); i-- > 0;) {
+        if (i == 1) continue;
+        BvhNode& n = nodes[i];
+        Aabb b;
+        if (n.is_leaf()) {
+            for (std::uint32_t k = n.first; k < n.first + n.count; ++k) {
+                b.grow(triangles_[k].v0);
+                b.grow(triangles_[k].v1);
+                b.grow(triangles_[k].v2);
+            }
+        } else {
+            b = merge(nodes[n.first].bounds, nodes[n.first + 1].bounds);
+        }
+        n.bounds = b;
+    }
+    sah_current_ = bvh_.sah_cost(settings_.costs);
+}
+
+BlasUpdate MeshBlas::update_vertices(std::span<const glm::vec3> vertices, double rebuild_ratio) {
+    if (vertices.size() != vertex_count_)
+        throw std::invalid_argument("MeshBlas::update_vertices: " + std::to_string(vertices.size()) +
+                                    " vertices given, but the mesh has " + std::to_string(vertex_count_) +
+                                    " (its triangles index them, so the count must stay the same)");
+    for (std::size_t i = 0; i < vertices.size(); ++i)
+        if (!std::isfinite(vertices[i].x) || !std::isfinite(vertices[i].y) || !std::isfinite(vertices[i].z))
+            throw std::invalid_argument("MeshBlas::update_vertices: vertex " + std::to_string(i) + " is not finite");
+
+    // The rebuild: the input mesh put back together from the leaf order and the degenerate list.
+    auto rebuild = [&] {
+        TriangleMesh m;
+        m.vertices.assign(vertices.begin(), vertices.end());
+        m.triangles.resize(input_count_);
+        for (std::size_t k = 0; k < leaf_indices_.size(); ++k) m.triangles[bvh_.prim_indices[k]] = leaf_indices_[k];
+        for (const auto& [id, t] : degenerate_) m.triangles[id] = t;
+        *this = MeshBlas(m, settings_);
+        return BlasUpdate::rebuild;
+    };
+
+    // The tree must hold exactly the non-degenerate triangles, as a fresh build's would.
+    for (const auto& [id, t] : degenerate_)
+        if (!is_degenerate(vertices[t.x], vertices[t.y], vertices[t.z])) return rebuild();
+    for (std::size_t k = 0; k < leaf_indices_.size(); ++k) {
+        const glm::uvec3 t = leaf_indices_[k];
+        triangles_[k] = {vertices[t.x], vertices[t.y], vertices[t.z]};
+        if (is_degenerate(triangles_[k].v0, triangles_[k].v1, triangles_[k].v2)) return rebuild();
+    }
+    refit_boxes();
+    if (sah_current_ > rebuild_ratio * sah_at_build_) return rebuild();
+    refresh_leaf_data();
+    return BlasUpdate::refit;
 }
 
 }  // namespace smoketrace
