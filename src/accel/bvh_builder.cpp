@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <bit>
 #include <cassert>
 #include <limits>
@@ -84,12 +85,14 @@ struct ScratchNode {
 };
 static_assert(std::is_trivially_default_constructible_v<ScratchNode>);
 
-// Building happens in a scratch tree whose slots are reserved per subtree (a node over n primitives
-// owns 2n − 2 descendant slots), so parallel subtrees never share a counter; the scratch tree is then
-// compacted depth-first into the final node array.
+// Building happens in a scratch tree whose child pairs are taken from one counter in whatever order the
+// threads reach them, so the scratch is dense (the pages it touches are those it uses; a node array of
+// 2n slots, most never used, is only the bound); the scratch tree is then compacted depth-first into the
+// final node array, which is why the result does not depend on that order.
 struct Builder {
     std::vector<PrimRef> refs;
     std::unique_ptr<ScratchNode[]> scratch;
+    std::atomic<std::uint32_t> next_pair{2};  // slot 0 is the root, 1 padding
     BvhBuildSettings settings;
 
     struct Bin {
@@ -303,10 +306,8 @@ struct Builder {
         scratch[node].count = end - begin;
     }
 
-    // Builds the subtree of scratch[node] over refs[begin, end), whose box and centroid bounds are given;
-    // its descendants go to the slots starting at `slots` (2·(end − begin) − 2 of them, an even offset so
-    // pairs stay aligned).
-    void build(std::uint32_t node, std::uint32_t begin, std::uint32_t end, std::uint32_t slots, int depth,
+    // Builds the subtree of scratch[node] over refs[begin, end), whose box and centroid bounds are given.
+    void build(std::uint32_t node, std::uint32_t begin, std::uint32_t end, int depth,
                const Bounds4& box, const Bounds4& cent) {
         const std::uint32_t n = end - begin;
         const Aabb bounds = box.aabb(), cb = cent.aabb();
@@ -344,18 +345,15 @@ struct Builder {
             range_bounds(mid, end, child_box[1], child_cent[1]);
         }
 
-        const std::uint32_t left = slots, right = slots + 1;
+        const std::uint32_t left = next_pair.fetch_add(2, std::memory_order_relaxed), right = left + 1;
         scratch[node].first = left;
         scratch[node].count = 0;
-        const std::uint32_t left_slots = slots + 2;
-        const std::uint32_t right_slots = left_slots + 2 * (mid - begin) - 2;
         if (n >= settings.parallel_threshold) {
-            tbb::parallel_invoke(
-                [&] { build(left, begin, mid, left_slots, depth + 1, child_box[0], child_cent[0]); },
-                [&] { build(right, mid, end, right_slots, depth + 1, child_box[1], child_cent[1]); });
+            tbb::parallel_invoke([&] { build(left, begin, mid, depth + 1, child_box[0], child_cent[0]); },
+                                 [&] { build(right, mid, end, depth + 1, child_box[1], child_cent[1]); });
         } else {
-            build(left, begin, mid, left_slots, depth + 1, child_box[0], child_cent[0]);
-            build(right, mid, end, right_slots, depth + 1, child_box[1], child_cent[1]);
+            build(left, begin, mid, depth + 1, child_box[0], child_cent[0]);
+            build(right, mid, end, depth + 1, child_box[1], child_cent[1]);
         }
     }
 };
@@ -401,20 +399,20 @@ Bvh build_bvh(std::span<const Aabb> prim_boxes, const BvhBuildSettings& settings
     bvh.prim_indices.resize(n);
     for (std::uint32_t i = 0; i < n; ++i) bvh.prim_indices[i] = i;
 
-    Builder b{{}, {}, settings};
+    Builder b;
+    b.settings = settings;
     b.settings.max_leaf_size = std::max(1u, settings.max_leaf_size);
     b.refs.resize(n);
     for (std::uint32_t i = 0; i < n; ++i) {
         if (prim_boxes[i].empty()) throw std::invalid_argument("build_bvh: empty primitive box");
         b.refs[i] = PrimRef(prim_boxes[i], i);
     }
-    const std::size_t slots = 2 * std::size_t(n);  // root + 2n − 2 descendants (+1 spare)
-    b.scratch.reset(new ScratchNode[slots]);
+    b.scratch.reset(new ScratchNode[2 * std::size_t(n)]);  // root, padding, at most n − 1 pairs
     Bounds4 box, cent;
     b.range_bounds(0, n, box, cent);
-    b.build(0, 0, n, 2, 0, box, cent);
+    b.build(0, 0, n, 0, box, cent);
     for (std::uint32_t i = 0; i < n; ++i) bvh.prim_indices[i] = b.refs[i].id();
-    compact(b.scratch.get(), slots, bvh);
+    compact(b.scratch.get(), b.next_pair.load(), bvh);
     return bvh;
 }
 
