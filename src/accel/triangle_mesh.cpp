@@ -3,6 +3,8 @@
 #include <smoketrace/geometry/ray_triangle.hpp>
 
 #include <glm/geometric.hpp>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -22,38 +24,59 @@ const char* to_string(BlasUpdate u) {
     return "?";
 }
 
+// The per-triangle loops run in parallel (TBB) in blocks of this many: each iteration is independent and
+// writes its own slots, so the result is the same for any thread count.
+constexpr std::size_t kParallelGrain = 4096;
+
 MeshBlas::MeshBlas(const TriangleMesh& mesh, const BvhBuildSettings& settings)
     : settings_(settings), vertex_count_(mesh.vertices.size()), input_count_(mesh.triangles.size()) {
+    // Per triangle: 0 to build over, 1 degenerate, 2 indexing a missing vertex (the exact test in double
+    // is the costly part, so it runs in parallel; the first bad triangle is then reported in input order).
+    const std::size_t n_in = mesh.triangles.size();
+    std::vector<std::uint8_t> kind(n_in);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_in, kParallelGrain),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                          for (std::size_t i = r.begin(); i < r.end(); ++i) {
+                              const glm::uvec3 t = mesh.triangles[i];
+                              const std::size_t nv = mesh.vertices.size();
+                              kind[i] = t.x >= nv || t.y >= nv || t.z >= nv ? 2
+                                        : is_degenerate(mesh.vertices[t.x], mesh.vertices[t.y], mesh.vertices[t.z])
+                                            ? 1
+                                            : 0;
+                          }
+                      });
     std::vector<Aabb> boxes;
     std::vector<std::uint32_t> kept;
-    boxes.reserve(mesh.triangles.size());
-    kept.reserve(mesh.triangles.size());
-    for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
+    boxes.reserve(n_in);
+    kept.reserve(n_in);
+    for (std::size_t i = 0; i < n_in; ++i) {
         const glm::uvec3 t = mesh.triangles[i];
-        if (t.x >= mesh.vertices.size() || t.y >= mesh.vertices.size() || t.z >= mesh.vertices.size())
+        if (kind[i] == 2)
             throw std::out_of_range("MeshBlas: triangle " + std::to_string(i) + " indexes a missing vertex");
-        const glm::vec3 &a = mesh.vertices[t.x], &b = mesh.vertices[t.y], &c = mesh.vertices[t.z];
-        if (is_degenerate(a, b, c)) {
+        if (kind[i] == 1) {
             degenerate_.emplace_back(static_cast<std::uint32_t>(i), t);
             continue;
         }
         Aabb box;
-        box.grow(a);
-        box.grow(b);
-        box.grow(c);
+        box.grow(mesh.vertices[t.x]);
+        box.grow(mesh.vertices[t.y]);
+        box.grow(mesh.vertices[t.z]);
         boxes.push_back(box);
         kept.push_back(static_cast<std::uint32_t>(i));
     }
     bvh_ = build_bvh(boxes, settings);
-    triangles_.resize(bvh_.prim_indices.size());
-    leaf_indices_.resize(bvh_.prim_indices.size());
-    for (std::size_t k = 0; k < bvh_.prim_indices.size(); ++k) {
-        const std::uint32_t id = kept[bvh_.prim_indices[k]];
-        const glm::uvec3 t = mesh.triangles[id];
-        leaf_indices_[k] = t;
-        triangles_[k] = {mesh.vertices[t.x], mesh.vertices[t.y], mesh.vertices[t.z]};
-        bvh_.prim_indices[k] = id;  // leaf slot k now names the input triangle directly
-    }
+    const std::size_t n = bvh_.prim_indices.size();
+    triangles_.resize(n);
+    leaf_indices_.resize(n);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kParallelGrain), [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t k = r.begin(); k < r.end(); ++k) {
+            const std::uint32_t id = kept[bvh_.prim_indices[k]];
+            const glm::uvec3 t = mesh.triangles[id];
+            leaf_indices_[k] = t;
+            triangles_[k] = {mesh.vertices[t.x], mesh.vertices[t.y], mesh.vertices[t.z]};
+            bvh_.prim_indices[k] = id;  // leaf slot k now names the input triangle directly
+        }
+    });
     refresh_leaf_data();
     sah_at_build_ = sah_current_ = bvh_.sah_cost(settings_.costs);
 }
@@ -61,7 +84,6 @@ MeshBlas::MeshBlas(const TriangleMesh& mesh, const BvhBuildSettings& settings)
 void MeshBlas::refresh_leaf_data() {
     const std::size_t n = triangles_.size();
     normals_.resize(n);
-    for (std::size_t k = 0; k < n; ++k) normals_[k] = triangle_normal(triangles_[k].v0, triangles_[k].v1, triangles_[k].v2);
     // Planes padded to whole blocks plus one, so that a block read starting at any triangle stays inside
     // (the padding is zeros: lanes past a leaf's end are masked off, never used). A refit keeps the size
     // and overwrites the triangles' columns only.
@@ -70,11 +92,14 @@ void MeshBlas::refresh_leaf_data() {
         plane_stride_ = stride;
         planes_.assign(9 * plane_stride_, 0.0f);
     }
-    for (std::size_t k = 0; k < n; ++k) {
-        const glm::vec3* v = &triangles_[k].v0;
-        for (int j = 0; j < 3; ++j)
-            for (int a = 0; a < 3; ++a) planes_[std::size_t(3 * j + a) * plane_stride_ + k] = (&v[j].x)[a];
-    }
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kParallelGrain), [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t k = r.begin(); k < r.end(); ++k) {
+            const glm::vec3* v = &triangles_[k].v0;
+            normals_[k] = triangle_normal(v[0], v[1], v[2]);
+            for (int j = 0; j < 3; ++j)
+                for (int a = 0; a < 3; ++a) planes_[std::size_t(3 * j + a) * plane_stride_ + k] = (&v[j].x)[a];
+        }
+    });
 }
 
 // One backward sweep (children before parents: the layout is depth-first), leaf boxes from the leaf-ordered
