@@ -5,6 +5,7 @@
 #include <glm/geometric.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <atomic>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -147,11 +148,18 @@ BlasUpdate MeshBlas::update_vertices(std::span<const glm::vec3> vertices, double
     // The tree must hold exactly the non-degenerate triangles, as a fresh build's would.
     for (const auto& [id, t] : degenerate_)
         if (!is_degenerate(vertices[t.x], vertices[t.y], vertices[t.z])) return rebuild();
-    for (std::size_t k = 0; k < leaf_indices_.size(); ++k) {
-        const glm::uvec3 t = leaf_indices_[k];
-        triangles_[k] = {vertices[t.x], vertices[t.y], vertices[t.z]};
-        if (is_degenerate(triangles_[k].v0, triangles_[k].v1, triangles_[k].v2)) return rebuild();
-    }
+    std::atomic<bool> became_degenerate{false};
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaf_indices_.size(), kParallelGrain),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                          bool any = false;
+                          for (std::size_t k = r.begin(); k < r.end(); ++k) {
+                              const glm::uvec3 t = leaf_indices_[k];
+                              triangles_[k] = {vertices[t.x], vertices[t.y], vertices[t.z]};
+                              any = any || is_degenerate(triangles_[k].v0, triangles_[k].v1, triangles_[k].v2);
+                          }
+                          if (any) became_degenerate.store(true, std::memory_order_relaxed);
+                      });
+    if (became_degenerate.load()) return rebuild();
     refit_boxes();
     if (sah_current_ > rebuild_ratio * sah_at_build_) return rebuild();
     refresh_leaf_data();
