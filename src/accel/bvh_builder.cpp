@@ -2,6 +2,7 @@
 #include <smoketrace/accel/bvh_builder.hpp>
 #include <smoketrace/core/simd/lanes.hpp>
 
+#include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
 #include <tbb/parallel_reduce.h>
 #include <tbb/blocked_range.h>
@@ -22,6 +23,7 @@ namespace smoketrace {
 namespace {
 
 constexpr int kBins = BvhBuildSettings::kBins;
+constexpr std::uint32_t kCopyGrain = 8192;
 
 // A primitive as the builder moves it: its box and its index, 32 bytes, so that a node's primitives are
 // one contiguous run that partitioning reorders in place (sequential memory access at every level, where
@@ -301,6 +303,76 @@ struct Builder {
         return static_cast<std::uint32_t>(l - refs.data());
     }
 
+    // partition() of a large range on all threads, in place and with a result that does not depend on
+    // the thread count: the range is cut into blocks of kPartitionBlock (a fixed size), each block is
+    // partitioned on its own, and then the k-th right-going primitive left of the final split point is
+    // swapped with the k-th left-going one right of it, for every k (ranks, not threads, pair them up).
+    static constexpr std::uint32_t kPartitionBlock = 4096;
+    template <class GoesLeft>
+    std::uint32_t parallel_partition(std::uint32_t begin, std::uint32_t end, const GoesLeft& goes_left,
+                                     Bounds4 (&box)[2], Bounds4 (&cent)[2]) {
+        const std::uint32_t blocks = (end - begin + kPartitionBlock - 1) / kPartitionBlock;
+        struct Block {
+            std::uint32_t begin, mid, end;
+            Bounds4 box[2], cent[2];
+        };
+        std::vector<Block> part(blocks);
+        tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, blocks), [&](const tbb::blocked_range<std::uint32_t>& r) {
+            for (std::uint32_t k = r.begin(); k < r.end(); ++k) {
+                Block& b = part[k];
+                b.begin = begin + k * kPartitionBlock;
+                b.end = std::min(end, b.begin + kPartitionBlock);
+                b.mid = partition(b.begin, b.end, goes_left, b.box, b.cent);
+            }
+        });
+        std::uint32_t mid = begin;
+        for (const Block& b : part) {
+            mid += b.mid - b.begin;
+            for (int side = 0; side < 2; ++side) {
+                box[side].grow(b.box[side]);
+                cent[side].grow(b.cent[side]);
+            }
+        }
+        // The misplaced runs, in memory order: right-goers before mid, left-goers from mid on.
+        struct Run {
+            std::uint32_t first, count;
+        };
+        std::vector<Run> wrong_left, wrong_right;
+        for (const Block& b : part) {
+            // No empty runs: the walk below steps from a run's end to the next run's start.
+            const std::uint32_t hi = std::min(b.end, mid);
+            if (b.mid < hi) wrong_left.push_back({b.mid, hi - b.mid});  // right-goers in [b.mid, b.end)
+            const std::uint32_t lo = std::max(b.begin, mid);
+            if (lo < b.mid) wrong_right.push_back({lo, b.mid - lo});  // left-goers in [b.begin, b.mid)
+        }
+        std::vector<std::uint32_t> rank_left{0}, rank_right{0};  // prefix sums of the runs' counts
+        for (const Run& r : wrong_left) rank_left.push_back(rank_left.back() + r.count);
+        for (const Run& r : wrong_right) rank_right.push_back(rank_right.back() + r.count);
+        const std::uint32_t misplaced = rank_left.back();
+        assert(misplaced == rank_right.back());
+        // Ranks [r.begin(), r.end()) of both lists: each located once, then walked run by run.
+        tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, misplaced, kPartitionBlock),
+                          [&](const tbb::blocked_range<std::uint32_t>& r) {
+                              struct Cursor {
+                                  const std::vector<Run>& runs;
+                                  std::size_t run;
+                                  std::uint32_t pos;
+                                  Cursor(const std::vector<Run>& rs, const std::vector<std::uint32_t>& rank, std::uint32_t k)
+                                      : runs(rs),
+                                        run(std::size_t(std::upper_bound(rank.begin(), rank.end(), k) - rank.begin()) - 1),
+                                        pos(rs[run].first + (k - rank[run])) {}
+                                  void next() {
+                                      if (++pos == runs[run].first + runs[run].count && run + 1 < runs.size())
+                                          pos = runs[++run].first;
+                                  }
+                              };
+                              Cursor l(wrong_left, rank_left, r.begin()), g(wrong_right, rank_right, r.begin());
+                              for (std::uint32_t k = r.begin(); k < r.end(); ++k, l.next(), g.next())
+                                  std::swap(refs[l.pos], refs[g.pos]);
+                          });
+        return mid;
+    }
+
     void make_leaf(std::uint32_t node, std::uint32_t begin, std::uint32_t end) {
         scratch[node].first = begin;
         scratch[node].count = end - begin;
@@ -332,9 +404,10 @@ struct Builder {
                 const int a = split.axis;
                 const float lo = cb.lo[a];
                 const float scale = bin_scale(cb.hi[a] - lo);
-                mid = partition(
-                    begin, end, [&](const PrimRef& r) { return bin_of(r.centroid(a), lo, scale) <= split.bin; },
-                    child_box, child_cent);
+                const auto goes_left = [&](const PrimRef& r) { return bin_of(r.centroid(a), lo, scale) <= split.bin; };
+                mid = n >= settings.parallel_threshold * 4
+                          ? parallel_partition(begin, end, goes_left, child_box, child_cent)
+                          : partition(begin, end, goes_left, child_box, child_cent);
             }
         }
         if (mid == begin || mid == end) {
@@ -397,21 +470,30 @@ Bvh build_bvh(std::span<const Aabb> prim_boxes, const BvhBuildSettings& settings
         throw std::length_error("build_bvh: too many primitives");
     const auto n = static_cast<std::uint32_t>(prim_boxes.size());
     bvh.prim_indices.resize(n);
-    for (std::uint32_t i = 0; i < n; ++i) bvh.prim_indices[i] = i;
 
     Builder b;
     b.settings = settings;
     b.settings.max_leaf_size = std::max(1u, settings.max_leaf_size);
     b.refs.resize(n);
-    for (std::uint32_t i = 0; i < n; ++i) {
-        if (prim_boxes[i].empty()) throw std::invalid_argument("build_bvh: empty primitive box");
-        b.refs[i] = PrimRef(prim_boxes[i], i);
-    }
+    // The primitive copy and (below) the index copy run in parallel: large flat loops that touch fresh
+    // memory, each slot written by one iteration.
+    std::atomic<bool> has_empty{false};
+    tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, n, kCopyGrain), [&](const tbb::blocked_range<std::uint32_t>& r) {
+        bool empty = false;
+        for (std::uint32_t i = r.begin(); i < r.end(); ++i) {
+            empty = empty || prim_boxes[i].empty();
+            b.refs[i] = PrimRef(prim_boxes[i], i);
+        }
+        if (empty) has_empty.store(true, std::memory_order_relaxed);
+    });
+    if (has_empty.load()) throw std::invalid_argument("build_bvh: empty primitive box");
     b.scratch.reset(new ScratchNode[2 * std::size_t(n)]);  // root, padding, at most n − 1 pairs
     Bounds4 box, cent;
     b.range_bounds(0, n, box, cent);
     b.build(0, 0, n, 0, box, cent);
-    for (std::uint32_t i = 0; i < n; ++i) bvh.prim_indices[i] = b.refs[i].id();
+    tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, n, kCopyGrain), [&](const tbb::blocked_range<std::uint32_t>& r) {
+        for (std::uint32_t i = r.begin(); i < r.end(); ++i) bvh.prim_indices[i] = b.refs[i].id();
+    });
     compact(b.scratch.get(), b.next_pair.load(), bvh);
     return bvh;
 }
