@@ -31,39 +31,44 @@ constexpr std::size_t kParallelGrain = 4096;
 
 MeshBlas::MeshBlas(const TriangleMesh& mesh, const BvhBuildSettings& settings)
     : settings_(settings), vertex_count_(mesh.vertices.size()), input_count_(mesh.triangles.size()) {
-    // Per triangle: 0 to build over, 1 degenerate, 2 indexing a missing vertex (the exact test in double
-    // is the costly part, so it runs in parallel; the first bad triangle is then reported in input order).
+    // Per triangle: its box, and 0 to build over, 1 degenerate, 2 indexing a missing vertex (the exact test
+    // in double is the costly part, so it runs in parallel; the first bad triangle is then reported in
+    // input order).
     const std::size_t n_in = mesh.triangles.size();
     std::vector<std::uint8_t> kind(n_in);
+    std::vector<Aabb> boxes(n_in);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_in, kParallelGrain),
                       [&](const tbb::blocked_range<std::size_t>& r) {
+                          const std::size_t nv = mesh.vertices.size();
                           for (std::size_t i = r.begin(); i < r.end(); ++i) {
                               const glm::uvec3 t = mesh.triangles[i];
-                              const std::size_t nv = mesh.vertices.size();
-                              kind[i] = t.x >= nv || t.y >= nv || t.z >= nv ? 2
-                                        : is_degenerate(mesh.vertices[t.x], mesh.vertices[t.y], mesh.vertices[t.z])
-                                            ? 1
-                                            : 0;
+                              if (t.x >= nv || t.y >= nv || t.z >= nv) {
+                                  kind[i] = 2;
+                                  continue;
+                              }
+                              const glm::vec3 &a = mesh.vertices[t.x], &b = mesh.vertices[t.y], &c = mesh.vertices[t.z];
+                              kind[i] = is_degenerate(a, b, c) ? 1 : 0;
+                              boxes[i].grow(a);
+                              boxes[i].grow(b);
+                              boxes[i].grow(c);
                           }
                       });
-    std::vector<Aabb> boxes;
+    // Triangle i of the tree is input triangle kept[i]; without degenerate triangles (the usual case) that
+    // is i itself and the boxes need no compaction.
     std::vector<std::uint32_t> kept;
-    boxes.reserve(n_in);
-    kept.reserve(n_in);
     for (std::size_t i = 0; i < n_in; ++i) {
-        const glm::uvec3 t = mesh.triangles[i];
         if (kind[i] == 2)
             throw std::out_of_range("MeshBlas: triangle " + std::to_string(i) + " indexes a missing vertex");
-        if (kind[i] == 1) {
-            degenerate_.emplace_back(static_cast<std::uint32_t>(i), t);
-            continue;
-        }
-        Aabb box;
-        box.grow(mesh.vertices[t.x]);
-        box.grow(mesh.vertices[t.y]);
-        box.grow(mesh.vertices[t.z]);
-        boxes.push_back(box);
-        kept.push_back(static_cast<std::uint32_t>(i));
+        if (kind[i] == 1) degenerate_.emplace_back(static_cast<std::uint32_t>(i), mesh.triangles[i]);
+    }
+    if (!degenerate_.empty()) {
+        kept.reserve(n_in - degenerate_.size());
+        for (std::size_t i = 0; i < n_in; ++i)
+            if (kind[i] == 0) {
+                boxes[kept.size()] = boxes[i];
+                kept.push_back(static_cast<std::uint32_t>(i));
+            }
+        boxes.resize(kept.size());
     }
     bvh_ = build_bvh(boxes, settings);
     const std::size_t n = bvh_.prim_indices.size();
@@ -71,7 +76,7 @@ MeshBlas::MeshBlas(const TriangleMesh& mesh, const BvhBuildSettings& settings)
     leaf_indices_.resize(n);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kParallelGrain), [&](const tbb::blocked_range<std::size_t>& r) {
         for (std::size_t k = r.begin(); k < r.end(); ++k) {
-            const std::uint32_t id = kept[bvh_.prim_indices[k]];
+            const std::uint32_t id = kept.empty() ? bvh_.prim_indices[k] : kept[bvh_.prim_indices[k]];
             const glm::uvec3 t = mesh.triangles[id];
             leaf_indices_[k] = t;
             triangles_[k] = {mesh.vertices[t.x], mesh.vertices[t.y], mesh.vertices[t.z]};
