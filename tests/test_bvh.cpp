@@ -1174,3 +1174,30 @@ TEST_CASE("MeshBlas refit: a wrong vertex count or a non-finite vertex is an err
     CHECK(blas.sah_cost() == sah);
     require_refit_consistent(blas, m);
 }
+
+TEST_CASE("BVH builder: the binning's lanes give the bins of the scalar definition", "[bvh][simd]") {
+    // Random boxes against random centroid bounds (positions inside, on and past both ends, which clamp),
+    // plus the extremes of bin_scale: FLT_MAX bins per unit (a subnormal extent) and 0 (a flat axis).
+    Pcg32 rng(111);
+    const float kMaxScale = std::numeric_limits<float>::max();
+    int checked = 0, clamped = 0;
+    for (int i = 0; i < 200000; ++i) {
+        const glm::vec3 lo(rng.uniform(-10, 10), rng.uniform(-10, 10), rng.uniform(-10, 10));
+        // About one bin per unit, so that 16 bins span [lo, lo + 16] and most centroids land inside.
+        glm::vec3 scale(rng.uniform(0.7f, 1.3f), rng.uniform(0.7f, 1.3f), rng.uniform(0.7f, 1.3f));
+        if (i % 17 == 0) scale[i % 3] = kMaxScale;
+        if (i % 19 == 0) scale[(i + 1) % 3] = 0.0f;
+        const glm::vec3 c = lo + glm::vec3(rng.uniform(-2, 18), rng.uniform(-2, 18), rng.uniform(-2, 18));
+        const glm::vec3 e(rng.uniform(0, 1), rng.uniform(0, 1), rng.uniform(0, 1));
+        const Aabb box{c - e, c + e};
+        const std::array<int, 3> lanes = detail::box_bins(box, lo, scale);
+        for (int a = 0; a < 3; ++a) {
+            const int want = detail::bin_of(box.center()[a], lo[a], scale[a]);
+            REQUIRE(lanes[std::size_t(a)] == want);
+            clamped += want == 0 || want == BvhBuildSettings::kBins - 1;
+            ++checked;
+        }
+    }
+    CHECK(clamped > 1000);
+    CHECK(clamped < checked / 2);
+}

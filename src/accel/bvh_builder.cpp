@@ -20,6 +20,12 @@
 #include <vector>
 
 namespace smoketrace {
+
+int detail::bin_of(float c, float lo, float scale) {
+    const int b = static_cast<int>((c - lo) * scale);
+    return std::clamp(b, 0, BvhBuildSettings::kBins - 1);
+}
+
 namespace {
 
 constexpr int kBins = BvhBuildSettings::kBins;
@@ -48,6 +54,15 @@ struct alignas(32) PrimRef {
     [[nodiscard]] float centroid(int axis) const { return 0.5f * ((&lo.x)[axis] + (&hi.x)[axis]); }
 };
 static_assert(sizeof(PrimRef) == 32);
+
+// A box's bin positions on the three axes (lane 3 unused), before truncation and clamping: its centroid
+// (PrimRef::centroid) minus the centroid bounds' low corner, times the bins per unit; bin_of's arithmetic
+// lane by lane, so the same bits (tested against it through detail::box_bins).
+[[gnu::always_inline]] inline simd::Floats<4> bin_positions(simd::Floats<4> lo, simd::Floats<4> hi,
+                                                            simd::Floats<4> cb_lo, simd::Floats<4> scale) {
+    return (simd::Floats<4>::broadcast(0.5f) * (lo + hi) - cb_lo) * scale;
+}
+int clamp_bin(float position) { return std::clamp(static_cast<int>(position), 0, kBins - 1); }
 
 // Box bounds of bins and ranges as two lanes of four floats (core/simd/lanes.hpp; the fourth lane is
 // ignored): growing one is a min and a max instruction instead of six scalar ones, in the loop that
@@ -151,10 +166,7 @@ struct Builder {
         }
     }
 
-    static int bin_of(float c, float lo, float scale) {
-        const int b = static_cast<int>((c - lo) * scale);
-        return std::clamp(b, 0, kBins - 1);
-    }
+    static int bin_of(float c, float lo, float scale) { return detail::bin_of(c, lo, scale); }
 
     // Bins per unit of a centroid extent e > 0. For e below kBins / FLT_MAX (~1e-37: particles of the
     // smallest radii a few subnormal steps apart) kBins / e overflows, and inf · (c − lo) made bin_of convert
@@ -177,15 +189,12 @@ struct Builder {
         }
     };
 
-    static int clamp_bin(float position) { return std::clamp(static_cast<int>(position), 0, kBins - 1); }
-
     void bin_serial(std::uint32_t begin, std::uint32_t end, const BinScale& s, Binning& acc) const {
-        const Floats4 half = Floats4::broadcast(0.5f);
         for (std::uint32_t i = begin; i < end; ++i) {
             const PrimRef& r = refs[i];
             const Floats4 lo = Floats4::load(&r.lo.x), hi = Floats4::load(&r.hi.x);
             alignas(16) float pos[4];
-            store(pos, (half * (lo + hi) - s.lo) * s.scale);  // PrimRef::centroid, then bin_of's arithmetic
+            store(pos, bin_positions(lo, hi, s.lo, s.scale));
             for (int a = 0; a < 3; ++a) {
                 Bin& bin = acc.bins[a][clamp_bin(pos[a])];
                 bin.bounds.lo = min(bin.bounds.lo, lo);
@@ -462,6 +471,18 @@ void compact(const ScratchNode* scratch, std::size_t slots, Bvh& out) {
 }
 
 }  // namespace
+
+namespace detail {
+
+std::array<int, 3> box_bins(const Aabb& box, const glm::vec3& lo, const glm::vec3& scale) {
+    alignas(16) const float l[4] = {box.lo.x, box.lo.y, box.lo.z, 0.0f}, h[4] = {box.hi.x, box.hi.y, box.hi.z, 0.0f};
+    alignas(16) const float cl[4] = {lo.x, lo.y, lo.z, 0.0f}, sc[4] = {scale.x, scale.y, scale.z, 0.0f};
+    alignas(16) float pos[4];
+    store(pos, bin_positions(Floats4::load(l), Floats4::load(h), Floats4::load(cl), Floats4::load(sc)));
+    return {clamp_bin(pos[0]), clamp_bin(pos[1]), clamp_bin(pos[2])};
+}
+
+}  // namespace detail
 
 Bvh build_bvh(std::span<const Aabb> prim_boxes, const BvhBuildSettings& settings) {
     Bvh bvh;
