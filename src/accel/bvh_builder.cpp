@@ -42,18 +42,20 @@ struct alignas(32) PrimRef {
     glm::vec3 lo;
     std::uint32_t id_bits;
     glm::vec3 hi;
-    float unused = 0.0f;
+    float unused;
 
     static constexpr std::uint32_t kIdFlip = 1u << 30;
+    // Left uninitialised by default, so that the array of them is allocated without being written (the
+    // parallel fill is then the first touch of its pages).
     PrimRef() = default;
-    PrimRef(const Aabb& b, std::uint32_t id) : lo(b.lo), id_bits(id ^ kIdFlip), hi(b.hi) {}
+    PrimRef(const Aabb& b, std::uint32_t id) : lo(b.lo), id_bits(id ^ kIdFlip), hi(b.hi), unused(0.0f) {}
     [[nodiscard]] std::uint32_t id() const { return id_bits ^ kIdFlip; }
 
     // Exactly Aabb::center(): the split decisions are those of the boxes themselves. (Indexed through a
     // pointer: glm's operator[] is a switch.)
     [[nodiscard]] float centroid(int axis) const { return 0.5f * ((&lo.x)[axis] + (&hi.x)[axis]); }
 };
-static_assert(sizeof(PrimRef) == 32);
+static_assert(sizeof(PrimRef) == 32 && std::is_trivially_default_constructible_v<PrimRef>);
 
 // A box's bin positions on the three axes (lane 3 unused), before truncation and clamping: its centroid
 // (PrimRef::centroid) minus the centroid bounds' low corner, times the bins per unit; bin_of's arithmetic
@@ -107,7 +109,8 @@ static_assert(std::is_trivially_default_constructible_v<ScratchNode>);
 // 2n slots, most never used, is only the bound); the scratch tree is then compacted depth-first into the
 // final node array, which is why the result does not depend on that order.
 struct Builder {
-    std::vector<PrimRef> refs;
+    std::unique_ptr<PrimRef[]> refs_storage;
+    PrimRef* refs = nullptr;
     std::unique_ptr<ScratchNode[]> scratch;
     std::atomic<std::uint32_t> next_pair{2};  // slot 0 is the root, 1 padding
     BvhBuildSettings settings;
@@ -267,7 +270,7 @@ struct Builder {
         const glm::vec3 e = cb.extent();
         const int axis = (e.x >= e.y && e.x >= e.z) ? 0 : (e.y >= e.z ? 1 : 2);
         const std::uint32_t mid = begin + (end - begin) / 2;
-        std::nth_element(refs.begin() + begin, refs.begin() + mid, refs.begin() + end,
+        std::nth_element(refs + begin, refs + mid, refs + end,
                          [&](const PrimRef& a, const PrimRef& b) {
                              const float ca = a.centroid(axis), cb2 = b.centroid(axis);
                              return ca < cb2 || (ca == cb2 && a.id() < b.id());
@@ -292,8 +295,8 @@ struct Builder {
             c.lo = min(c.lo, centre);
             c.hi = max(c.hi, centre);
         };
-        PrimRef* l = refs.data() + begin;
-        PrimRef* r = refs.data() + end;
+        PrimRef* l = refs + begin;
+        PrimRef* r = refs + end;
         while (true) {
             while (l < r && goes_left(*l)) grow(box_l, cent_l, *l++);
             while (l < r && !goes_left(*(r - 1))) grow(box_r, cent_r, *--r);
@@ -309,7 +312,7 @@ struct Builder {
         box[1] = box_r;
         cent[0] = cent_l;
         cent[1] = cent_r;
-        return static_cast<std::uint32_t>(l - refs.data());
+        return static_cast<std::uint32_t>(l - refs);
     }
 
     // partition() of a large range on all threads, in place and with a result that does not depend on
@@ -495,7 +498,8 @@ Bvh build_bvh(std::span<const Aabb> prim_boxes, const BvhBuildSettings& settings
     Builder b;
     b.settings = settings;
     b.settings.max_leaf_size = std::max(1u, settings.max_leaf_size);
-    b.refs.resize(n);
+    b.refs_storage.reset(new PrimRef[n]);  // trivially default-constructible: not written here
+    b.refs = b.refs_storage.get();
     // The primitive copy and (below) the index copy run in parallel: large flat loops that touch fresh
     // memory, each slot written by one iteration.
     std::atomic<bool> has_empty{false};

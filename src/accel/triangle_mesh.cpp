@@ -7,6 +7,8 @@
 #include <tbb/parallel_for.h>
 #include <atomic>
 #include <cmath>
+#include <memory>
+#include <type_traits>
 #include <stdexcept>
 #include <string>
 
@@ -29,6 +31,23 @@ const char* to_string(BlasUpdate u) {
 // writes its own slots, so the result is the same for any thread count.
 constexpr std::size_t kParallelGrain = 4096;
 
+// Storage for n boxes from std::allocator, each constructed by the parallel pass that computes it: the
+// pass is then the first touch of the pages (a vector would first write every box once, serially).
+class BoxStorage {
+public:
+    explicit BoxStorage(std::size_t n) : data_(alloc_.allocate(n)), n_(n) {}
+    BoxStorage(const BoxStorage&) = delete;
+    BoxStorage& operator=(const BoxStorage&) = delete;
+    ~BoxStorage() { alloc_.deallocate(data_, n_); }  // Aabb is trivially destructible
+    [[nodiscard]] Aabb* data() const { return data_; }
+
+private:
+    std::allocator<Aabb> alloc_;
+    Aabb* data_;
+    std::size_t n_;
+};
+static_assert(std::is_trivially_destructible_v<Aabb>);
+
 MeshBlas::MeshBlas(const TriangleMesh& mesh, const BvhBuildSettings& settings)
     : settings_(settings), vertex_count_(mesh.vertices.size()), input_count_(mesh.triangles.size()) {
     // Per triangle: its box, and 0 to build over, 1 degenerate, 2 indexing a missing vertex (the exact test
@@ -36,26 +55,29 @@ MeshBlas::MeshBlas(const TriangleMesh& mesh, const BvhBuildSettings& settings)
     // input order).
     const std::size_t n_in = mesh.triangles.size();
     std::vector<std::uint8_t> kind(n_in);
-    std::vector<Aabb> boxes(n_in);
+    const BoxStorage box_storage(n_in);
+    Aabb* const boxes = box_storage.data();
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_in, kParallelGrain),
                       [&](const tbb::blocked_range<std::size_t>& r) {
                           const std::size_t nv = mesh.vertices.size();
                           for (std::size_t i = r.begin(); i < r.end(); ++i) {
                               const glm::uvec3 t = mesh.triangles[i];
+                              Aabb& box = *std::construct_at(boxes + i);
                               if (t.x >= nv || t.y >= nv || t.z >= nv) {
                                   kind[i] = 2;
                                   continue;
                               }
                               const glm::vec3 &a = mesh.vertices[t.x], &b = mesh.vertices[t.y], &c = mesh.vertices[t.z];
                               kind[i] = is_degenerate(a, b, c) ? 1 : 0;
-                              boxes[i].grow(a);
-                              boxes[i].grow(b);
-                              boxes[i].grow(c);
+                              box.grow(a);
+                              box.grow(b);
+                              box.grow(c);
                           }
                       });
     // Triangle i of the tree is input triangle kept[i]; without degenerate triangles (the usual case) that
     // is i itself and the boxes need no compaction.
     std::vector<std::uint32_t> kept;
+    std::size_t box_count = n_in;
     for (std::size_t i = 0; i < n_in; ++i) {
         if (kind[i] == 2)
             throw std::out_of_range("MeshBlas: triangle " + std::to_string(i) + " indexes a missing vertex");
@@ -68,9 +90,9 @@ MeshBlas::MeshBlas(const TriangleMesh& mesh, const BvhBuildSettings& settings)
                 boxes[kept.size()] = boxes[i];
                 kept.push_back(static_cast<std::uint32_t>(i));
             }
-        boxes.resize(kept.size());
+        box_count = kept.size();
     }
-    bvh_ = build_bvh(boxes, settings);
+    bvh_ = build_bvh(std::span<const Aabb>(boxes, box_count), settings);
     const std::size_t n = bvh_.prim_indices.size();
     triangles_.resize(n);
     leaf_indices_.resize(n);
