@@ -328,8 +328,8 @@ void run_bvh(const BenchOptions& options) {
         refits.push_back({"smoketrace_refit", threads,
                           [&] {
                               arena.execute([&] {
-                                  refit_outcome =
-                                      refit_blas->update_vertices(deformed.vertices, std::numeric_limits<double>::infinity());
+                                  constexpr double kAlwaysRefit = std::numeric_limits<double>::infinity();
+                                  refit_outcome = refit_blas->update_vertices(deformed.vertices, kAlwaysRefit);
                               });
                               return PassResult{};
                           },
@@ -343,14 +343,17 @@ void run_bvh(const BenchOptions& options) {
     const double refit_sah = refit_blas->sah_cost(), refit_sah_at_build = refit_blas->sah_cost_at_build();
     const double fresh_sah = MeshBlas(deformed).sah_cost();
     double refit_ms[3] = {0, 0, 0}, rebuild_ms[3] = {0, 0, 0};  // [threads]
-    for (const Contender& c : refits) (c.name == "smoketrace_refit" ? refit_ms : rebuild_ms)[c.threads] = stats_of(c.ms).median;
+    for (const Contender& c : refits)
+        (c.name == "smoketrace_refit" ? refit_ms : rebuild_ms)[c.threads] = stats_of(c.ms).median;
     for (const Contender& c : refits) {
         const Stats st = stats_of(c.ms);
-        rows.push_back({"refit", c.name, c.threads, tris, 0, st, tris / (st.median * 1e-3), refit_ms[c.threads] / st.median, 0});
+        rows.push_back(
+            {"refit", c.name, c.threads, tris, 0, st, tris / (st.median * 1e-3), refit_ms[c.threads] / st.median, 0});
         print_row(rows.back());
     }
-    std::cout << "  refit (" << to_string(refit_outcome) << "): SAH cost with the mesh build's cost constants " << refit_sah << " = "
-              << refit_sah / refit_sah_at_build << " x its cost at build (the policy rebuilds past "
+    std::cout << "  refit (" << to_string(refit_outcome) << "): SAH cost with the mesh build's cost constants "
+              << refit_sah << " = " << refit_sah / refit_sah_at_build
+              << " x its cost at build (the policy rebuilds past "
               << kRebuildSahRatio << "); a fresh build's " << fresh_sah << "\n";
 
     // ---- traversal: closest hit and all hits, one thread (headline) and all threads (extra) ----

@@ -329,7 +329,8 @@ struct Builder {
             Bounds4 box[2], cent[2];
         };
         std::vector<Block> part(blocks);
-        tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, blocks), [&](const tbb::blocked_range<std::uint32_t>& r) {
+        using Range = tbb::blocked_range<std::uint32_t>;
+        tbb::parallel_for(Range(0, blocks), [&](const Range& r) {
             for (std::uint32_t k = r.begin(); k < r.end(); ++k) {
                 Block& b = part[k];
                 b.begin = begin + k * kPartitionBlock;
@@ -363,21 +364,20 @@ struct Builder {
         const std::uint32_t misplaced = rank_left.back();
         assert(misplaced == rank_right.back());
         // Ranks [r.begin(), r.end()) of both lists: each located once, then walked run by run.
+        struct Cursor {
+            const std::vector<Run>& runs;
+            std::size_t run;
+            std::uint32_t pos;
+            Cursor(const std::vector<Run>& rs, const std::vector<std::uint32_t>& rank, std::uint32_t k)
+                : runs(rs),
+                  run(std::size_t(std::upper_bound(rank.begin(), rank.end(), k) - rank.begin()) - 1),
+                  pos(rs[run].first + (k - rank[run])) {}
+            void next() {
+                if (++pos == runs[run].first + runs[run].count && run + 1 < runs.size()) pos = runs[++run].first;
+            }
+        };
         tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, misplaced, kPartitionBlock),
                           [&](const tbb::blocked_range<std::uint32_t>& r) {
-                              struct Cursor {
-                                  const std::vector<Run>& runs;
-                                  std::size_t run;
-                                  std::uint32_t pos;
-                                  Cursor(const std::vector<Run>& rs, const std::vector<std::uint32_t>& rank, std::uint32_t k)
-                                      : runs(rs),
-                                        run(std::size_t(std::upper_bound(rank.begin(), rank.end(), k) - rank.begin()) - 1),
-                                        pos(rs[run].first + (k - rank[run])) {}
-                                  void next() {
-                                      if (++pos == runs[run].first + runs[run].count && run + 1 < runs.size())
-                                          pos = runs[++run].first;
-                                  }
-                              };
                               Cursor l(wrong_left, rank_left, r.begin()), g(wrong_right, rank_right, r.begin());
                               for (std::uint32_t k = r.begin(); k < r.end(); ++k, l.next(), g.next())
                                   std::swap(refs[l.pos], refs[g.pos]);
@@ -503,7 +503,8 @@ Bvh build_bvh(std::span<const Aabb> prim_boxes, const BvhBuildSettings& settings
     // The primitive copy and (below) the index copy run in parallel: large flat loops that touch fresh
     // memory, each slot written by one iteration.
     std::atomic<bool> has_empty{false};
-    tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, n, kCopyGrain), [&](const tbb::blocked_range<std::uint32_t>& r) {
+    using Range = tbb::blocked_range<std::uint32_t>;
+    tbb::parallel_for(Range(0, n, kCopyGrain), [&](const Range& r) {
         bool empty = false;
         for (std::uint32_t i = r.begin(); i < r.end(); ++i) {
             empty = empty || prim_boxes[i].empty();
@@ -516,7 +517,7 @@ Bvh build_bvh(std::span<const Aabb> prim_boxes, const BvhBuildSettings& settings
     Bounds4 box, cent;
     b.range_bounds(0, n, box, cent);
     b.build(0, 0, n, 0, box, cent);
-    tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, n, kCopyGrain), [&](const tbb::blocked_range<std::uint32_t>& r) {
+    tbb::parallel_for(Range(0, n, kCopyGrain), [&](const Range& r) {
         for (std::uint32_t i = r.begin(); i < r.end(); ++i) bvh.prim_indices[i] = b.refs[i].id();
     });
     compact(b.scratch.get(), b.next_pair.load(), bvh);

@@ -30,6 +30,7 @@ const char* to_string(BlasUpdate u) {
 // The per-triangle loops run in parallel (TBB) in blocks of this many: each iteration is independent and
 // writes its own slots, so the result is the same for any thread count.
 constexpr std::size_t kParallelGrain = 4096;
+using Range = tbb::blocked_range<std::size_t>;
 
 // Storage for n boxes from std::allocator, each constructed by the parallel pass that computes it: the
 // pass is then the first touch of the pages (a vector would first write every box once, serially).
@@ -96,7 +97,7 @@ MeshBlas::MeshBlas(const TriangleMesh& mesh, const BvhBuildSettings& settings)
     const std::size_t n = bvh_.prim_indices.size();
     triangles_.resize(n);
     leaf_indices_.resize(n);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kParallelGrain), [&](const tbb::blocked_range<std::size_t>& r) {
+    tbb::parallel_for(Range(0, n, kParallelGrain), [&](const Range& r) {
         for (std::size_t k = r.begin(); k < r.end(); ++k) {
             const std::uint32_t id = kept.empty() ? bvh_.prim_indices[k] : kept[bvh_.prim_indices[k]];
             const glm::uvec3 t = mesh.triangles[id];
@@ -120,7 +121,7 @@ void MeshBlas::refresh_leaf_data() {
         plane_stride_ = stride;
         planes_.assign(9 * plane_stride_, 0.0f);
     }
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kParallelGrain), [&](const tbb::blocked_range<std::size_t>& r) {
+    tbb::parallel_for(Range(0, n, kParallelGrain), [&](const Range& r) {
         for (std::size_t k = r.begin(); k < r.end(); ++k) {
             const glm::vec3* v = &triangles_[k].v0;
             normals_[k] = triangle_normal(v[0], v[1], v[2]);
