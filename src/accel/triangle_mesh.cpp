@@ -110,7 +110,7 @@ MeshBlas::MeshBlas(const TriangleMesh& mesh, const BvhBuildSettings& settings)
     sah_at_build_ = sah_current_ = bvh_.sah_cost(settings_.costs);
 }
 
-void MeshBlas::refresh_leaf_data() {
+void MeshBlas::refresh_leaf_data(bool normals_current) {
     const std::size_t n = triangles_.size();
     normals_.resize(n);
     // Planes padded to whole blocks plus one, so that a block read starting at any triangle stays inside
@@ -124,31 +124,36 @@ void MeshBlas::refresh_leaf_data() {
     tbb::parallel_for(Range(0, n, kParallelGrain), [&](const Range& r) {
         for (std::size_t k = r.begin(); k < r.end(); ++k) {
             const glm::vec3* v = &triangles_[k].v0;
-            normals_[k] = triangle_normal(v[0], v[1], v[2]);
+            if (!normals_current) normals_[k] = triangle_normal(v[0], v[1], v[2]);
             for (int j = 0; j < 3; ++j)
                 for (int a = 0; a < 3; ++a) planes_[std::size_t(3 * j + a) * plane_stride_ + k] = (&v[j].x)[a];
         }
     });
 }
 
-// One backward sweep (children before parents: the layout is depth-first), leaf boxes from the leaf-ordered
-// triangles, as the build's boxes were made (Aabb::grow over the three vertices).
+// Leaf boxes first, in parallel and in memory order (leaf ranges ascend with the depth-first node order,
+// so the triangles stream in), as the build's boxes were made; then one backward sweep over the inner
+// nodes (children before parents: the layout is depth-first), which reads nothing but nodes.
 void MeshBlas::refit_boxes() {
     auto& nodes = bvh_.nodes;
-    for (std::size_t i = nodes.size(); i-- > 0;) {
-        if (i == 1) continue;
-        BvhNode& n = nodes[i];
-        Aabb b;
-        if (n.is_leaf()) {
+    tbb::parallel_for(Range(0, nodes.size(), 1024), [&](const Range& r) {
+        for (std::size_t i = r.begin(); i < r.end(); ++i) {
+            BvhNode& n = nodes[i];
+            if (i == 1 || !n.is_leaf()) continue;
+            // Each triangle's box, then one min and one max into the leaf's: a third of the dependency
+            // chain through the leaf box (min and max are exact, so the same box as growing by vertices).
+            Aabb b;
             for (std::uint32_t k = n.first; k < n.first + n.count; ++k) {
-                b.grow(triangles_[k].v0);
-                b.grow(triangles_[k].v1);
-                b.grow(triangles_[k].v2);
+                const Triangle& t = triangles_[k];
+                b.grow(Aabb{glm::min(glm::min(t.v0, t.v1), t.v2), glm::max(glm::max(t.v0, t.v1), t.v2)});
             }
-        } else {
-            b = merge(nodes[n.first].bounds, nodes[n.first + 1].bounds);
+            n.bounds = b;
         }
-        n.bounds = b;
+    });
+    for (std::size_t i = nodes.size(); i-- > 0;) {
+        BvhNode& n = nodes[i];
+        if (i == 1 || n.is_leaf()) continue;
+        n.bounds = merge(nodes[n.first].bounds, nodes[n.first + 1].bounds);
     }
     sah_current_ = bvh_.sah_cost(settings_.costs);
 }
@@ -177,20 +182,21 @@ BlasUpdate MeshBlas::update_vertices(std::span<const glm::vec3> vertices, double
     for (const auto& [id, t] : degenerate_)
         if (!is_degenerate(vertices[t.x], vertices[t.y], vertices[t.z])) return rebuild();
     std::atomic<bool> became_degenerate{false};
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaf_indices_.size(), kParallelGrain),
-                      [&](const tbb::blocked_range<std::size_t>& r) {
-                          bool any = false;
-                          for (std::size_t k = r.begin(); k < r.end(); ++k) {
-                              const glm::uvec3 t = leaf_indices_[k];
-                              triangles_[k] = {vertices[t.x], vertices[t.y], vertices[t.z]};
-                              any = any || is_degenerate(triangles_[k].v0, triangles_[k].v1, triangles_[k].v2);
-                          }
-                          if (any) became_degenerate.store(true, std::memory_order_relaxed);
-                      });
+    tbb::parallel_for(Range(0, leaf_indices_.size(), kParallelGrain), [&](const Range& r) {
+        bool any = false;
+        for (std::size_t k = r.begin(); k < r.end(); ++k) {
+            const glm::uvec3 t = leaf_indices_[k];
+            const Triangle& tri = triangles_[k] = {vertices[t.x], vertices[t.y], vertices[t.z]};
+            // is_degenerate()'s test, on the normal the leaf data keeps anyway.
+            const glm::dvec3 normal = normals_[k] = triangle_normal(tri.v0, tri.v1, tri.v2);
+            any = any || (normal.x == 0.0 && normal.y == 0.0 && normal.z == 0.0);
+        }
+        if (any) became_degenerate.store(true, std::memory_order_relaxed);
+    });
     if (became_degenerate.load()) return rebuild();
     refit_boxes();
     if (sah_current_ > rebuild_ratio * sah_at_build_) return rebuild();
-    refresh_leaf_data();
+    refresh_leaf_data(/*normals_current=*/true);
     return BlasUpdate::refit;
 }
 

@@ -74,8 +74,9 @@ public:
 
 private:
     // Refreshes everything derived from the tree and the leaf-ordered triangles (normals, planes) after a
-    // build or a refit; a refit first moves triangles_ and the node boxes.
-    void refresh_leaf_data();
+    // build or a refit; a refit first moves triangles_ and the node boxes (and computes the normals, for
+    // its degenerate check: normals_current).
+    void refresh_leaf_data(bool normals_current = false);
     void refit_boxes();
 
     BvhBuildSettings settings_{};
