@@ -1,5 +1,6 @@
 // Bench section "bvh": smoketrace's mesh BLAS against Embree 3 on the same mesh and the same rays, in one
-// run: build (triangles per second; our SAH cost), closest hit and all hits (rays per second).
+// run: build (triangles per second; our SAH cost), refit of a deformed copy against its rebuild, closest hit and
+// all hits (rays per second).
 //
 // Embree at its best for speed: its default (medium) and its high-quality (spatial split) builds, each
 // with and without RTC_SCENE_FLAG_ROBUST; closest hit also on scenes without the context-filter flag.
@@ -26,6 +27,8 @@
 //   build_ratio_vs_embree_medium_1t  our build time / Embree medium build time, one thread
 //   build_ratio_vs_embree_medium_2t  the same at two threads
 //   build_ratio_vs_embree_high_1t, build_ratio_vs_embree_high_2t: against the high-quality build (extra)
+//   refit_ratio_vs_rebuild_1t, _2t  MeshBlas::update_vertices (forced refit) time / a build of the deformed mesh
+//   refit_sah_ratio_vs_at_build     the refit tree's SAH cost / its cost at build (the rebuild policy's ratio)
 //   closest_hit_ratio_vs_embree  our rays/s / the fastest Embree configuration's   (target ≥ 1)
 //   all_hits_ratio_vs_embree     our rays/s / the fastest Embree configuration's   (target ≥ 1)
 //   closest_hit_coherent_ratio_vs_embree, all_hits_coherent_ratio_vs_embree: the same, coherent rays
@@ -52,6 +55,7 @@
 #include <array>
 #include <cstddef>
 #include <chrono>
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -526,6 +530,48 @@ void run_bvh(const BenchOptions& options) {
     std::cout << "  smoketrace SAH cost " << sah << " (" << blas->bvh().node_count() << " nodes, depth "
               << blas->bvh().depth() << ")\n";
 
+    // ---- refit: the same mesh deformed (every vertex moved by a smooth field of 1 % of the sphere's
+    // radius), MeshBlas::update_vertices forced to refit, against building the deformed mesh anew ----
+    TriangleMesh deformed = mesh;
+    for (glm::vec3& v : deformed.vertices)
+        v += 0.01f * glm::vec3(std::sin(3.0f * v.y), std::sin(3.0f * v.z), std::sin(3.0f * v.x));
+    std::unique_ptr<MeshBlas> refit_blas;
+    BlasUpdate refit_outcome = BlasUpdate::rebuild;
+    std::vector<Contender> refits;
+    for (int threads : {1, 2}) {
+        tbb::task_arena& arena = threads == 1 ? arena_1 : arena_2;
+        refits.push_back({"smoketrace_refit", threads,
+                          [&] {
+                              arena.execute([&] {
+                                  constexpr double kAlwaysRefit = std::numeric_limits<double>::infinity();
+                                  refit_outcome = refit_blas->update_vertices(deformed.vertices, kAlwaysRefit);
+                              });
+                              return PassResult{};
+                          },
+                          [&] { arena_2.execute([&] { refit_blas = std::make_unique<MeshBlas>(mesh); }); }});
+        refits.push_back({"smoketrace_rebuild", threads, [&] {
+                              arena.execute([&] { MeshBlas b(deformed); });
+                              return PassResult{};
+                          }});
+    }
+    time_round_robin(refits, options.repeats);
+    const double refit_sah = refit_blas->sah_cost(), refit_sah_at_build = refit_blas->sah_cost_at_build();
+    const double fresh_sah = MeshBlas(deformed).sah_cost();
+    double refit_ms[3] = {0, 0, 0}, rebuild_ms[3] = {0, 0, 0};  // [threads]
+    for (const Contender& c : refits)
+        (c.name == "smoketrace_refit" ? refit_ms : rebuild_ms)[c.threads] = stats_of(c.ms).median;
+    for (const Contender& c : refits) {
+        const Stats st = stats_of(c.ms);
+        rows.push_back(
+            {"refit", c.name, c.threads, tris, 0, st, tris / (st.median * 1e-3), refit_ms[c.threads] / st.median, 0});
+        print_row(rows.back());
+    }
+    std::cout << "  refit (" << to_string(refit_outcome) << "): SAH cost with the mesh build's cost constants "
+              << refit_sah << " = " << refit_sah / refit_sah_at_build
+              << " x its cost at build (the policy rebuilds past "
+              << kRebuildSahRatio << "); a fresh build's " << fresh_sah << "\n";
+
+
     // ---- traversal: two meshes, incoherent and coherent rays, closest hit and all hits ----
     const TraversalContext ctx{all_threads, options.repeats, rows};
     const std::vector<Ray> camera = camera_rays(options.quick ? 512 : 1024);
@@ -555,6 +601,8 @@ void run_bvh(const BenchOptions& options) {
         file.row(r.measure, r.implementation, r.threads, r.triangles, r.rays, r.ms.median, r.ms.min, r.ms.max,
                  r.per_second, r.ours_over_this, r.work);
     file.row("sah_cost", "smoketrace", "", tris, "", sah, "", "", "", "", "");
+    file.row("sah_cost", "smoketrace_refit", "", tris, "", refit_sah, "", "", "", "", "");
+    file.row("sah_cost", "smoketrace_rebuild", "", tris, "", fresh_sah, "", "", "", "", "");
     file.write(std::filesystem::path(options.results_dir) / "bvh.csv");
 
     report("bvh_triangles", double(tris));
@@ -563,6 +611,9 @@ void run_bvh(const BenchOptions& options) {
     report("build_ratio_vs_embree_medium_2t", ours_build_2 / embree_medium_ms[2]);
     report("build_ratio_vs_embree_high_1t", ours_build_1 / embree_high_ms[1]);
     report("build_ratio_vs_embree_high_2t", ours_build_2 / embree_high_ms[2]);
+    report("refit_ratio_vs_rebuild_1t", refit_ms[1] / rebuild_ms[1]);
+    report("refit_ratio_vs_rebuild_2t", refit_ms[2] / rebuild_ms[2]);
+    report("refit_sah_ratio_vs_at_build", refit_sah / refit_sah_at_build);
     report("closest_hit_ratio_vs_embree", incoherent.closest);
     report("all_hits_ratio_vs_embree", incoherent.all);
     report("closest_hit_coherent_ratio_vs_embree", coherent.closest);

@@ -23,6 +23,8 @@
 #include <map>
 #include <set>
 #include <span>
+#include <stdexcept>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -302,6 +304,32 @@ TEST_CASE("BVH builder: the same node array with 1, 2 and 8 threads", "[bvh]") {
             REQUIRE(many.nodes[i].count == one.nodes[i].count);
         }
     }
+}
+
+TEST_CASE("BVH builder: exact boxes on a large mesh, whose top levels partition in parallel", "[bvh]") {
+    // Structured input reaches the parallel partition's fix-up in ways random boxes do not: an icosphere
+    // followed by a height field under it in row order (the bench's kind of mesh), where whole blocks of
+    // primitives go to one side of a split while earlier blocks are mixed.
+    TriangleMesh m = make_icosphere(6, 1.0f);
+    const auto base = static_cast<std::uint32_t>(m.vertices.size());
+    constexpr std::uint32_t kGrid = 112;
+    for (std::uint32_t j = 0; j <= kGrid; ++j)
+        for (std::uint32_t i = 0; i <= kGrid; ++i) {
+            const float x = -3.0f + 6.0f * float(i) / float(kGrid), y = -3.0f + 6.0f * float(j) / float(kGrid);
+            m.vertices.emplace_back(x, y, -1.5f + 0.15f * std::sin(2.1f * x) * std::cos(1.7f * y));
+        }
+    for (std::uint32_t j = 0; j < kGrid; ++j)
+        for (std::uint32_t i = 0; i < kGrid; ++i) {
+            const std::uint32_t a = base + j * (kGrid + 1) + i;
+            m.triangles.emplace_back(a, a + 1, a + kGrid + 2);
+            m.triangles.emplace_back(a, a + kGrid + 2, a + kGrid + 1);
+        }
+    std::vector<Aabb> boxes(m.triangles.size());
+    for (std::size_t i = 0; i < boxes.size(); ++i) boxes[i] = triangle_box(m, i);
+    REQUIRE(boxes.size() >= 4 * BvhBuildSettings{}.parallel_threshold);
+    check_structure(build_bvh(boxes, kMeshBuildSettings), boxes, kMeshBuildSettings.max_leaf_size,
+                    kMeshBuildSettings.costs);
+    check_structure(build_bvh(boxes), boxes, 4);
 }
 
 // Closest hit through traverse_bvh over a mesh stored in input order (used where no MeshBlas exists).
@@ -1086,7 +1114,7 @@ void check_blas_wide_walks(const MeshBlas& blas, const std::vector<Ray>& rays) {
     }
 }
 
-TEST_CASE("Mesh BLAS wide tree: collapse keeps every leaf; both walks at both widths match the binary walk", "[bvh]") {
+TEST_CASE("Mesh BLAS wide tree: collapse keeps every leaf, and both walks at both widths match the binary walk", "[bvh]") {
     const TriangleMesh m = random_soup(3000, 0.1f, 93);
     const MeshBlas blas(m);
     const std::vector<Ray> rays = random_rays(2000, 94);
@@ -1109,4 +1137,219 @@ TEST_CASE("Mesh BLAS wide walk: the key sorting networks sort every input", "[bv
     const float ts[] = {-2.0f, -0.0f, 0.0f, 1e-30f, 0.5f, 1.0f, 3e38f};
     for (std::size_t i = 0; i + 1 < std::size(ts); ++i)
         REQUIRE(detail::ordered_bits(ts[i]) <= detail::ordered_bits(ts[i + 1]));
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Deforming meshes: MeshBlas::update_vertices
+
+namespace {
+
+// Closest hit and every hit of the ray against the BLAS, as comparable values.
+struct BlasAnswer {
+    bool hit = false;
+    float t = 0.0f;
+    std::uint32_t prim = 0;
+    std::vector<std::pair<std::uint32_t, float>> all;
+};
+BlasAnswer answer(const MeshBlas& blas, const Ray& r) {
+    BlasAnswer a;
+    BlasHit hit;
+    BlasCounters counters;
+    a.hit = closest_hit(blas, r, hit, counters);
+    a.t = hit.t;
+    a.prim = hit.primitive;
+    BlasHit committed;
+    any_hit_traversal(blas, r, [&](const BlasHit& h) {
+        a.all.emplace_back(h.primitive, h.t);
+        return AnyHitDecision::ignore;
+    }, committed, counters);
+    std::sort(a.all.begin(), a.all.end());
+    return a;
+}
+
+// The refit BLAS answers every ray as a fresh build over the same vertices does: the same closest t and
+// triangle (either of two at exactly the same t is right) and the same set of all hits, bit for bit.
+// Returns the number of hits compared, so that a caller can require the rays to have met the mesh.
+long require_same_answers(const MeshBlas& refit, const MeshBlas& fresh, std::uint64_t seed) {
+    long hits = 0;
+    for (const Ray& r : random_rays(2000, seed)) {
+        const BlasAnswer a = answer(refit, r), b = answer(fresh, r);
+        REQUIRE(a.hit == b.hit);
+        REQUIRE(a.all == b.all);
+        hits += long(b.all.size());
+        if (!b.hit) continue;
+        REQUIRE(a.t == b.t);
+        const auto at_t = std::count_if(b.all.begin(), b.all.end(), [&](const auto& h) { return h.second == b.t; });
+        if (at_t == 1) REQUIRE(a.prim == b.prim);
+    }
+    return hits;
+}
+
+// What a refit must leave behind: leaf copies equal to the vertices' triangles (records, normals, planes),
+// and every node box exactly the union of what lies below it.
+void require_refit_consistent(const MeshBlas& blas, const TriangleMesh& m) {
+    const auto& tris = blas.leaf_triangles();
+    const TrianglePlanes planes = blas.leaf_planes();
+    for (std::size_t k = 0; k < tris.size(); ++k) {
+        const glm::uvec3 t = m.triangles[blas.primitive_id(std::uint32_t(k))];
+        REQUIRE(tris[k].v0 == m.vertices[t.x]);
+        REQUIRE(tris[k].v1 == m.vertices[t.y]);
+        REQUIRE(tris[k].v2 == m.vertices[t.z]);
+        REQUIRE(blas.leaf_normals()[k] == triangle_normal(tris[k].v0, tris[k].v1, tris[k].v2));
+        const glm::vec3* v = &tris[k].v0;
+        for (int j = 0; j < 3; ++j)
+            for (int a = 0; a < 3; ++a) REQUIRE(*planes.at(j, a, std::uint32_t(k)) == (&v[j].x)[a]);
+    }
+    const auto& nodes = blas.bvh().nodes;
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+        if (i == 1) continue;
+        Aabb b;
+        if (nodes[i].is_leaf()) {
+            for (std::uint32_t k = nodes[i].first; k < nodes[i].first + nodes[i].count; ++k) {
+                b.grow(tris[k].v0);
+                b.grow(tris[k].v1);
+                b.grow(tris[k].v2);
+            }
+        } else {
+            b = merge(nodes[nodes[i].first].bounds, nodes[nodes[i].first + 1].bounds);
+        }
+        REQUIRE(b.lo == nodes[i].bounds.lo);
+        REQUIRE(b.hi == nodes[i].bounds.hi);
+    }
+}
+
+TriangleMesh jittered(TriangleMesh m, Pcg32& rng, float step) {
+    for (glm::vec3& v : m.vertices) v += step * glm::vec3(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
+    return m;
+}
+
+}  // namespace
+
+TEST_CASE("MeshBlas refit: a deformed mesh gives the hits of a fresh build over the same vertices", "[bvh][refit]") {
+    // A soup (every 97th triangle degenerate by a repeated index, so it stays degenerate) deformed over
+    // ten frames; an infinite ratio forces a refit each time, however degraded.
+    TriangleMesh m = random_soup(3000, 0.1f, 71);
+    MeshBlas blas(m);
+    const double at_build = blas.sah_cost_at_build();
+    REQUIRE(blas.sah_cost() == at_build);
+    Pcg32 rng(72);
+    for (int frame = 0; frame < 10; ++frame) {
+        m = jittered(std::move(m), rng, 0.05f);
+        REQUIRE(blas.update_vertices(m.vertices, std::numeric_limits<double>::infinity()) == BlasUpdate::refit);
+    }
+    require_refit_consistent(blas, m);
+    const MeshBlas fresh(m);
+    CHECK(blas.degenerate_count() == fresh.degenerate_count());
+    CHECK(blas.bounds().lo == fresh.bounds().lo);
+    CHECK(blas.bounds().hi == fresh.bounds().hi);
+    // The refit tree really is another tree than the fresh one (else the comparison below proves nothing).
+    CHECK(blas.sah_cost() > fresh.sah_cost());
+    CHECK(blas.sah_cost_at_build() == at_build);
+    CHECK(require_same_answers(blas, fresh, 73) > 5000);
+}
+
+TEST_CASE("MeshBlas refit: rebuilds exactly when the refit SAH passes the ratio", "[bvh][refit]") {
+    // Growing deformations of an icosphere. `probe` always refits, so its SAH cost is the one the policy
+    // sees; `policy` must rebuild exactly when that exceeds kRebuildSahRatio × its cost at build.
+    const TriangleMesh base = make_icosphere(3, 1.0f);
+    Pcg32 rng(81);
+    int refits = 0, rebuilds = 0;
+    for (int k = 0; k < 12; ++k) {
+        const float step = 0.004f * float(1 << (k / 2));  // 0.004 … 0.128 of the radius
+        const TriangleMesh moved = jittered(base, rng, step);
+        MeshBlas probe(base), policy(base);
+        REQUIRE(probe.update_vertices(moved.vertices, std::numeric_limits<double>::infinity()) == BlasUpdate::refit);
+        const bool degraded = probe.sah_cost() > kRebuildSahRatio * policy.sah_cost_at_build();
+        const BlasUpdate u = policy.update_vertices(moved.vertices);
+        CAPTURE(k, step, probe.sah_cost(), policy.sah_cost_at_build());
+        REQUIRE(u == (degraded ? BlasUpdate::rebuild : BlasUpdate::refit));
+        const MeshBlas fresh(moved);
+        if (u == BlasUpdate::rebuild) {
+            ++rebuilds;
+            // A rebuild is a fresh build: the same tree, its cost the new reference.
+            CHECK(policy.sah_cost() == fresh.sah_cost());
+            CHECK(policy.sah_cost_at_build() == fresh.sah_cost());
+        } else {
+            ++refits;
+            CHECK(policy.sah_cost() == probe.sah_cost());
+            CHECK(policy.sah_cost() <= kRebuildSahRatio * policy.sah_cost_at_build());
+        }
+        require_refit_consistent(policy, moved);
+        require_same_answers(policy, fresh, 82 + std::uint64_t(k));
+    }
+    CHECK(refits > 0);
+    CHECK(rebuilds > 0);
+}
+
+TEST_CASE("MeshBlas refit: a triangle becoming degenerate, or no longer, rebuilds", "[bvh][refit]") {
+    TriangleMesh m = make_icosphere(2, 1.0f);
+    MeshBlas blas(m);
+    REQUIRE(blas.degenerate_count() == 0);
+    // Vertex a moved onto its neighbour b: every triangle with both collapses to a segment.
+    const glm::uvec3 t0 = m.triangles[0];
+    TriangleMesh collapsed = m;
+    collapsed.vertices[t0.x] = collapsed.vertices[t0.y];
+    REQUIRE(blas.update_vertices(collapsed.vertices, std::numeric_limits<double>::infinity()) == BlasUpdate::rebuild);
+    const MeshBlas fresh(collapsed);
+    CHECK(blas.degenerate_count() == fresh.degenerate_count());
+    CHECK(blas.degenerate_count() >= 2);
+    require_refit_consistent(blas, collapsed);
+    require_same_answers(blas, fresh, 91);
+    // And back: the degenerate ones are triangles again, so the tree must hold them again.
+    REQUIRE(blas.update_vertices(m.vertices, std::numeric_limits<double>::infinity()) == BlasUpdate::rebuild);
+    CHECK(blas.degenerate_count() == 0);
+    require_same_answers(blas, MeshBlas(m), 92);
+}
+
+TEST_CASE("MeshBlas refit: a wrong vertex count or a non-finite vertex is an error, the BLAS unchanged",
+          "[bvh][refit]") {
+    const TriangleMesh m = make_icosphere(1, 1.0f);
+    MeshBlas blas(m);
+    const double sah = blas.sah_cost();
+    std::vector<glm::vec3> fewer(m.vertices.begin(), m.vertices.end() - 1);
+    try {
+        (void)blas.update_vertices(fewer);
+        FAIL("no exception");
+    } catch (const std::invalid_argument& e) {
+        const std::string what = e.what();
+        CHECK(what.find(std::to_string(fewer.size()) + " vertices given") != std::string::npos);
+        CHECK(what.find("has " + std::to_string(m.vertices.size())) != std::string::npos);
+    }
+    std::vector<glm::vec3> bad = m.vertices;
+    bad[5].y = std::numeric_limits<float>::quiet_NaN();
+    try {
+        (void)blas.update_vertices(bad);
+        FAIL("no exception");
+    } catch (const std::invalid_argument& e) {
+        CHECK(std::string(e.what()).find("vertex 5 is not finite") != std::string::npos);
+    }
+    CHECK(blas.sah_cost() == sah);
+    require_refit_consistent(blas, m);
+}
+
+TEST_CASE("BVH builder: the binning's lanes give the bins of the scalar definition", "[bvh][simd]") {
+    // Random boxes against random centroid bounds (positions inside, on and past both ends, which clamp),
+    // plus the extremes of bin_scale: FLT_MAX bins per unit (a subnormal extent) and 0 (a flat axis).
+    Pcg32 rng(111);
+    const float kMaxScale = std::numeric_limits<float>::max();
+    int checked = 0, clamped = 0;
+    for (int i = 0; i < 200000; ++i) {
+        const glm::vec3 lo(rng.uniform(-10, 10), rng.uniform(-10, 10), rng.uniform(-10, 10));
+        // About one bin per unit, so that 16 bins span [lo, lo + 16] and most centroids land inside.
+        glm::vec3 scale(rng.uniform(0.7f, 1.3f), rng.uniform(0.7f, 1.3f), rng.uniform(0.7f, 1.3f));
+        if (i % 17 == 0) scale[i % 3] = kMaxScale;
+        if (i % 19 == 0) scale[(i + 1) % 3] = 0.0f;
+        const glm::vec3 c = lo + glm::vec3(rng.uniform(-2, 18), rng.uniform(-2, 18), rng.uniform(-2, 18));
+        const glm::vec3 e(rng.uniform(0, 1), rng.uniform(0, 1), rng.uniform(0, 1));
+        const Aabb box{c - e, c + e};
+        const std::array<int, 3> lanes = detail::box_bins(box, lo, scale);
+        for (int a = 0; a < 3; ++a) {
+            const int want = detail::bin_of(box.center()[a], lo[a], scale[a]);
+            REQUIRE(lanes[std::size_t(a)] == want);
+            clamped += want == 0 || want == BvhBuildSettings::kBins - 1;
+            ++checked;
+        }
+    }
+    CHECK(clamped > 1000);
+    CHECK(clamped < checked / 2);
 }

@@ -526,3 +526,78 @@ TEST_CASE("scene: after many random frames a refit TLAS returns exactly the hits
     CHECK(total_hits > 3 * kRays);  // the rays do cross the instances (about 4.5 surfaces per ray)
     CHECK(compared_closest > kRays / 2);
 }
+
+TEST_CASE("scene: a deformed mesh bottom level, refit in place, traces as a fresh scene over the new vertices",
+          "[scene][refit]") {
+    // A deforming icosphere (object-space path) and a deforming quad (world-triangles path), instanced
+    // several times beside a sphere set. After update_mesh_vertices() and commit(), the scene must answer
+    // as one built from scratch over the deformed meshes: same world boxes, same hits bit for bit.
+    const TriangleMesh sphere_mesh = make_icosphere(2, 1.0f);
+    TriangleMesh quad;
+    quad.vertices = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
+    quad.triangles = {{0, 1, 2}, {0, 2, 3}};
+    constexpr int kInstances = 60;
+    constexpr float kExtent = 12.0f;
+    auto make_scene = [&](AccelScene& s, const TriangleMesh& mesh, const TriangleMesh& q) {
+        const std::uint32_t blas[] = {
+            s.add_bottom_level(BottomLevel::from_mesh(mesh, false)),
+            s.add_bottom_level(BottomLevel::from_mesh(q, false)),
+            s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 0.7f}}, false)),
+        };
+        Pcg32 rng(101);
+        for (int i = 0; i < kInstances; ++i)
+            s.add_instance(Instance{blas[i % 3], random_transform(rng, kExtent), random_mask(rng), std::uint32_t(i),
+                                    instance_flag_none});
+    };
+    AccelScene s;
+    make_scene(s, sphere_mesh, quad);
+    REQUIRE(s.commit() == TlasUpdate::rebuild);
+    REQUIRE(s.record(1).path == InstancePath::world_triangles);
+
+    // A bulge along x and a twist of the quad.
+    TriangleMesh bulged = sphere_mesh;
+    for (glm::vec3& v : bulged.vertices) v *= 1.0f + 0.3f * std::max(v.x, 0.0f);
+    TriangleMesh twisted = quad;
+    twisted.vertices[2] = {1.5f, 1.2f, 0.4f};
+    CHECK(s.update_mesh_vertices(0, bulged.vertices) == BlasUpdate::refit);
+    CHECK(s.update_mesh_vertices(1, twisted.vertices) == BlasUpdate::refit);
+    CHECK_FALSE(s.committed());
+    CHECK(s.commit() != TlasUpdate::none);
+    check_tlas_invariants(s);
+
+    AccelScene fresh;
+    make_scene(fresh, bulged, twisted);
+    REQUIRE(fresh.commit() == TlasUpdate::rebuild);
+    for (std::uint32_t i = 0; i < kInstances; ++i) {
+        CHECK(s.instance_bounds(i).lo == fresh.instance_bounds(i).lo);
+        CHECK(s.instance_bounds(i).hi == fresh.instance_bounds(i).hi);
+    }
+    Pcg32 rays(102);
+    int total_hits = 0;
+    for (int k = 0; k < 600; ++k) {
+        const Ray ray = random_ray(rays, kExtent);
+        const auto every = all_hits(fresh, ray, 0xFF, ray_flag_force_non_opaque);
+        REQUIRE(all_hits(s, ray, 0xFF, ray_flag_force_non_opaque) == every);
+        total_hits += int(every.size());
+        const TraceResult f = trace(fresh, ray, ray_flag_none, 0xFF);
+        const TraceResult r = trace(s, ray, ray_flag_none, 0xFF);
+        REQUIRE(f.hit == r.hit);
+        if (f.hit) CHECK(r.committed.t == f.committed.t);
+    }
+    CHECK(total_hits > 200);
+}
+
+TEST_CASE("scene: update_mesh_vertices rejects a missing bottom level, spheres and a wrong vertex count",
+          "[scene][refit]") {
+    AccelScene s;
+    const auto mesh = s.add_bottom_level(BottomLevel::from_mesh(make_icosphere(1, 1.0f), true));
+    const auto spheres = s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 1.0f}}, true));
+    s.add_instance(Instance{mesh, AffineTransform::translate_scale({0, 0, 0}, 1.0), 0xFF, 0, 0});
+    REQUIRE(s.commit() == TlasUpdate::rebuild);
+    const std::vector<glm::vec3> three(3, glm::vec3(0.0f));
+    CHECK_THROWS_AS(s.update_mesh_vertices(7, three), std::out_of_range);
+    CHECK_THROWS_WITH(s.update_mesh_vertices(spheres, three), Catch::Contains("holds spheres"));
+    CHECK_THROWS_WITH(s.update_mesh_vertices(mesh, three), Catch::Contains("3 vertices given"));
+    // Nothing changed: the next commit has no work.
+    CHECK(s.commit() == TlasUpdate::none);
+}

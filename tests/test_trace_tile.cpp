@@ -208,7 +208,7 @@ TEST_CASE("ray tile: shear_lanes() and finish_lanes() are the scalar test lane b
                 CHECK(((done.hit | done.on_edge) & ~keep) == 0);
                 for (unsigned m = keep; m != 0; m &= m - 1) {
                     const unsigned i = unsigned(std::countr_zero(m));
-                    TriangleHit expected;
+                    TriangleHit expected{};
                     const bool hit = finish_triangle_hit(rays.ray(first + i), out.lane(i), v[0], normal,
                                                          tile.tmax(first + i), expected);
                     CAPTURE(k, j, first, i);

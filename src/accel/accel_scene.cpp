@@ -89,6 +89,43 @@ void AccelScene::set_mask(std::uint32_t index, std::uint8_t mask) {
     transforms_dirty_ = true;  // node masks are refreshed by the refit sweep
 }
 
+BlasUpdate AccelScene::update_mesh_vertices(std::uint32_t blas, std::span<const glm::vec3> vertices) {
+    if (blas >= blases_.size())
+        throw std::out_of_range("AccelScene::update_mesh_vertices: no bottom level " + std::to_string(blas));
+    BottomLevel& b = *blases_[blas];
+    if (b.kind != GeometryKind::triangles)
+        throw std::invalid_argument("AccelScene::update_mesh_vertices: bottom level " + std::to_string(blas) +
+                                    " holds spheres, not a triangle mesh");
+    const bool was_world = takes_world_triangles(b);
+    const std::size_t was_count = b.mesh.leaf_triangles().size();
+    const BlasUpdate u = b.mesh.update_vertices(vertices, rebuild_ratio_);
+    if (was_world != takes_world_triangles(b) || (was_world && was_count != b.mesh.leaf_triangles().size())) {
+        // A rebuild changed whether (or with how many triangles) its instances take the world-triangles
+        // path, whose slots are laid out by instance: lay them out again and refresh every record.
+        assign_world_triangle_slots();
+        for (std::uint32_t i = 0; i < instances_.size(); ++i) update_instance(i);
+        transforms_dirty_ = true;
+        return u;
+    }
+    for (std::uint32_t i = 0; i < instances_.size(); ++i)
+        if (instances_[i].blas == blas) {
+            update_instance(i);
+            transforms_dirty_ = true;  // the TLAS boxes over it are refit by commit()
+        }
+    return u;
+}
+
+void AccelScene::assign_world_triangle_slots() {
+    world_triangles_.clear();
+    for (std::uint32_t i = 0; i < instances_.size(); ++i) {
+        records_[i].first_world_triangle = 0;
+        if (const BottomLevel& b = *blases_[instances_[i].blas]; takes_world_triangles(b)) {
+            records_[i].first_world_triangle = static_cast<std::uint32_t>(world_triangles_.size());
+            world_triangles_.resize(world_triangles_.size() + b.mesh.leaf_triangles().size());
+        }
+    }
+}
+
 namespace {
 
 // Relative tolerance of the similarity test. The sphere the fast path then tests differs from the true

@@ -2,39 +2,69 @@
 #include <smoketrace/accel/bvh_builder.hpp>
 #include <smoketrace/core/simd/lanes.hpp>
 
+#include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
 #include <tbb/parallel_reduce.h>
 #include <tbb/blocked_range.h>
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <bit>
 #include <cassert>
 #include <limits>
+#include <memory>
+#include <type_traits>
 #include <stdexcept>
 #include <utility>
 #include <vector>
 
 namespace smoketrace {
+
+int detail::bin_of(float c, float lo, float scale) {
+    const int b = static_cast<int>((c - lo) * scale);
+    return std::clamp(b, 0, BvhBuildSettings::kBins - 1);
+}
+
 namespace {
 
 constexpr int kBins = BvhBuildSettings::kBins;
+constexpr std::uint32_t kCopyGrain = 8192;
 
 // A primitive as the builder moves it: its box and its index, 32 bytes, so that a node's primitives are
 // one contiguous run that partitioning reorders in place (sequential memory access at every level, where
 // an index into the input boxes would be a cache miss per primitive on a large mesh). lo and hi are
-// each followed by a fourth float so that either loads as one 4-wide vector.
+// each followed by a fourth float so that either loads as one 4-wide vector. The index rides in lo's
+// fourth lane, where the vector arithmetic sees it as a float: stored as is, an index below 2^23 is a
+// subnormal float, and every addition with it took a microcode assist. Stored with bit 30 flipped, it
+// is a normal number (up to 2^30 primitives; past that only slower).
 struct alignas(32) PrimRef {
     glm::vec3 lo;
-    std::uint32_t id;
+    std::uint32_t id_bits;
     glm::vec3 hi;
-    float unused = 0.0f;
+    float unused;
+
+    static constexpr std::uint32_t kIdFlip = 1u << 30;
+    // Left uninitialised by default, so that the array of them is allocated without being written (the
+    // parallel fill is then the first touch of its pages).
+    PrimRef() = default;
+    PrimRef(const Aabb& b, std::uint32_t id) : lo(b.lo), id_bits(id ^ kIdFlip), hi(b.hi), unused(0.0f) {}
+    [[nodiscard]] std::uint32_t id() const { return id_bits ^ kIdFlip; }
 
     // Exactly Aabb::center(): the split decisions are those of the boxes themselves. (Indexed through a
     // pointer: glm's operator[] is a switch.)
     [[nodiscard]] float centroid(int axis) const { return 0.5f * ((&lo.x)[axis] + (&hi.x)[axis]); }
 };
-static_assert(sizeof(PrimRef) == 32);
+static_assert(sizeof(PrimRef) == 32 && std::is_trivially_default_constructible_v<PrimRef>);
+
+// A box's bin positions on the three axes (lane 3 unused), before truncation and clamping: its centroid
+// (PrimRef::centroid) minus the centroid bounds' low corner, times the bins per unit; bin_of's arithmetic
+// lane by lane, so the same bits (tested against it through detail::box_bins).
+[[gnu::always_inline]] inline simd::Floats<4> bin_positions(simd::Floats<4> lo, simd::Floats<4> hi,
+                                                            simd::Floats<4> cb_lo, simd::Floats<4> scale) {
+    return (simd::Floats<4>::broadcast(0.5f) * (lo + hi) - cb_lo) * scale;
+}
+int clamp_bin(float position) { return std::clamp(static_cast<int>(position), 0, kBins - 1); }
 
 // Box bounds of bins and ranges as two lanes of four floats (core/simd/lanes.hpp; the fourth lane is
 // ignored): growing one is a min and a max instruction instead of six scalar ones, in the loop that
@@ -66,12 +96,23 @@ struct Bounds4 {
     }
 };
 
-// Building happens in a scratch tree whose slots are reserved per subtree (a node over n primitives
-// owns 2n − 2 descendant slots), so parallel subtrees never share a counter; the scratch tree is then
-// compacted depth-first into the final node array.
+// A scratch node: BvhNode's fields without its default member initialisers, so that the scratch array
+// (two slots per primitive, most of them never used) is allocated without being written.
+struct ScratchNode {
+    float lo[3], hi[3];
+    std::uint32_t first, count;
+};
+static_assert(std::is_trivially_default_constructible_v<ScratchNode>);
+
+// Building happens in a scratch tree whose child pairs are taken from one counter in whatever order the
+// threads reach them, so the scratch is dense (the pages it touches are those it uses; a node array of
+// 2n slots, most never used, is only the bound); the scratch tree is then compacted depth-first into the
+// final node array, which is why the result does not depend on that order.
 struct Builder {
-    std::vector<PrimRef> refs;
-    std::vector<BvhNode> scratch;
+    std::unique_ptr<PrimRef[]> refs_storage;
+    PrimRef* refs = nullptr;
+    std::unique_ptr<ScratchNode[]> scratch;
+    std::atomic<std::uint32_t> next_pair{2};  // slot 0 is the root, 1 padding
     BvhBuildSettings settings;
 
     struct Bin {
@@ -107,8 +148,7 @@ struct Builder {
         }
     }
 
-    Aabb range_bounds(std::uint32_t begin, std::uint32_t end, Aabb& centroid_bounds) const {
-        Bounds4 box, cent;
+    void range_bounds(std::uint32_t begin, std::uint32_t end, Bounds4& box, Bounds4& cent) const {
         if (end - begin >= settings.parallel_threshold * 4) {
             using Acc = std::pair<Bounds4, Bounds4>;
             const Acc r = tbb::parallel_reduce(
@@ -127,14 +167,9 @@ struct Builder {
         } else {
             range_bounds_serial(begin, end, box, cent);
         }
-        centroid_bounds = cent.aabb();
-        return box.aabb();
     }
 
-    static int bin_of(float c, float lo, float scale) {
-        const int b = static_cast<int>((c - lo) * scale);
-        return std::clamp(b, 0, kBins - 1);
-    }
+    static int bin_of(float c, float lo, float scale) { return detail::bin_of(c, lo, scale); }
 
     // Bins per unit of a centroid extent e > 0. For e below kBins / FLT_MAX (~1e-37: particles of the
     // smallest radii a few subnormal steps apart) kBins / e overflows, and inf · (c − lo) made bin_of convert
@@ -142,22 +177,31 @@ struct Builder {
     // extent gets exactly kBins / e, as before.
     static float bin_scale(float e) { return std::min(float(kBins) / e, std::numeric_limits<float>::max()); }
 
+    // The binning transform of all three axes as lanes: a primitive's three bin positions are one
+    // subtraction and one multiplication, the operations of bin_of() lane by lane (the same bits).
     struct BinScale {
-        glm::vec3 lo, scale;
-        explicit BinScale(const Aabb& cb) : lo(cb.lo) {
+        Floats4 lo, scale;
+        explicit BinScale(const Aabb& cb) {
+            alignas(16) float l[4] = {cb.lo.x, cb.lo.y, cb.lo.z, 0.0f}, s[4] = {0.0f, 0.0f, 0.0f, 0.0f};
             for (int a = 0; a < 3; ++a) {
                 const float e = cb.hi[a] - cb.lo[a];
-                scale[a] = e > 0.0f ? bin_scale(e) : 0.0f;
+                s[a] = e > 0.0f ? bin_scale(e) : 0.0f;
             }
+            lo = Floats4::load(l);
+            scale = Floats4::load(s);
         }
     };
 
     void bin_serial(std::uint32_t begin, std::uint32_t end, const BinScale& s, Binning& acc) const {
         for (std::uint32_t i = begin; i < end; ++i) {
             const PrimRef& r = refs[i];
+            const Floats4 lo = Floats4::load(&r.lo.x), hi = Floats4::load(&r.hi.x);
+            alignas(16) float pos[4];
+            store(pos, bin_positions(lo, hi, s.lo, s.scale));
             for (int a = 0; a < 3; ++a) {
-                Bin& bin = acc.bins[a][bin_of(r.centroid(a), s.lo[a], s.scale[a])];
-                bin.bounds.grow(r);
+                Bin& bin = acc.bins[a][clamp_bin(pos[a])];
+                bin.bounds.lo = min(bin.bounds.lo, lo);
+                bin.bounds.hi = max(bin.bounds.hi, hi);
                 ++bin.count;
             }
         }
@@ -226,11 +270,118 @@ struct Builder {
         const glm::vec3 e = cb.extent();
         const int axis = (e.x >= e.y && e.x >= e.z) ? 0 : (e.y >= e.z ? 1 : 2);
         const std::uint32_t mid = begin + (end - begin) / 2;
-        std::nth_element(refs.begin() + begin, refs.begin() + mid, refs.begin() + end,
+        std::nth_element(refs + begin, refs + mid, refs + end,
                          [&](const PrimRef& a, const PrimRef& b) {
                              const float ca = a.centroid(axis), cb2 = b.centroid(axis);
-                             return ca < cb2 || (ca == cb2 && a.id < b.id);
+                             return ca < cb2 || (ca == cb2 && a.id() < b.id());
                          });
+        return mid;
+    }
+
+    // Partitions refs[begin, end) in place, those for which goes_left() holds first, and accumulates the
+    // box and centroid bounds of each side as it classifies each primitive (exactly once), so a child's
+    // bounds need no pass of their own. Returns the first primitive of the right side.
+    template <class GoesLeft>
+    std::uint32_t partition(std::uint32_t begin, std::uint32_t end, const GoesLeft& goes_left, Bounds4 (&box)[2],
+                            Bounds4 (&cent)[2]) {
+        const Floats4 half = Floats4::broadcast(0.5f);
+        // Locals rather than the output arrays, so that the bounds stay in registers through the loop.
+        Bounds4 box_l, box_r, cent_l, cent_r;
+        auto grow = [&](Bounds4& b, Bounds4& c, const PrimRef& r) {
+            const Floats4 lo = Floats4::load(&r.lo.x), hi = Floats4::load(&r.hi.x);
+            b.lo = min(b.lo, lo);
+            b.hi = max(b.hi, hi);
+            const Floats4 centre = half * (lo + hi);
+            c.lo = min(c.lo, centre);
+            c.hi = max(c.hi, centre);
+        };
+        PrimRef* l = refs + begin;
+        PrimRef* r = refs + end;
+        while (true) {
+            while (l < r && goes_left(*l)) grow(box_l, cent_l, *l++);
+            while (l < r && !goes_left(*(r - 1))) grow(box_r, cent_r, *--r);
+            if (l == r) break;
+            // *l goes right and *(r − 1) left: swap them into place.
+            --r;
+            grow(box_r, cent_r, *l);
+            grow(box_l, cent_l, *r);
+            std::swap(*l, *r);
+            ++l;
+        }
+        box[0] = box_l;
+        box[1] = box_r;
+        cent[0] = cent_l;
+        cent[1] = cent_r;
+        return static_cast<std::uint32_t>(l - refs);
+    }
+
+    // partition() of a large range on all threads, in place and with a result that does not depend on
+    // the thread count: the range is cut into blocks of kPartitionBlock (a fixed size), each block is
+    // partitioned on its own, and then the k-th right-going primitive left of the final split point is
+    // swapped with the k-th left-going one right of it, for every k (ranks, not threads, pair them up).
+    static constexpr std::uint32_t kPartitionBlock = 4096;
+    template <class GoesLeft>
+    std::uint32_t parallel_partition(std::uint32_t begin, std::uint32_t end, const GoesLeft& goes_left,
+                                     Bounds4 (&box)[2], Bounds4 (&cent)[2]) {
+        const std::uint32_t blocks = (end - begin + kPartitionBlock - 1) / kPartitionBlock;
+        struct Block {
+            std::uint32_t begin, mid, end;
+            Bounds4 box[2], cent[2];
+        };
+        std::vector<Block> part(blocks);
+        using Range = tbb::blocked_range<std::uint32_t>;
+        tbb::parallel_for(Range(0, blocks), [&](const Range& r) {
+            for (std::uint32_t k = r.begin(); k < r.end(); ++k) {
+                Block& b = part[k];
+                b.begin = begin + k * kPartitionBlock;
+                b.end = std::min(end, b.begin + kPartitionBlock);
+                b.mid = partition(b.begin, b.end, goes_left, b.box, b.cent);
+            }
+        });
+        std::uint32_t mid = begin;
+        for (const Block& b : part) {
+            mid += b.mid - b.begin;
+            for (int side = 0; side < 2; ++side) {
+                box[side].grow(b.box[side]);
+                cent[side].grow(b.cent[side]);
+            }
+        }
+        // The misplaced runs, in memory order: right-goers before mid, left-goers from mid on.
+        struct Run {
+            std::uint32_t first, count;
+        };
+        std::vector<Run> wrong_left, wrong_right;
+        for (const Block& b : part) {
+            // No empty runs: the walk below steps from a run's end to the next run's start.
+            const std::uint32_t hi = std::min(b.end, mid);
+            if (b.mid < hi) wrong_left.push_back({b.mid, hi - b.mid});  // right-goers in [b.mid, b.end)
+            const std::uint32_t lo = std::max(b.begin, mid);
+            if (lo < b.mid) wrong_right.push_back({lo, b.mid - lo});  // left-goers in [b.begin, b.mid)
+        }
+        std::vector<std::uint32_t> rank_left{0}, rank_right{0};  // prefix sums of the runs' counts
+        for (const Run& r : wrong_left) rank_left.push_back(rank_left.back() + r.count);
+        for (const Run& r : wrong_right) rank_right.push_back(rank_right.back() + r.count);
+        const std::uint32_t misplaced = rank_left.back();
+        assert(misplaced == rank_right.back());
+        // Ranks [r.begin(), r.end()) of both lists: each located once, then walked run by run.
+        struct Cursor {
+            const std::vector<Run>& runs;
+            std::size_t run;
+            std::uint32_t pos;
+            Cursor(const std::vector<Run>& rs, const std::vector<std::uint32_t>& rank, std::uint32_t k)
+                : runs(rs),
+                  run(std::size_t(std::upper_bound(rank.begin(), rank.end(), k) - rank.begin()) - 1),
+                  pos(rs[run].first + (k - rank[run])) {}
+            void next() {
+                if (++pos == runs[run].first + runs[run].count && run + 1 < runs.size()) pos = runs[++run].first;
+            }
+        };
+        tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, misplaced, kPartitionBlock),
+                          [&](const tbb::blocked_range<std::uint32_t>& r) {
+                              Cursor l(wrong_left, rank_left, r.begin()), g(wrong_right, rank_right, r.begin());
+                              for (std::uint32_t k = r.begin(); k < r.end(); ++k, l.next(), g.next())
+                                  std::swap(refs[l.pos], refs[g.pos]);
+                          });
         return mid;
     }
 
@@ -239,12 +390,13 @@ struct Builder {
         scratch[node].count = end - begin;
     }
 
-    // Builds the subtree of scratch[node] over refs[begin, end); its descendants go to the slots
-    // starting at `slots` (2·(end − begin) − 2 of them, an even offset so pairs stay aligned).
-    void build(std::uint32_t node, std::uint32_t begin, std::uint32_t end, std::uint32_t slots, int depth) {
+    // Builds the subtree of scratch[node] over refs[begin, end), whose box and centroid bounds are given.
+    void build(std::uint32_t node, std::uint32_t begin, std::uint32_t end, int depth,
+               const Bounds4& box, const Bounds4& cent) {
         const std::uint32_t n = end - begin;
-        Aabb cb;
-        scratch[node].bounds = range_bounds(begin, end, cb);
+        const Aabb bounds = box.aabb(), cb = cent.aabb();
+        std::copy_n(&bounds.lo.x, 3, scratch[node].lo);
+        std::copy_n(&bounds.hi.x, 3, scratch[node].hi);
         if (n == 1) return make_leaf(node, begin, end);
 
         // Levels still needed if every later split halved the count exactly; past the budget, halve.
@@ -252,10 +404,11 @@ struct Builder {
         const bool must_halve = depth + levels_needed >= kMaxBvhDepth - 1;
 
         std::uint32_t mid = begin;
+        Bounds4 child_box[2], child_cent[2];
         if (!must_halve) {
             Binning binning;
             bin_range(begin, end, cb, binning);
-            const float area = scratch[node].bounds.area();
+            const float area = bounds.area();
             const Split split = area > 0.0f ? best_split(binning, area) : Split{};
             const float leaf_cost = settings.costs.intersection * float(n);
             if (n <= settings.max_leaf_size && !(split.cost < leaf_cost)) return make_leaf(node, begin, end);
@@ -263,37 +416,42 @@ struct Builder {
                 const int a = split.axis;
                 const float lo = cb.lo[a];
                 const float scale = bin_scale(cb.hi[a] - lo);
-                mid = static_cast<std::uint32_t>(
-                    std::partition(refs.begin() + begin, refs.begin() + end,
-                                   [&](const PrimRef& r) { return bin_of(r.centroid(a), lo, scale) <= split.bin; }) -
-                    refs.begin());
+                const auto goes_left = [&](const PrimRef& r) { return bin_of(r.centroid(a), lo, scale) <= split.bin; };
+                mid = n >= settings.parallel_threshold * 4
+                          ? parallel_partition(begin, end, goes_left, child_box, child_cent)
+                          : partition(begin, end, goes_left, child_box, child_cent);
             }
         }
         if (mid == begin || mid == end) {
             if (n <= settings.max_leaf_size && !must_halve) return make_leaf(node, begin, end);
             mid = median_split(begin, end, cb);
+            child_box[0] = child_box[1] = child_cent[0] = child_cent[1] = Bounds4{};
+            range_bounds(begin, mid, child_box[0], child_cent[0]);
+            range_bounds(mid, end, child_box[1], child_cent[1]);
         }
 
-        const std::uint32_t left = slots, right = slots + 1;
+        const std::uint32_t left = next_pair.fetch_add(2, std::memory_order_relaxed), right = left + 1;
         scratch[node].first = left;
         scratch[node].count = 0;
-        const std::uint32_t left_slots = slots + 2;
-        const std::uint32_t right_slots = left_slots + 2 * (mid - begin) - 2;
         if (n >= settings.parallel_threshold) {
-            tbb::parallel_invoke([&] { build(left, begin, mid, left_slots, depth + 1); },
-                                 [&] { build(right, mid, end, right_slots, depth + 1); });
+            tbb::parallel_invoke([&] { build(left, begin, mid, depth + 1, child_box[0], child_cent[0]); },
+                                 [&] { build(right, mid, end, depth + 1, child_box[1], child_cent[1]); });
         } else {
-            build(left, begin, mid, left_slots, depth + 1);
-            build(right, mid, end, right_slots, depth + 1);
+            build(left, begin, mid, depth + 1, child_box[0], child_cent[0]);
+            build(right, mid, end, depth + 1, child_box[1], child_cent[1]);
         }
     }
 };
 
+BvhNode to_node(const ScratchNode& s) {
+    return BvhNode{Aabb{{s.lo[0], s.lo[1], s.lo[2]}, {s.hi[0], s.hi[1], s.hi[2]}}, s.first, s.count};
+}
+
 // Depth-first compaction of the scratch tree: the root at 0, padding at 1, then each node's pair.
-void compact(const std::vector<BvhNode>& scratch, Bvh& out) {
+void compact(const ScratchNode* scratch, std::size_t slots, Bvh& out) {
     out.nodes.clear();
-    out.nodes.reserve(scratch.size());
-    out.nodes.push_back(scratch[0]);
+    out.nodes.reserve(slots);
+    out.nodes.push_back(to_node(scratch[0]));
     out.nodes.push_back(BvhNode{});  // padding: pairs start at an even index
     struct Item {
         std::uint32_t src, dst;
@@ -306,8 +464,8 @@ void compact(const std::vector<BvhNode>& scratch, Bvh& out) {
         if (dst.is_leaf()) continue;
         const std::uint32_t src_left = scratch[it.src].first;
         const auto pair = static_cast<std::uint32_t>(out.nodes.size());
-        out.nodes.push_back(scratch[src_left]);
-        out.nodes.push_back(scratch[src_left + 1]);
+        out.nodes.push_back(to_node(scratch[src_left]));
+        out.nodes.push_back(to_node(scratch[src_left + 1]));
         out.nodes[it.dst].first = pair;
         // Right first on the stack so the left subtree is laid out next (depth-first, left first).
         stack.push_back({src_left + 1, pair + 1});
@@ -317,6 +475,18 @@ void compact(const std::vector<BvhNode>& scratch, Bvh& out) {
 
 }  // namespace
 
+namespace detail {
+
+std::array<int, 3> box_bins(const Aabb& box, const glm::vec3& lo, const glm::vec3& scale) {
+    alignas(16) const float l[4] = {box.lo.x, box.lo.y, box.lo.z, 0.0f}, h[4] = {box.hi.x, box.hi.y, box.hi.z, 0.0f};
+    alignas(16) const float cl[4] = {lo.x, lo.y, lo.z, 0.0f}, sc[4] = {scale.x, scale.y, scale.z, 0.0f};
+    alignas(16) float pos[4];
+    store(pos, bin_positions(Floats4::load(l), Floats4::load(h), Floats4::load(cl), Floats4::load(sc)));
+    return {clamp_bin(pos[0]), clamp_bin(pos[1]), clamp_bin(pos[2])};
+}
+
+}  // namespace detail
+
 Bvh build_bvh(std::span<const Aabb> prim_boxes, const BvhBuildSettings& settings) {
     Bvh bvh;
     if (prim_boxes.empty()) return bvh;
@@ -324,19 +494,33 @@ Bvh build_bvh(std::span<const Aabb> prim_boxes, const BvhBuildSettings& settings
         throw std::length_error("build_bvh: too many primitives");
     const auto n = static_cast<std::uint32_t>(prim_boxes.size());
     bvh.prim_indices.resize(n);
-    for (std::uint32_t i = 0; i < n; ++i) bvh.prim_indices[i] = i;
 
-    Builder b{{}, {}, settings};
+    Builder b;
+    b.settings = settings;
     b.settings.max_leaf_size = std::max(1u, settings.max_leaf_size);
-    b.refs.resize(n);
-    for (std::uint32_t i = 0; i < n; ++i) {
-        if (prim_boxes[i].empty()) throw std::invalid_argument("build_bvh: empty primitive box");
-        b.refs[i] = PrimRef{prim_boxes[i].lo, i, prim_boxes[i].hi};
-    }
-    b.scratch.resize(2 * std::size_t(n));  // root + 2n − 2 descendants (+1 spare)
-    b.build(0, 0, n, 2, 0);
-    for (std::uint32_t i = 0; i < n; ++i) bvh.prim_indices[i] = b.refs[i].id;
-    compact(b.scratch, bvh);
+    b.refs_storage.reset(new PrimRef[n]);  // trivially default-constructible: not written here
+    b.refs = b.refs_storage.get();
+    // The primitive copy and (below) the index copy run in parallel: large flat loops that touch fresh
+    // memory, each slot written by one iteration.
+    std::atomic<bool> has_empty{false};
+    using Range = tbb::blocked_range<std::uint32_t>;
+    tbb::parallel_for(Range(0, n, kCopyGrain), [&](const Range& r) {
+        bool empty = false;
+        for (std::uint32_t i = r.begin(); i < r.end(); ++i) {
+            empty = empty || prim_boxes[i].empty();
+            b.refs[i] = PrimRef(prim_boxes[i], i);
+        }
+        if (empty) has_empty.store(true, std::memory_order_relaxed);
+    });
+    if (has_empty.load()) throw std::invalid_argument("build_bvh: empty primitive box");
+    b.scratch.reset(new ScratchNode[2 * std::size_t(n)]);  // root, padding, at most n − 1 pairs
+    Bounds4 box, cent;
+    b.range_bounds(0, n, box, cent);
+    b.build(0, 0, n, 0, box, cent);
+    tbb::parallel_for(Range(0, n, kCopyGrain), [&](const Range& r) {
+        for (std::uint32_t i = r.begin(); i < r.end(); ++i) bvh.prim_indices[i] = b.refs[i].id();
+    });
+    compact(b.scratch.get(), b.next_pair.load(), bvh);
     return bvh;
 }
 

@@ -3,6 +3,12 @@
 #include <smoketrace/geometry/ray_triangle.hpp>
 
 #include <glm/geometric.hpp>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <atomic>
+#include <cmath>
+#include <memory>
+#include <type_traits>
 #include <stdexcept>
 #include <string>
 
@@ -13,45 +19,187 @@ bool is_degenerate(const glm::vec3& v0, const glm::vec3& v1, const glm::vec3& v2
     return n.x == 0.0 && n.y == 0.0 && n.z == 0.0;
 }
 
-MeshBlas::MeshBlas(const TriangleMesh& mesh, const BvhBuildSettings& settings) : input_count_(mesh.triangles.size()) {
-    std::vector<Aabb> boxes;
+const char* to_string(BlasUpdate u) {
+    switch (u) {
+        case BlasUpdate::refit: return "refit";
+        case BlasUpdate::rebuild: return "rebuild";
+    }
+    return "?";
+}
+
+// The per-triangle loops run in parallel (TBB) in blocks of this many: each iteration is independent and
+// writes its own slots, so the result is the same for any thread count.
+constexpr std::size_t kParallelGrain = 4096;
+using Range = tbb::blocked_range<std::size_t>;
+
+// Storage for n boxes from std::allocator, each constructed by the parallel pass that computes it: the
+// pass is then the first touch of the pages (a vector would first write every box once, serially).
+class BoxStorage {
+public:
+    explicit BoxStorage(std::size_t n) : data_(alloc_.allocate(n)), n_(n) {}
+    BoxStorage(const BoxStorage&) = delete;
+    BoxStorage& operator=(const BoxStorage&) = delete;
+    ~BoxStorage() { alloc_.deallocate(data_, n_); }  // Aabb is trivially destructible
+    [[nodiscard]] Aabb* data() const { return data_; }
+
+private:
+    std::allocator<Aabb> alloc_;
+    Aabb* data_;
+    std::size_t n_;
+};
+static_assert(std::is_trivially_destructible_v<Aabb>);
+
+MeshBlas::MeshBlas(const TriangleMesh& mesh, const BvhBuildSettings& settings)
+    : settings_(settings), vertex_count_(mesh.vertices.size()), input_count_(mesh.triangles.size()) {
+    // Per triangle: its box, and 0 to build over, 1 degenerate, 2 indexing a missing vertex (the exact test
+    // in double is the costly part, so it runs in parallel; the first bad triangle is then reported in
+    // input order).
+    const std::size_t n_in = mesh.triangles.size();
+    std::vector<std::uint8_t> kind(n_in);
+    const BoxStorage box_storage(n_in);
+    Aabb* const boxes = box_storage.data();
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_in, kParallelGrain),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                          const std::size_t nv = mesh.vertices.size();
+                          for (std::size_t i = r.begin(); i < r.end(); ++i) {
+                              const glm::uvec3 t = mesh.triangles[i];
+                              Aabb& box = *std::construct_at(boxes + i);
+                              if (t.x >= nv || t.y >= nv || t.z >= nv) {
+                                  kind[i] = 2;
+                                  continue;
+                              }
+                              const glm::vec3 &a = mesh.vertices[t.x], &b = mesh.vertices[t.y], &c = mesh.vertices[t.z];
+                              kind[i] = is_degenerate(a, b, c) ? 1 : 0;
+                              box.grow(a);
+                              box.grow(b);
+                              box.grow(c);
+                          }
+                      });
+    // Triangle i of the tree is input triangle kept[i]; without degenerate triangles (the usual case) that
+    // is i itself and the boxes need no compaction.
     std::vector<std::uint32_t> kept;
-    boxes.reserve(mesh.triangles.size());
-    kept.reserve(mesh.triangles.size());
-    for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
-        const glm::uvec3 t = mesh.triangles[i];
-        if (t.x >= mesh.vertices.size() || t.y >= mesh.vertices.size() || t.z >= mesh.vertices.size())
+    std::size_t box_count = n_in;
+    for (std::size_t i = 0; i < n_in; ++i) {
+        if (kind[i] == 2)
             throw std::out_of_range("MeshBlas: triangle " + std::to_string(i) + " indexes a missing vertex");
-        const glm::vec3 &a = mesh.vertices[t.x], &b = mesh.vertices[t.y], &c = mesh.vertices[t.z];
-        if (is_degenerate(a, b, c)) continue;
-        Aabb box;
-        box.grow(a);
-        box.grow(b);
-        box.grow(c);
-        boxes.push_back(box);
-        kept.push_back(static_cast<std::uint32_t>(i));
+        if (kind[i] == 1) degenerate_.emplace_back(static_cast<std::uint32_t>(i), mesh.triangles[i]);
     }
-    bvh_ = build_bvh(boxes, settings);
-    triangles_.resize(bvh_.prim_indices.size());
-    normals_.resize(bvh_.prim_indices.size());
-    for (std::size_t k = 0; k < bvh_.prim_indices.size(); ++k) {
-        const std::uint32_t id = kept[bvh_.prim_indices[k]];
-        const glm::uvec3 t = mesh.triangles[id];
-        triangles_[k] = {mesh.vertices[t.x], mesh.vertices[t.y], mesh.vertices[t.z]};
-        normals_[k] = triangle_normal(triangles_[k].v0, triangles_[k].v1, triangles_[k].v2);
-        bvh_.prim_indices[k] = id;  // leaf slot k now names the input triangle directly
+    if (!degenerate_.empty()) {
+        kept.reserve(n_in - degenerate_.size());
+        for (std::size_t i = 0; i < n_in; ++i)
+            if (kind[i] == 0) {
+                boxes[kept.size()] = boxes[i];
+                kept.push_back(static_cast<std::uint32_t>(i));
+            }
+        box_count = kept.size();
     }
+    bvh_ = build_bvh(std::span<const Aabb>(boxes, box_count), settings);
+    const std::size_t n = bvh_.prim_indices.size();
+    triangles_.resize(n);
+    leaf_indices_.resize(n);
+    tbb::parallel_for(Range(0, n, kParallelGrain), [&](const Range& r) {
+        for (std::size_t k = r.begin(); k < r.end(); ++k) {
+            const std::uint32_t id = kept.empty() ? bvh_.prim_indices[k] : kept[bvh_.prim_indices[k]];
+            const glm::uvec3 t = mesh.triangles[id];
+            leaf_indices_[k] = t;
+            triangles_[k] = {mesh.vertices[t.x], mesh.vertices[t.y], mesh.vertices[t.z]};
+            bvh_.prim_indices[k] = id;  // leaf slot k now names the input triangle directly
+        }
+    });
+    refresh_leaf_data();
     wide_.collapse(bvh_);
-    // Planes padded to whole blocks plus one, so that a block read starting at any triangle stays inside
-    // (the padding is zeros: lanes past a leaf's end are masked off, never used).
+    sah_at_build_ = sah_current_ = bvh_.sah_cost(settings_.costs);
+}
+
+void MeshBlas::refresh_leaf_data(bool normals_current) {
     const std::size_t n = triangles_.size();
-    plane_stride_ = (n + 2 * kTriangleBlockLanes - 1) / kTriangleBlockLanes * kTriangleBlockLanes;
-    planes_.assign(9 * plane_stride_, 0.0f);
-    for (std::size_t k = 0; k < n; ++k) {
-        const glm::vec3* v = &triangles_[k].v0;
-        for (int j = 0; j < 3; ++j)
-            for (int a = 0; a < 3; ++a) planes_[std::size_t(3 * j + a) * plane_stride_ + k] = (&v[j].x)[a];
+    normals_.resize(n);
+    // Planes padded to whole blocks plus one, so that a block read starting at any triangle stays inside
+    // (the padding is zeros: lanes past a leaf's end are masked off, never used). A refit keeps the size
+    // and overwrites the triangles' columns only.
+    const std::size_t stride = (n + 2 * kTriangleBlockLanes - 1) / kTriangleBlockLanes * kTriangleBlockLanes;
+    if (stride != plane_stride_ || planes_.size() != 9 * stride) {
+        plane_stride_ = stride;
+        planes_.assign(9 * plane_stride_, 0.0f);
     }
+    tbb::parallel_for(Range(0, n, kParallelGrain), [&](const Range& r) {
+        for (std::size_t k = r.begin(); k < r.end(); ++k) {
+            const glm::vec3* v = &triangles_[k].v0;
+            if (!normals_current) normals_[k] = triangle_normal(v[0], v[1], v[2]);
+            for (int j = 0; j < 3; ++j)
+                for (int a = 0; a < 3; ++a) planes_[std::size_t(3 * j + a) * plane_stride_ + k] = (&v[j].x)[a];
+        }
+    });
+}
+
+// Leaf boxes first, in parallel and in memory order (leaf ranges ascend with the depth-first node order,
+// so the triangles stream in), as the build's boxes were made; then one backward sweep over the inner
+// nodes (children before parents: the layout is depth-first), which reads nothing but nodes.
+void MeshBlas::refit_boxes() {
+    auto& nodes = bvh_.nodes;
+    tbb::parallel_for(Range(0, nodes.size(), 1024), [&](const Range& r) {
+        for (std::size_t i = r.begin(); i < r.end(); ++i) {
+            BvhNode& n = nodes[i];
+            if (i == 1 || !n.is_leaf()) continue;
+            // Each triangle's box, then one min and one max into the leaf's: a third of the dependency
+            // chain through the leaf box (min and max are exact, so the same box as growing by vertices).
+            Aabb b;
+            for (std::uint32_t k = n.first; k < n.first + n.count; ++k) {
+                const Triangle& t = triangles_[k];
+                b.grow(Aabb{glm::min(glm::min(t.v0, t.v1), t.v2), glm::max(glm::max(t.v0, t.v1), t.v2)});
+            }
+            n.bounds = b;
+        }
+    });
+    for (std::size_t i = nodes.size(); i-- > 0;) {
+        BvhNode& n = nodes[i];
+        if (i == 1 || n.is_leaf()) continue;
+        n.bounds = merge(nodes[n.first].bounds, nodes[n.first + 1].bounds);
+    }
+    sah_current_ = bvh_.sah_cost(settings_.costs);
+}
+
+BlasUpdate MeshBlas::update_vertices(std::span<const glm::vec3> vertices, double rebuild_ratio) {
+    if (vertices.size() != vertex_count_)
+        throw std::invalid_argument("MeshBlas::update_vertices: " + std::to_string(vertices.size()) +
+                                    " vertices given, but the mesh has " + std::to_string(vertex_count_) +
+                                    " (its triangles index them, so the count must stay the same)");
+    for (std::size_t i = 0; i < vertices.size(); ++i)
+        if (!std::isfinite(vertices[i].x) || !std::isfinite(vertices[i].y) || !std::isfinite(vertices[i].z))
+            throw std::invalid_argument("MeshBlas::update_vertices: vertex " + std::to_string(i) + " is not finite");
+
+    // The rebuild: the input mesh put back together from the leaf order and the degenerate list.
+    auto rebuild = [&] {
+        TriangleMesh m;
+        m.vertices.assign(vertices.begin(), vertices.end());
+        m.triangles.resize(input_count_);
+        for (std::size_t k = 0; k < leaf_indices_.size(); ++k) m.triangles[bvh_.prim_indices[k]] = leaf_indices_[k];
+        for (const auto& [id, t] : degenerate_) m.triangles[id] = t;
+        *this = MeshBlas(m, settings_);
+        return BlasUpdate::rebuild;
+    };
+
+    // The tree must hold exactly the non-degenerate triangles, as a fresh build's would.
+    for (const auto& [id, t] : degenerate_)
+        if (!is_degenerate(vertices[t.x], vertices[t.y], vertices[t.z])) return rebuild();
+    std::atomic<bool> became_degenerate{false};
+    tbb::parallel_for(Range(0, leaf_indices_.size(), kParallelGrain), [&](const Range& r) {
+        bool any = false;
+        for (std::size_t k = r.begin(); k < r.end(); ++k) {
+            const glm::uvec3 t = leaf_indices_[k];
+            const Triangle& tri = triangles_[k] = {vertices[t.x], vertices[t.y], vertices[t.z]};
+            // is_degenerate()'s test, on the normal the leaf data keeps anyway.
+            const glm::dvec3 normal = normals_[k] = triangle_normal(tri.v0, tri.v1, tri.v2);
+            any = any || (normal.x == 0.0 && normal.y == 0.0 && normal.z == 0.0);
+        }
+        if (any) became_degenerate.store(true, std::memory_order_relaxed);
+    });
+    if (became_degenerate.load()) return rebuild();
+    refit_boxes();
+    if (sah_current_ > rebuild_ratio * sah_at_build_) return rebuild();
+    refresh_leaf_data(/*normals_current=*/true);
+    wide_.collapse(bvh_);  // the walked tree from the refit one: the same topology, O(nodes)
+    return BlasUpdate::refit;
 }
 
 }  // namespace smoketrace

@@ -5,7 +5,7 @@
 // Per frame the application changes transforms and masks, then calls commit(), which brings the TLAS
 // up to date with the least work that keeps it good:
 //   * nothing changed                         → none    (no TLAS work at all)
-//   * transforms or masks changed             → refit   (boxes and masks recomputed bottom-up, O(n))
+//   * transforms, masks or a mesh's vertices changed → refit (boxes and masks recomputed bottom-up, O(n))
 //   * instances added or removed, or the refit tree's SAH cost has grown past
 //     kTlasRebuildSahRatio × its cost right after the last full build → rebuild (binned SAH).
 #include <smoketrace/accel/bvh.hpp>
@@ -17,6 +17,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <vector>
 
 namespace smoketrace {
@@ -35,10 +36,8 @@ struct BottomLevel {
     [[nodiscard]] Aabb bounds() const { return kind == GeometryKind::triangles ? mesh.bounds() : spheres.bounds(); }
 };
 
-// A refit tree whose SAH cost exceeds this multiple of its cost when last built is rebuilt. 1.2 keeps
-// traversal within about 20 % of a fresh tree (SAH cost tracks nodes visited per ray closely for the
-// TLAS) while letting small per-frame motion through with a refit alone; see bench "tlas".
-inline constexpr double kTlasRebuildSahRatio = 1.2;
+// The TLAS's rebuild threshold: the policy shared with mesh BLASes (kRebuildSahRatio, bvh.hpp).
+inline constexpr double kTlasRebuildSahRatio = kRebuildSahRatio;
 
 enum class TlasUpdate : std::uint8_t { none, refit, rebuild };
 [[nodiscard]] const char* to_string(TlasUpdate u);
@@ -109,6 +108,12 @@ public:
     void remove_instance(std::uint32_t index);              // later indices move down by one
     void set_transform(std::uint32_t index, const AffineTransform& object_to_world);
     void set_mask(std::uint32_t index, std::uint8_t mask);
+    // Moves the vertices of the mesh bottom level `blas` (same triangles): its tree is refit, or rebuilt
+    // when the refit degraded it past the rebuild ratio (MeshBlas::update_vertices, which says which), and
+    // its instances' world boxes are recomputed, so that the next commit() refits the TLAS over them.
+    // Throws (leaving the scene as it was) when `blas` does not exist or holds spheres, or on a wrong
+    // vertex count.
+    BlasUpdate update_mesh_vertices(std::uint32_t blas, std::span<const glm::vec3> vertices);
 
     // Brings the TLAS up to date (see the table above) and says what it did.
     TlasUpdate commit();
@@ -142,6 +147,7 @@ public:
 
 private:
     [[nodiscard]] bool takes_world_triangles(const BottomLevel& b) const;
+    void assign_world_triangle_slots();
     void update_instance(std::uint32_t i);
     void rebuild();
     void refit_binary();

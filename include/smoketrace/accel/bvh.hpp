@@ -60,6 +60,12 @@ inline double sah_term(const BvhNode& n, const SahCosts& costs) {
     return double(n.bounds.area()) * c;
 }
 
+// A refit tree whose SAH cost exceeds this multiple of its cost when last built is rebuilt, by the TLAS
+// (kTlasRebuildSahRatio) and by a deforming mesh BLAS (MeshBlas::update_vertices) alike. 1.2 keeps
+// traversal within about 20 % of a fresh tree (SAH cost tracks nodes visited per ray closely) while
+// letting small per-frame motion through with a refit alone; see bench "tlas".
+inline constexpr double kRebuildSahRatio = 1.2;
+
 struct Bvh {
     std::vector<BvhNode, AlignedAllocator<BvhNode, 64>> nodes;  // nodes[0] is the root
     std::vector<std::uint32_t> prim_indices;                    // leaf ranges index into the input

@@ -4,11 +4,13 @@
 // Input: one box per primitive. Each node's primitives are binned by centroid into kBins slabs along
 // each axis; the split plane between two bins with the lowest SAH cost wins, or the node becomes a
 // leaf when that is cheaper (and it holds at most max_leaf_size primitives). Nodes with many
-// primitives bin in parallel, and the two subtrees of a large node are built in parallel (TBB); the
-// result does not depend on the number of threads (min/max and counts are exact in any order, and the
-// node array is laid out depth-first afterwards).
+// primitives bin and partition in parallel, and the two subtrees of a large node are built in parallel
+// (TBB); the result does not depend on the number of threads (min/max and counts are exact in any order,
+// the parallel partition pairs misplaced primitives by rank, and the node array is laid out depth-first
+// afterwards). docs/design.md, "BVH layout and builder", lists what keeps it fast.
 #include <smoketrace/accel/bvh.hpp>
 
+#include <array>
 #include <span>
 
 namespace smoketrace {
@@ -41,5 +43,14 @@ struct BvhBuildSettings {
 inline constexpr std::size_t kMaxBvhGroups = 4;
 [[nodiscard]] Bvh build_grouped_bvh(std::span<const Aabb> prim_boxes, std::span<const std::uint32_t> group_of,
                                     const BvhBuildSettings& settings = {});
+
+namespace detail {
+// The builder's binning arithmetic, for its test (docs/simd.md). bin_of: the bin of centroid coordinate c
+// on an axis whose centroid bounds start at lo, `scale` bins per unit, clamped to [0, kBins) (the
+// definition, scalar). box_bins: the bins of a box's centroid on the three axes at once, in lanes, as the
+// builder's binning loop computes them; the same as bin_of on each axis.
+[[nodiscard]] int bin_of(float c, float lo, float scale);
+[[nodiscard]] std::array<int, 3> box_bins(const Aabb& box, const glm::vec3& lo, const glm::vec3& scale);
+}  // namespace detail
 
 }  // namespace smoketrace

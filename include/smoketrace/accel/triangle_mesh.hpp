@@ -7,6 +7,8 @@
 
 #include <glm/vec3.hpp>
 #include <cstdint>
+#include <span>
+#include <utility>
 #include <vector>
 
 namespace smoketrace {
@@ -32,6 +34,10 @@ inline constexpr BvhBuildSettings kMeshBuildSettings{SahCosts{1.0f, 1.0f / 8.0f}
 
 // Children per node of a mesh BLAS's wide tree (blas_wide_bvh.hpp), the one its rays walk.
 inline constexpr unsigned kMeshBlasWidth = 8;
+
+// What MeshBlas::update_vertices() did to the tree.
+enum class BlasUpdate : std::uint8_t { refit, rebuild };
+[[nodiscard]] const char* to_string(BlasUpdate u);
 
 // A BVH over a mesh's triangles. Triangles are copied into leaf order, once as records (three vertices
 // each, 36 bytes) and once as planes for the 8-wide test, so that a leaf's tests read consecutive memory
@@ -61,7 +67,33 @@ public:
     [[nodiscard]] std::size_t input_triangle_count() const { return input_count_; }
     [[nodiscard]] std::size_t degenerate_count() const { return input_count_ - triangles_.size(); }
 
+    // Moves the vertices of a deforming mesh: the same triangles (by index) over `vertices`, which must be
+    // as many as the mesh had. The tree is refit bottom-up and the leaf-ordered copies refreshed, unless
+    // the refit tree's SAH cost exceeds rebuild_ratio × its cost at the last build, or a triangle became
+    // degenerate or stopped being so (the tree holds the non-degenerate ones exactly): then it is rebuilt
+    // with the settings of the first build. Says which. Throws std::invalid_argument on a wrong vertex
+    // count, leaving the BLAS as it was.
+    BlasUpdate update_vertices(std::span<const glm::vec3> vertices, double rebuild_ratio = kRebuildSahRatio);
+    // SAH cost (with the build's cost constants) of the tree as last refit or built, and right after the
+    // last build: the two the rebuild policy compares.
+    [[nodiscard]] double sah_cost() const { return sah_current_; }
+    [[nodiscard]] double sah_cost_at_build() const { return sah_at_build_; }
+
 private:
+    // Refreshes everything derived from the tree and the leaf-ordered triangles (normals, planes) after a
+    // build or a refit; a refit first moves triangles_ and the node boxes (and computes the normals, for
+    // its degenerate check: normals_current).
+    void refresh_leaf_data(bool normals_current = false);
+    void refit_boxes();
+
+    BvhBuildSettings settings_{};
+    std::size_t vertex_count_ = 0;
+    // Leaf order: each triangle's vertex indices, for a refit to find its new vertices.
+    std::vector<glm::uvec3> leaf_indices_;
+    // The degenerate triangles, left out of the tree: input index and vertex indices, in input order.
+    std::vector<std::pair<std::uint32_t, glm::uvec3>> degenerate_;
+    double sah_at_build_ = 0.0;
+    double sah_current_ = 0.0;
     Bvh bvh_;
     BlasWideBvh<kMeshBlasWidth> wide_;
     std::vector<Triangle> triangles_;
