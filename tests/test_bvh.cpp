@@ -977,7 +977,7 @@ TEST_CASE("Wide BVH traversal: the four-child box test equals the scalar slab te
         const Ray r = box_test_ray(rng, tmax);
         const BoxRay br(r);
         alignas(16) float t[kWideBvhWidth];
-        const unsigned bits = WideBoxTest(br).test(n, tmax, t);
+        const unsigned bits = WideBoxTest<kWideBvhWidth>(br).test(n, tmax, t);
         const auto inclusion = std::uint8_t(rng.next_u32());
         const unsigned admitted = admitted_children(n, inclusion);
         INFO("ray " << i);
@@ -999,7 +999,7 @@ TEST_CASE("Wide BVH traversal: the four-child box test equals the scalar slab te
     CHECK(hits < checked - checked / 4);
 }
 
-// BlasWideBoxTest at both widths (W = 4: SSE2; W = 8: AVX2 where the build has it, else the lanes' scalar
+// WideBoxTest on a mesh BLAS's nodes at both widths (W = 4: SSE2; W = 8: AVX2 where the build has it, else the lanes' scalar
 // definition) against the scalar slab test, child by child, bit for bit as above. Unused slots carry the
 // empty box, which every ray must miss.
 template <unsigned W>
@@ -1029,7 +1029,7 @@ void check_blas_wide_box_test(std::uint64_t seed) {
         const Ray r = box_test_ray(rng, tmax);
         const BoxRay br(r);
         alignas(4 * W) float t[W];
-        const unsigned bits = BlasWideBoxTest<W>(br).test(n, tmax, t);
+        const unsigned bits = WideBoxTest<W>(br).test(n, tmax, t);
         INFO("W " << W << ", ray " << i);
         REQUIRE((bits >> W) == 0u);
         for (unsigned c = 0; c < W; ++c) {

@@ -47,4 +47,38 @@ void Bvh::refit(std::span<const Aabb> prim_boxes) {
     }
 }
 
+WideSlots collapse_slots(const Bvh& binary, std::uint32_t node, unsigned width, std::uint32_t* slot) {
+    unsigned n = 0;
+    const BvhNode& top = binary.nodes[node];
+    if (top.is_leaf()) {
+        slot[n++] = node;
+    } else {
+        slot[n++] = top.first;
+        slot[n++] = top.first + 1;
+    }
+    while (n < width) {
+        int best = -1;
+        float best_area = -1.0f;
+        for (unsigned i = 0; i < n; ++i) {
+            const BvhNode& c = binary.nodes[slot[i]];
+            if (!c.is_leaf() && c.bounds.area() > best_area) {
+                best = int(i);
+                best_area = c.bounds.area();
+            }
+        }
+        if (best < 0) break;
+        const std::uint32_t opened = slot[best];
+        slot[best] = binary.nodes[opened].first;
+        slot[n++] = binary.nodes[opened].first + 1;
+    }
+    Aabb centres;
+    for (unsigned i = 0; i < n; ++i) centres.grow(binary.nodes[slot[i]].bounds.center());
+    const glm::vec3 spread = centres.extent();
+    const int axis = spread.x >= spread.y ? (spread.x >= spread.z ? 0 : 2) : (spread.y >= spread.z ? 1 : 2);
+    std::stable_sort(slot, slot + n, [&](std::uint32_t a, std::uint32_t b) {
+        return binary.nodes[a].bounds.center()[axis] < binary.nodes[b].bounds.center()[axis];
+    });
+    return {n, axis};
+}
+
 }  // namespace smoketrace

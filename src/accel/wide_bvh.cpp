@@ -37,42 +37,8 @@ void WideBvh::collapse(const Bvh& binary, const std::vector<std::uint8_t>& node_
     while (!jobs.empty()) {
         const Job job = jobs.back();
         jobs.pop_back();
-        // The slots: start from the node's two children (or the node itself, a leaf root), then keep
-        // opening the inner slot of largest area while there is room.
         std::uint32_t slot[kWideBvhWidth];
-        unsigned n = 0;
-        const BvhNode& top = binary.nodes[job.binary];
-        if (top.is_leaf()) {
-            slot[n++] = job.binary;
-        } else {
-            slot[n++] = top.first;
-            slot[n++] = top.first + 1;
-        }
-        while (n < kWideBvhWidth) {
-            int best = -1;
-            float best_area = -1.0f;
-            for (unsigned i = 0; i < n; ++i) {
-                const BvhNode& c = binary.nodes[slot[i]];
-                if (!c.is_leaf() && c.bounds.area() > best_area) {
-                    best = int(i);
-                    best_area = c.bounds.area();
-                }
-            }
-            if (best < 0) break;
-            const std::uint32_t opened = slot[best];
-            slot[best] = binary.nodes[opened].first;
-            slot[n++] = binary.nodes[opened].first + 1;
-        }
-
-        // Slot order: by box centre along the axis of widest centre spread (stable, so ties keep the
-        // binary tree's left-right order).
-        Aabb centres;
-        for (unsigned i = 0; i < n; ++i) centres.grow(binary.nodes[slot[i]].bounds.center());
-        const glm::vec3 spread = centres.extent();
-        const int axis = spread.x >= spread.y ? (spread.x >= spread.z ? 0 : 2) : (spread.y >= spread.z ? 1 : 2);
-        std::stable_sort(slot, slot + n, [&](std::uint32_t a, std::uint32_t b) {
-            return binary.nodes[a].bounds.center()[axis] < binary.nodes[b].bounds.center()[axis];
-        });
+        const auto [n, axis] = collapse_slots(binary, job.binary, kWideBvhWidth, slot);
 
         WideBvhNode w{};
         w.axis = static_cast<std::uint8_t>(axis);

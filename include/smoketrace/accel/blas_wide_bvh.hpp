@@ -1,7 +1,7 @@
 #pragma once
 // The wide tree of a mesh BLAS: the binary SAH tree (bvh.hpp) collapsed into nodes of W children (4 or 8),
 // each node holding its children's boxes side by side per plane, so that one operation over W lanes tests
-// every child against a ray (BlasWideBoxTest, blas_wide_traversal.hpp). A binary node costs one or two
+// every child against a ray (WideBoxTest, wide_box_test.hpp). A binary node costs one or two
 // poorly predicted branches per step; a W-wide node replaces about log2(W) of them.
 //
 // The binary tree stays the master copy, as for the TLAS (wide_bvh.hpp): it is what the builder makes and

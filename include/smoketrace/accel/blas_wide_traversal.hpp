@@ -16,51 +16,12 @@
 #include <smoketrace/geometry/aabb.hpp>
 #include <smoketrace/accel/blas_wide_bvh.hpp>
 #include <smoketrace/accel/bvh_traversal.hpp>
+#include <smoketrace/accel/wide_box_test.hpp>
 
 #include <bit>
 #include <cstdint>
 
 namespace smoketrace {
-
-// The W child boxes of a node against one ray: bit i of the result set when the ray meets child i's box
-// in [tmin, tmax], with its entry distance in t_enter[i]. Lane by lane exactly the scalar intersect() of
-// aabb.hpp (same operations, roundings and NaN rule: max / min return the accumulator, their second
-// operand, when the slab distance is NaN). Over W lanes of floats (core/simd/lanes.hpp): W = 4 is one SSE2
-// operation per step, W = 8 one AVX2 operation; without AVX2 the 8-wide test is its scalar twin.
-template <unsigned W>
-class BlasWideBoxTest {
-    using Floats = simd::Floats<W>;
-
-public:
-    explicit BlasWideBoxTest(const BoxRay& r) {
-        for (int a = 0; a < 3; ++a) {
-            origin_[a] = Floats::broadcast(r.origin[a]);
-            inv_dir_[a] = Floats::broadcast(r.inv_dir[a]);
-            inv_far_[a] = Floats::broadcast(r.inv_far[a]);
-            near_[a] = r.near[a];
-            far_[a] = r.far[a];
-        }
-        tmin_ = Floats::broadcast(r.tmin);
-    }
-
-    // t_enter: W floats aligned to 4·W bytes.
-    [[gnu::always_inline]] unsigned test(const BlasWideNode<W>& n, float tmax, float* t_enter) const {
-        Floats t0 = tmin_, t1 = Floats::broadcast(tmax * kSlabFarScale);
-#pragma GCC unroll 3
-        for (int a = 0; a < 3; ++a) {
-            const Floats t_near = (Floats::load(n.bounds[near_[a]]) - origin_[a]) * inv_dir_[a];
-            const Floats t_far = (Floats::load(n.bounds[far_[a]]) - origin_[a]) * inv_far_[a];
-            t0 = max(t_near, t0);
-            t1 = min(t_far, t1);
-        }
-        store(t_enter, t0);
-        return bits(t0 <= t1);
-    }
-
-private:
-    Floats origin_[3], inv_dir_[3], inv_far_[3], tmin_;
-    int near_[3], far_[3];
-};
 
 enum class BlasWalkOrder : std::uint8_t { nearest_first, any_order };
 
@@ -110,7 +71,7 @@ inline bool traverse_blas_wide(const BlasWideBvh<W>& bvh, const BoxRay& ray, con
     using detail::kLeafRef;
     if (bvh.empty()) return false;
     const BlasWideNode<W>* nodes = bvh.nodes();
-    const BlasWideBoxTest<W> box_test(ray);
+    const WideBoxTest<W> box_test(ray);
     // Each node pushes at most W − 1 entries, and the wide tree is no deeper than the binary one.
     StackEntry stack[(W - 1) * kMaxBvhDepth + 1];
     int sp = 0;

@@ -12,6 +12,7 @@
 #include <smoketrace/core/simd/lanes.hpp>
 #include <smoketrace/geometry/aabb.hpp>
 #include <smoketrace/accel/bvh_traversal.hpp>
+#include <smoketrace/accel/wide_box_test.hpp>
 #include <smoketrace/accel/wide_bvh.hpp>
 
 #include <bit>
@@ -20,46 +21,6 @@
 #include <limits>
 
 namespace smoketrace {
-
-// The four child boxes of a node against one ray: bit i of the result set when the ray meets child i's
-// box in [tmin, tmax], with its entry distance in t_enter[i] (16-byte aligned). Lane by lane exactly the
-// scalar intersect() of aabb.hpp: same operations and roundings, and a NaN slab distance (0·∞) is ignored
-// the same way (max / min return their second operand, the accumulator, when the first is NaN). Over four
-// lanes of floats (core/simd/lanes.hpp): one SSE2 operation each on every x86-64 build.
-class WideBoxTest {
-    using Floats = simd::Floats<kWideBvhWidth>;
-
-public:
-    explicit WideBoxTest(const BoxRay& r) {
-        for (int a = 0; a < 3; ++a) {
-            origin_[a] = Floats::broadcast(r.origin[a]);
-            inv_dir_[a] = Floats::broadcast(r.inv_dir[a]);
-            inv_far_[a] = Floats::broadcast(r.inv_far[a]);
-        }
-        tmin_ = Floats::broadcast(r.tmin);
-        for (int a = 0; a < 3; ++a) {
-            near_[a] = r.near[a];
-            far_[a] = r.far[a];
-        }
-    }
-
-    [[gnu::always_inline]] unsigned test(const WideBvhNode& n, float tmax, float* t_enter) const {
-        Floats t0 = tmin_, t1 = Floats::broadcast(tmax * kSlabFarScale);
-#pragma GCC unroll 3
-        for (int a = 0; a < 3; ++a) {
-            const Floats t_near = (Floats::load(n.bounds[near_[a]]) - origin_[a]) * inv_dir_[a];
-            const Floats t_far = (Floats::load(n.bounds[far_[a]]) - origin_[a]) * inv_far_[a];
-            t0 = max(t_near, t0);
-            t1 = min(t_far, t1);
-        }
-        store(t_enter, t0);
-        return bits(t0 <= t1);
-    }
-
-private:
-    Floats origin_[3], inv_dir_[3], inv_far_[3], tmin_;
-    int near_[3], far_[3];
-};
 
 // Bit i set when child i's mask meets the inclusion mask: the four mask bytes at once.
 [[gnu::always_inline]] inline unsigned admitted_children(const WideBvhNode& n, std::uint8_t inclusion_mask) {
@@ -84,7 +45,7 @@ inline bool traverse_wide_bvh(const WideBvh& bvh, const BoxRay& ray, const float
                               LeafFn&& leaf, TraversalStats& stats) {
     if (bvh.empty() || (bvh.root_mask() & inclusion_mask) == 0) return false;
     const WideBvhNode* nodes = bvh.nodes();
-    const WideBoxTest box_test(ray);
+    const WideBoxTest<kWideBvhWidth> box_test(ray);
     // Per axis: 3 when the ray goes the negative way (children in reverse slot order), else 0.
     unsigned flip_of_axis[3];
     for (int a = 0; a < 3; ++a) flip_of_axis[a] = ray.near[a] == a + 3 ? 3u : 0u;
