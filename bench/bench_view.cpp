@@ -202,7 +202,7 @@ void run_view(const BenchOptions& options) {
     // simple-shadow with the default (tiled) at all threads; at 750, anti-aliasing (spp 4) as well.
     struct Line {
         std::uint32_t n;
-        double view[2][2], total[2][2];  // [tiled, per-ray][one thread, all threads]
+        double view[2][2], total[2][2], cpu_per_wall[2][2];  // [tiled, per-ray][one thread, all threads]
     };
     std::vector<Line> lines;
     std::vector<double> xs, view_ms;
@@ -222,13 +222,14 @@ void run_view(const BenchOptions& options) {
             if (r.config.threads == 1) lowest_one_thread_share = std::min(lowest_one_thread_share, r.caller_cpu_share);
         }
 
-        Line line{n, {}, {}};
+        Line line{n, {}, {}, {}};
         for (int k = 0; k < 2; ++k)
             for (std::size_t t = 0; t < thread_counts.size(); ++t) {
                 const Run& r = find(runs, "particles", RenderMode::full,
                                     k == 0 ? CompositorKind::tiled : CompositorKind::one_traversal, thread_counts[t]);
                 line.view[k][t] = r.view.median;
                 line.total[k][t] = r.total.median;
+                line.cpu_per_wall[k][t] = r.cpu_per_wall;
             }
         lines.push_back(line);
 
@@ -276,13 +277,16 @@ void run_view(const BenchOptions& options) {
                 std::snprintf(label, sizeof label, "%s %s %dt", what, k, t);
                 std::printf(" %16s", label);
             }
-    std::printf(" | per-ray/tiled view, %dt\n", all);
+    std::printf(" | per-ray/tiled view, %dt | cpu/wall (below the thread count: the machine was busy)\n", all);
     for (const Line& l : lines) {
         std::printf("  %7u particles|", l.n);
         for (const auto* v : {&l.view, &l.total})
             for (int k = 0; k < 2; ++k)
                 for (std::size_t t = 0; t < thread_counts.size(); ++t) std::printf(" %16.1f", (*v)[k][t]);
-        std::printf(" | %.2f\n", l.view[1][thread_counts.size() - 1] / l.view[0][thread_counts.size() - 1]);
+        std::printf(" | %20.2f |", l.view[1][thread_counts.size() - 1] / l.view[0][thread_counts.size() - 1]);
+        for (int k = 0; k < 2; ++k)
+            for (std::size_t t = 0; t < thread_counts.size(); ++t) std::printf(" %.2f", l.cpu_per_wall[k][t]);
+        std::printf("\n");
     }
     std::printf("  tiled vs per-ray images (every count, every thread count): largest channel difference %.3g, pixels "
                 "off by more than 2/255: %zu (both 0 by design)\n",
