@@ -169,7 +169,7 @@ const Run& find(const std::vector<Run>& runs, const char* experiment, RenderMode
 
 void run_view(const BenchOptions& options) {
     const int frames = options.quick ? 3 : std::max(5, options.repeats);
-    const std::vector<std::uint32_t> counts = options.quick ? std::vector<std::uint32_t>{250, 750, 1500}
+    const std::vector<std::uint32_t> counts = options.quick ? std::vector<std::uint32_t>{250, 750, 1500, 10'000}
                                                             : std::vector<std::uint32_t>{250, 500, 750, 1000, 1500,
                                                                                          10'000};
     const std::vector<std::uint32_t> group_counts =
