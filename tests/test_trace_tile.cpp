@@ -199,10 +199,10 @@ TEST_CASE("ray tile: shear_lanes() and finish_lanes() are the scalar test lane b
             const glm::dvec3 p = glm::dvec3(v[0]) - glm::dvec3(eye);
             const double n_dot_p = normal.x * p.x + normal.y * p.y + normal.z * p.z;
             for (unsigned first = 0; first < kTileRays; first += W) {
-                ShearedLanes<W> out;
+                ShearedLanes<W> out{};
                 const unsigned keep = shear_lanes<W>(rays, first, W == 32 ? ~0u : (1u << W) - 1u, a, b, c, out);
                 // finish_lanes() against finish_triangle_hit(), lane by lane.
-                FinishedLanes<W> done;
+                FinishedLanes<W> done{};
                 finish_lanes<W>(tile, first, keep, out, normal, n_dot_p, done);
                 CHECK((done.hit & done.on_edge) == 0);
                 CHECK(((done.hit | done.on_edge) & ~keep) == 0);

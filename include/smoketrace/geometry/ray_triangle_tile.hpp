@@ -136,20 +136,16 @@ template <unsigned W>
     if ((keep | uncertain) == 0) return 0;
     // The exact edge functions, with shear_triangle()'s expressions: for the survivors, and to decide the rest
     // (a ray through an edge or a vertex, or an overflow).
-    if constexpr (W >= 2) {
-        using Doubles = simd::Doubles<W / 2>;
-        for (unsigned h = 0; h < W; h += W / 2) {
-            const Doubles dax = Doubles::widen(out.ax + h), day = Doubles::widen(out.ay + h);
-            const Doubles dbx = Doubles::widen(out.bx + h), dby = Doubles::widen(out.by + h);
-            const Doubles dcx = Doubles::widen(out.cx + h), dcy = Doubles::widen(out.cy + h);
-            store(out.u + h, dcx * dby - dcy * dbx);
-            store(out.v + h, dax * dcy - day * dcx);
-            store(out.w + h, dbx * day - dby * dax);
-        }
-    } else {
-        out.u[0] = double(out.cx[0]) * double(out.by[0]) - double(out.cy[0]) * double(out.bx[0]);
-        out.v[0] = double(out.ax[0]) * double(out.cy[0]) - double(out.ay[0]) * double(out.cx[0]);
-        out.w[0] = double(out.bx[0]) * double(out.ay[0]) - double(out.by[0]) * double(out.ax[0]);
+    // Half a block of doubles at a time (one lane at a time in the scalar twin, W = 1).
+    constexpr unsigned D = W >= 2 ? W / 2 : 1;
+    using Doubles = simd::Doubles<D>;
+    for (unsigned h = 0; h < W; h += D) {
+        const Doubles dax = Doubles::widen(out.ax + h), day = Doubles::widen(out.ay + h);
+        const Doubles dbx = Doubles::widen(out.bx + h), dby = Doubles::widen(out.by + h);
+        const Doubles dcx = Doubles::widen(out.cx + h), dcy = Doubles::widen(out.cy + h);
+        store(out.u + h, dcx * dby - dcy * dbx);
+        store(out.v + h, dax * dcy - day * dcx);
+        store(out.w + h, dbx * day - dby * dax);
     }
     for (unsigned m = uncertain; m != 0; m &= m - 1) {
         const unsigned i = unsigned(__builtin_ctz(m));
@@ -176,8 +172,8 @@ template <unsigned W>
                                                 const ShearedLanes<W>& s, const glm::dvec3& n, double n_dot_p,
                                                 FinishedLanes<W>& out) {
     out.hit = out.front = out.on_edge = 0;
-    if constexpr (W >= 2) {
-        constexpr unsigned D = W / 2;
+    {
+        constexpr unsigned D = W >= 2 ? W / 2 : 1;  // the scalar twin (W = 1): one lane at a time
         using Doubles = simd::Doubles<D>;
         const Doubles zero = Doubles::broadcast(0.0);
         const Doubles inf = Doubles::broadcast(std::numeric_limits<double>::infinity());
@@ -206,9 +202,6 @@ template <unsigned W>
             out.hit |= (lanes & exact & nonzero(n_dot_d) & in_range) << h;
             out.front |= bits(det > zero) << h;
         }
-    } else {
-        if (keep & 1u) out.on_edge = 1u;  // the scalar twin: finish_triangle_hit() itself
-        (void)tile, (void)first, (void)s, (void)n, (void)n_dot_p;
     }
 }
 
