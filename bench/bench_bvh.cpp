@@ -416,30 +416,52 @@ Ratios run_traversal(const TraversalContext& ctx, const std::string& suffix, con
             std::vector<Contender> passes;
             auto ours = [&](const char* name, auto closest_pass, auto all_pass) {
                 passes.push_back({name, threads, [=, &rays] {
-                                      return closest ? run_pass(parallel, n, [&](std::size_t b, std::size_t e) { return closest_pass(rays, b, e); })
-                                                     : run_pass(parallel, n, [&](std::size_t b, std::size_t e) { return all_pass(rays, b, e); });
+                                      return closest ? run_pass(parallel, n,
+                                                                [&](std::size_t b, std::size_t e) {
+                                                                    return closest_pass(rays, b, e);
+                                                                })
+                                                     : run_pass(parallel, n, [&](std::size_t b, std::size_t e) {
+                                                           return all_pass(rays, b, e);
+                                                       });
                                   }});
             };
             ours("smoketrace",
                  [&](const std::vector<Ray>& r, std::size_t b, std::size_t e) { return ours_closest(blas, r, b, e); },
                  [&](const std::vector<Ray>& r, std::size_t b, std::size_t e) { return ours_all_hits(blas, r, b, e); });
-            ours("smoketrace_wide4",
-                 [&](const std::vector<Ray>& r, std::size_t b, std::size_t e) { return ours_closest_walk(blas, r, b, e, wide4_nearest); },
-                 [&](const std::vector<Ray>& r, std::size_t b, std::size_t e) { return ours_all_hits_walk(blas, r, b, e, wide4_any); });
-            ours("smoketrace_binary",
-                 [&](const std::vector<Ray>& r, std::size_t b, std::size_t e) { return ours_closest_walk(blas, r, b, e, binary); },
-                 [&](const std::vector<Ray>& r, std::size_t b, std::size_t e) { return ours_all_hits_walk(blas, r, b, e, binary); });
+            ours(
+                "smoketrace_wide4",
+                [&](const std::vector<Ray>& r, std::size_t b, std::size_t e) {
+                    return ours_closest_walk(blas, r, b, e, wide4_nearest);
+                },
+                [&](const std::vector<Ray>& r, std::size_t b, std::size_t e) {
+                    return ours_all_hits_walk(blas, r, b, e, wide4_any);
+                });
+            ours(
+                "smoketrace_binary",
+                [&](const std::vector<Ray>& r, std::size_t b, std::size_t e) {
+                    return ours_closest_walk(blas, r, b, e, binary);
+                },
+                [&](const std::vector<Ray>& r, std::size_t b, std::size_t e) {
+                    return ours_all_hits_walk(blas, r, b, e, binary);
+                });
             constexpr std::size_t kOurs = 3;
             for (std::size_t i = 0; i < std::size(kEmbreeConfigs); ++i) {
                 if (!closest && !kEmbreeConfigs[i].options.context_filter) continue;
                 const er::Scene& scene = *scenes[i];
                 passes.push_back({kEmbreeConfigs[i].name, threads, [&, closest, parallel] {
-                                      return closest ? run_pass(parallel, n, [&](std::size_t b, std::size_t e) { return embree_closest(scene, rays, b, e); })
-                                                     : run_pass(parallel, n, [&](std::size_t b, std::size_t e) { return embree_all_hits(scene, rays, b, e); });
+                                      return closest ? run_pass(parallel, n,
+                                                                [&](std::size_t b, std::size_t e) {
+                                                                    return embree_closest(scene, rays, b, e);
+                                                                })
+                                                     : run_pass(parallel, n, [&](std::size_t b, std::size_t e) {
+                                                           return embree_all_hits(scene, rays, b, e);
+                                                       });
                                   }});
                 if (closest && coherent)
                     passes.push_back({std::string(kEmbreeConfigs[i].name) + "_p16", threads, [&, parallel] {
-                                          return run_pass(parallel, n, [&](std::size_t b, std::size_t e) { return embree_closest16(scene, rays, b, e); });
+                                          return run_pass(parallel, n, [&](std::size_t b, std::size_t e) {
+                                              return embree_closest16(scene, rays, b, e);
+                                          });
                                       }});
             }
             time_round_robin(passes, ctx.repeats);
@@ -591,7 +613,8 @@ void run_bvh(const BenchOptions& options) {
     }
     std::cout << "  second mesh \"objects\": " << objects.triangles.size() / 320
               << " level-2 icospheres merged, " << object_tris << " triangles\n";
-    const Ratios objects_incoherent = run_traversal(ctx, "_objects", *object_blas, object_scenes, rays, false, object_tris);
+    const Ratios objects_incoherent =
+        run_traversal(ctx, "_objects", *object_blas, object_scenes, rays, false, object_tris);
     const Ratios objects_coherent =
         run_traversal(ctx, "_objects_coherent", *object_blas, object_scenes, camera, true, object_tris);
 

@@ -999,9 +999,9 @@ TEST_CASE("Wide BVH traversal: the four-child box test equals the scalar slab te
     CHECK(hits < checked - checked / 4);
 }
 
-// WideBoxTest on a mesh BLAS's nodes at both widths (W = 4: SSE2; W = 8: AVX2 where the build has it, else the lanes' scalar
-// definition) against the scalar slab test, child by child, bit for bit as above. Unused slots carry the
-// empty box, which every ray must miss.
+// WideBoxTest on a mesh BLAS's nodes at both widths (W = 4: SSE2; W = 8: AVX2 where the build has it, else the lanes'
+// scalar definition) against the scalar slab test, child by child, bit for bit as above. Unused slots carry the empty
+// box, which every ray must miss.
 template <unsigned W>
 void check_blas_wide_box_test(std::uint64_t seed) {
     Pcg32 rng(seed);
@@ -1104,7 +1104,8 @@ void check_blas_wide_walks(const MeshBlas& blas, const std::vector<Ray>& rays) {
             });
             return got;
         };
-        const auto all_ref = all([&](const float& tmax, auto&& leaf) { traverse_bvh(blas.bvh(), BoxRay(r), tmax, leaf, s); });
+        const auto all_ref =
+            all([&](const float& tmax, auto&& leaf) { traverse_bvh(blas.bvh(), BoxRay(r), tmax, leaf, s); });
         REQUIRE(all([&](const float& tmax, auto&& leaf) {
                     traverse_blas_wide<BlasWalkOrder::nearest_first>(wide, BoxRay(r), tmax, leaf, s);
                 }) == all_ref);
@@ -1114,7 +1115,8 @@ void check_blas_wide_walks(const MeshBlas& blas, const std::vector<Ray>& rays) {
     }
 }
 
-TEST_CASE("Mesh BLAS wide tree: collapse keeps every leaf, and both walks at both widths match the binary walk", "[bvh]") {
+TEST_CASE("Mesh BLAS wide tree: collapse keeps every leaf, and both walks at both widths match the binary walk",
+          "[bvh]") {
     const TriangleMesh m = random_soup(3000, 0.1f, 93);
     const MeshBlas blas(m);
     const std::vector<Ray> rays = random_rays(2000, 94);

@@ -307,7 +307,8 @@ TEST_CASE("render by hand: sky, lit and shadowed ground and billboards match eqs
     const SixwayTexture texture = make_texture();
 
     for (const RenderMode mode : {RenderMode::basic, RenderMode::simple_shadow, RenderMode::full})
-        for (const CompositorKind compositor : {CompositorKind::tiled, CompositorKind::one_traversal, CompositorKind::retrace})
+        for (const CompositorKind compositor :
+             {CompositorKind::tiled, CompositorKind::one_traversal, CompositorKind::retrace})
             for (const Compositing compositing : {Compositing::over, Compositing::thesis}) {
                 INFO("mode " << to_string(mode) << ", compositor " << int(compositor) << ", compositing "
                              << to_string(compositing));

@@ -170,7 +170,8 @@ TEST_CASE("sixway: footprint(), alpha() and light_map() give sample()'s bits", "
     // picks) must be the same arithmetic as sample() and sixway_light_map(): equal bits, no tolerance, on
     // the committed atlases at random coordinates (inside, on texel centres, outside the tile), every frame,
     // lights from every octant and along the axes.
-    const SixwayTexture t = load_sixway_texture(std::filesystem::path(SMOKETRACE_ASSET_DIR) / std::string(kSixwayLayoutFile));
+    const SixwayTexture t =
+        load_sixway_texture(std::filesystem::path(SMOKETRACE_ASSET_DIR) / std::string(kSixwayLayoutFile));
     Pcg32 rng(3);
     int nonzero = 0;
     for (int k = 0; k < 20000; ++k) {
@@ -184,7 +185,8 @@ TEST_CASE("sixway: footprint(), alpha() and light_map() give sample()'s bits", "
         const SixwayTexture::Footprint f = t.footprint(uv, frame);
         CAPTURE(k, uv.x, uv.y, frame);
         REQUIRE(std::bit_cast<std::uint32_t>(t.alpha(f)) == std::bit_cast<std::uint32_t>(s.alpha));
-        REQUIRE(std::bit_cast<std::uint32_t>(t.light_map(f, l)) == std::bit_cast<std::uint32_t>(sixway_light_map(s, l)));
+        REQUIRE(std::bit_cast<std::uint32_t>(t.light_map(f, l)) ==
+                std::bit_cast<std::uint32_t>(sixway_light_map(s, l)));
         nonzero += s.alpha > 0.0f;
     }
     CHECK(nonzero > 2000);

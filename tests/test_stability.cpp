@@ -872,7 +872,8 @@ TEST_CASE("stability: coincident particles and coplanar billboards at equal dept
             for (int x = -2; x <= 2; ++x)
                 scene.smoke.particles.push_back(particle({0.4f * float(x), 0.4f * float(y), -0.5f}, 0.5f));
         for (const RenderMode mode : {RenderMode::basic, RenderMode::simple_shadow, RenderMode::full})
-            for (const CompositorKind compositor : {CompositorKind::tiled, CompositorKind::one_traversal, CompositorKind::retrace})
+            for (const CompositorKind compositor :
+                 {CompositorKind::tiled, CompositorKind::one_traversal, CompositorKind::retrace})
                 for (const Compositing compositing : {Compositing::over, Compositing::thesis}) {
                     RenderOptions o = RenderOptions::from_scene(scene);
                     o.render.mode = mode;
@@ -943,7 +944,8 @@ TEST_CASE("stability: no NaN or Inf in any output except the documented inf", "[
         INFO("scene: " << name);
         const SceneDescription scene = parse_scene(text, name + ".json");
         for (const RenderMode mode : {RenderMode::basic, RenderMode::simple_shadow, RenderMode::full})
-            for (const CompositorKind compositor : {CompositorKind::tiled, CompositorKind::one_traversal, CompositorKind::retrace}) {
+            for (const CompositorKind compositor :
+                 {CompositorKind::tiled, CompositorKind::one_traversal, CompositorKind::retrace}) {
                 INFO("mode " << to_string(mode) << ", compositor " << int(compositor));
                 RenderOptions o = RenderOptions::from_scene(scene);
                 o.width = o.height = 12;

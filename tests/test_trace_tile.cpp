@@ -72,7 +72,8 @@ std::size_t check_tile(const AccelScene& scene, RayTile tile, std::uint32_t extr
                 seen += expected.size();
             }
     }
-    for (const std::uint32_t flags : {extra_flags, extra_flags | std::uint32_t(ray_flag_accept_first_hit_and_end_search)}) {
+    for (const std::uint32_t flags :
+         {extra_flags, extra_flags | std::uint32_t(ray_flag_accept_first_hit_and_end_search)}) {
         RayTile t = start;
         trace_tile(scene, t, flags, mask, [](unsigned, const TraceHit&) { return AnyHitDecision::accept; }, results,
                    scratch);
@@ -139,7 +140,8 @@ std::size_t check_smoke_view(const SmokeView& v, glm::vec2 offset) {
     const Camera& cam = v.camera;
     for (int y0 = 0; y0 < cam.height(); y0 += int(kTileRows))
         for (int x0 = 0; x0 < cam.width(); x0 += int(kTileColumns)) {
-            const int cols = std::min(int(kTileColumns), cam.width() - x0), rows = std::min(int(kTileRows), cam.height() - y0);
+            const int cols = std::min(int(kTileColumns), cam.width() - x0),
+                      rows = std::min(int(kTileRows), cam.height() - y0);
             const RayTile tile = cam.tile(x0, y0, cols, rows, offset, 1e-3f);
             CAPTURE(x0, y0);
             seen += check_tile(v.scene.scene(), tile, ray_flag_none, kBillboardMask, 3);
@@ -191,7 +193,8 @@ TEST_CASE("ray tile: shear_lanes() and finish_lanes() are the scalar test lane b
         const glm::vec3 on_axis = eye + f * rng.uniform(1.0f, 9.0f);
         for (int j = 0; j < 20; ++j) {
             glm::vec3 v[3];
-            for (glm::vec3& p : v) p = eye + f * rng.uniform(0.5f, 9.0f) + rt * rng.uniform(-4, 4) + up * rng.uniform(-4, 4);
+            for (glm::vec3& p : v)
+                p = eye + f * rng.uniform(0.5f, 9.0f) + rt * rng.uniform(-4, 4) + up * rng.uniform(-4, 4);
             if (j % 2 == 0) v[j % 3] = on_axis;  // a vertex on the middle ray
             if (j % 4 == 1) v[1] = on_axis + (v[0] - on_axis) * -1.0f;  // an edge through the middle ray
             const glm::vec3 a = v[0] - eye, b = v[1] - eye, c = v[2] - eye;
@@ -264,7 +267,8 @@ TEST_CASE("trace_tile: every ray of a tile meets what trace() shows it alone (ev
         const Camera cam(eye, at, glm::vec3(0, 1, 0), rng.uniform(10.0f, 90.0f), size, size);
         const int x0 = int(rng.below(unsigned(size))), y0 = int(rng.below(unsigned(size)));
         const int cols = std::min(int(kTileColumns), size - x0), rows = std::min(int(kTileRows), size - y0);
-        RayTile tile = cam.tile(x0, y0, cols, rows, glm::vec2(rng.uniform01(), rng.uniform01()), rng.uniform(0.0f, 40.0f));
+        RayTile tile =
+            cam.tile(x0, y0, cols, rows, glm::vec2(rng.uniform01(), rng.uniform01()), rng.uniform(0.0f, 40.0f));
         // Some rays end early, as a pixel's ground does.
         for (unsigned lane = 0; lane < kTileRays; ++lane)
             if (rng.below(4) == 0) tile.set_tmax(lane, rng.uniform(30.0f, 60.0f));
@@ -278,7 +282,8 @@ TEST_CASE("trace_tile: every ray of a tile meets what trace() shows it alone (ev
     CHECK(seen > 2000);
 }
 
-TEST_CASE("trace_tile: the shipped scenes' camera rays meet the billboards and ground trace() shows them", "[trace-tile]") {
+TEST_CASE("trace_tile: the shipped scenes' camera rays meet the billboards and ground trace() shows them",
+          "[trace-tile]") {
     std::size_t seen = 0;
     for (const char* name : {"two_tubes_above.json", "two_tubes_right.json"}) {
         const SceneDescription d =
@@ -296,7 +301,8 @@ TEST_CASE("trace_tile: the shipped scenes' camera rays meet the billboards and g
 
 TEST_CASE("trace_tile: billboards at the same depth, a diagonal through a pixel centre, the eye in the smoke",
           "[trace-tile]") {
-    const GroundQuad ground{{glm::vec3(-20, -3, 20), glm::vec3(20, -3, 20), glm::vec3(20, -3, -20), glm::vec3(-20, -3, -20)}};
+    const GroundQuad ground{
+        {glm::vec3(-20, -3, 20), glm::vec3(20, -3, 20), glm::vec3(20, -3, -20), glm::vec3(-20, -3, -20)}};
     SECTION("the same depth: particles sharing a centre, and on a sphere around the eye") {
         std::vector<Particle> ps;
         for (int i = 0; i < 6; ++i) {

@@ -36,7 +36,8 @@ SceneDescription tubes_scene(const char* file = "two_tubes_above.json") {
 // Small images keep CI fast; 96×96 still puts several pixels on every tube cross-section.
 constexpr int kSize = 96;
 
-ImageRgba render_once(const SceneDescription& scene, RenderMode mode, CompositorKind compositor = CompositorKind::tiled) {
+ImageRgba render_once(const SceneDescription& scene, RenderMode mode,
+                      CompositorKind compositor = CompositorKind::tiled) {
     RenderOptions o = RenderOptions::from_scene(scene);
     o.render.mode = mode;
     o.width = o.height = kSize;
@@ -171,7 +172,8 @@ TEST_CASE("view: the tiled compositor draws the per-ray compositor's image, bit 
                     INFO("case " << compared / 12 << ", mode " << to_string(mode) << ", " << to_string(compositing)
                                  << ", spp " << spp);
                     std::size_t differ = 0;
-                    for (std::size_t i = 0; i < img[0].pixels.size(); ++i) differ += img[0].pixels[i] != img[1].pixels[i];
+                    for (std::size_t i = 0; i < img[0].pixels.size(); ++i)
+                        differ += img[0].pixels[i] != img[1].pixels[i];
                     CHECK(differ == 0);
                     ++compared;
                 }

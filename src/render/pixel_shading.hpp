@@ -8,6 +8,7 @@
 //   * the ground's colour (eq. 4.4) given its shadow (eq. 4.3), and the shadow ray that finds it;
 //   * front-to-back compositing of the layers sorted by depth, stopping below the transmittance threshold.
 // Internal to the render layer (src/render/), not installed.
+#include <smoketrace/core/radix_sort.hpp>
 #include <smoketrace/render/sixway_texture.hpp>
 #include <smoketrace/render/view_compositor.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>
@@ -61,16 +62,7 @@ inline void sort_layers(std::span<Layer> layers) {
         // t ≥ tmin > 0, so its bits order as the numbers do.
         return std::uint64_t(std::bit_cast<std::uint32_t>(l.t)) << 32 | l.particle;
     };
-    if (layers.size() <= 16) {  // most pixels: insertion sort, no call
-        for (std::size_t i = 1; i < layers.size(); ++i) {
-            const Layer l = layers[i];
-            const std::uint64_t k = key(l);
-            std::size_t j = i;
-            for (; j > 0 && key(layers[j - 1]) > k; --j) layers[j] = layers[j - 1];
-            layers[j] = l;
-        }
-        return;
-    }
+    if (layers.size() <= 16) return insertion_sort(layers, key);  // most pixels
     std::sort(layers.begin(), layers.end(), [&](const Layer& a, const Layer& b) { return key(a) < key(b); });
 }
 

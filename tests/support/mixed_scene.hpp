@@ -29,8 +29,9 @@ inline AffineTransform random_transform(Pcg32& rng, bool similarity, int i) {
     y = glm::normalize(y - glm::dot(y, x) * x);
     const glm::dmat3 rot(x, y, glm::cross(x, y));
     const double s = 0.3 + 2.7 * rng.uniform01();
-    const glm::dvec3 sc = similarity ? glm::dvec3(s) : glm::dvec3(0.2 + 4.8 * rng.uniform01(), 0.2 + 4.8 * rng.uniform01(),
-                                                                  (i % 3 == 0 ? -1.0 : 1.0) * (0.2 + 4.8 * rng.uniform01()));
+    const glm::dvec3 sc = similarity ? glm::dvec3(s)
+                                     : glm::dvec3(0.2 + 4.8 * rng.uniform01(), 0.2 + 4.8 * rng.uniform01(),
+                                                  (i % 3 == 0 ? -1.0 : 1.0) * (0.2 + 4.8 * rng.uniform01()));
     AffineTransform m;
     m.linear = rot * glm::dmat3(glm::dvec3(sc.x, 0, 0), glm::dvec3(0, sc.y, 0), glm::dvec3(0, 0, sc.z));
     m.translation = glm::dvec3(rng.uniform(-15, 15), rng.uniform(-15, 15), rng.uniform(-15, 15));

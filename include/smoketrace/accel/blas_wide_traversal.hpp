@@ -139,7 +139,8 @@ inline bool traverse_blas_wide(const BlasWideBvh<W>& bvh, const BoxRay& ray, con
                 // Three or more: keys (entry distance, slot), the misses last, sorted by the network.
                 std::uint64_t key[W];
                 for (unsigned i = 0; i < W; ++i)
-                    key[i] = (std::uint64_t(detail::ordered_bits(t[i])) << 32 | i) | (0 - std::uint64_t((~hits >> i) & 1u));
+                    key[i] =
+                        (std::uint64_t(detail::ordered_bits(t[i])) << 32 | i) | (0 - std::uint64_t((~hits >> i) & 1u));
                 detail::sort_keys<W>(key);
                 const int count = std::popcount(hits);
                 for (int j = count - 1; j >= 1; --j) {

@@ -166,9 +166,11 @@ inline SixwaySample SixwayTexture::sample(glm::vec2 uv, int frame) const noexcep
     const Texel &t00 = texels_[f.i00], &t10 = texels_[f.i10], &t01 = texels_[f.i01], &t11 = texels_[f.i11];
     constexpr float kScale = 1.0f / 255.0f;
     const glm::vec4 p =
-        (unpack(t00.pos) * f.w00 + unpack(t10.pos) * f.w10 + unpack(t01.pos) * f.w01 + unpack(t11.pos) * f.w11) * kScale;
+        (unpack(t00.pos) * f.w00 + unpack(t10.pos) * f.w10 + unpack(t01.pos) * f.w01 + unpack(t11.pos) * f.w11) *
+        kScale;
     const glm::vec4 n =
-        (unpack(t00.neg) * f.w00 + unpack(t10.neg) * f.w10 + unpack(t01.neg) * f.w01 + unpack(t11.neg) * f.w11) * kScale;
+        (unpack(t00.neg) * f.w00 + unpack(t10.neg) * f.w10 + unpack(t01.neg) * f.w01 + unpack(t11.neg) * f.w11) *
+        kScale;
     return {glm::vec3(p), glm::vec3(n), p.w};
 }
 

@@ -11,7 +11,9 @@
 // trace() reports, bit for bit; only their order may differ (DXR gives none). Where two opaque hits of a ray
 // lie at exactly the same t, which of them is committed depends on the order they are met, as between
 // trace()'s two top-level walks. Counters: tlas_nodes and boxes_tested count the tile's one walk, shared by
-// its rays; the rest count each ray's own work, as in trace().
+// its rays; a world_triangles instance counts (as a BLAS node, an instance and its triangles) for every ray
+// it was tested for, which is every ray under its shadow whose tmax reaches it, a few more than trace()'s
+// box test admits; the rest count each ray's own work, as in trace().
 //
 // How: the top level is walked once for the tile (accel/tile_traversal.hpp), culling nodes against the tile's
 // frustum, and the instances it reaches that rules 1-3 admit are gathered and sorted by their distance from
@@ -85,7 +87,9 @@ public:
     }
 
 private:
-    [[nodiscard]] bool searched(unsigned lane) const { return searched_[lane / kTileColumns] >> (lane % kTileColumns) & 1u; }
+    [[nodiscard]] bool searched(unsigned lane) const {
+        return searched_[lane / kTileColumns] >> (lane % kTileColumns) & 1u;
+    }
 
     std::array<TraceResult, kTileRays> results_;
     TileLineSet searched_[kTileRows] = {};
@@ -225,7 +229,8 @@ void trace_tile(const AccelScene& scene, RayTile& tile, std::uint32_t flags, std
                 for (unsigned b = 0; b < kTileColumns / W; ++b) {
                     tested[r][b] = block_lanes(r, b);
                     if (tested[r][b] != 0)
-                        results.count_world_triangles<W>(RayTile::lane(b * W, r), tested[r][b], inst.world_triangle_count);
+                        results.count_world_triangles<W>(RayTile::lane(b * W, r), tested[r][b],
+                                                         inst.world_triangle_count);
                 }
             }
             for (std::uint32_t k = 0; k < inst.world_triangle_count; ++k) {
@@ -248,7 +253,8 @@ void trace_tile(const AccelScene& scene, RayTile& tile, std::uint32_t flags, std
                         FinishedLanes<W> done;
                         finish_lanes<W>(tile, first, keep, sheared, normal, n_dot_p, done);
                         auto report = [&](unsigned lane, const TriangleHit& th) {
-                            if (searches[lane].report_world_triangle(cand.index, inst, cand.opaque, k, th)) end_lane(lane);
+                            if (searches[lane].report_world_triangle(cand.index, inst, cand.opaque, k, th))
+                                end_lane(lane);
                         };
                         for (unsigned m = done.hit; m != 0; m &= m - 1) {
                             const unsigned i = unsigned(std::countr_zero(m));
@@ -265,8 +271,8 @@ void trace_tile(const AccelScene& scene, RayTile& tile, std::uint32_t flags, std
                             const unsigned i = unsigned(std::countr_zero(m));
                             const unsigned lane = first + i;
                             TriangleHit th;
-                            if (finish_triangle_hit(triangle_rays.ray(lane), sheared.lane(i), tri.v0, normal, tmax[lane],
-                                                    th))
+                            if (finish_triangle_hit(triangle_rays.ray(lane), sheared.lane(i), tri.v0, normal,
+                                                    tmax[lane], th))
                                 report(lane, th);
                         }
                     }
