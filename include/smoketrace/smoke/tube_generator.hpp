@@ -2,7 +2,7 @@
 // The thesis's smoke: two perpendicular tubes of sphere particles, one slightly above the other
 // (thesis 4.1 and 4.1.1).
 //
-// Positions are sampled uniformly in the cuboid x, y ∈ [−R, R], z ∈ [−L/2, L/2] around the z axis and
+// Positions are sampled uniformly, around `center` (below: as if it were 0), in the cuboid x, y ∈ [−R, R], z ∈ [−L/2, L/2] around the z axis and
 // rejected where x² + y² > R². Of the kept samples, the 0th, 2nd, 4th, … are moved +separation in y (the
 // upper tube, along z); the 1st, 3rd, … are moved −separation in y and rotated 90° about y, (x, y, z) →
 // (z, y, −x), so that the lower tube runs along x. Output order is sample order, so the particles
@@ -38,6 +38,7 @@ struct TubeSettings {
     float separation = 1.35f;           // each tube's axis is this far from y = 0 (upper +, lower −)
     float particle_radius = 0.35f;
     std::uint64_t seed = 2022;          // the thesis's year; any value
+    glm::vec3 center{0.0f};             // where the tubes cross (the point above is moved here)
 
     // Optional motion (thesis 4.1.1), all zero by default: a still scene.
     glm::vec3 drift{0.0f};              // common velocity, world units per frame
