@@ -68,7 +68,11 @@ std::string number(double v) {
     std::snprintf(buffer, sizeof buffer, "%.17g", v);
     return buffer;
 }
-std::string vec(glm::dvec3 v) { return "[" + number(v.x) + ", " + number(v.y) + ", " + number(v.z) + "]"; }
+std::string vec(glm::dvec3 v) {
+    std::string s(1, '[');  // appended, not "[" + …: GCC 12 warns falsely (-Wrestrict) on that
+    s += number(v.x) + ", " + number(v.y) + ", " + number(v.z) + "]";
+    return s;
+}
 
 struct View {
     glm::dvec3 position, look_at;
