@@ -55,7 +55,6 @@ constexpr double kMinDefaultFramingRadius = 1e-6;
 constexpr double kRadiansPerDegree = 3.14159265358979323846 / 180.0;
 
 constexpr std::uint32_t kMaxGroups = 1u << 20;     // one update spread over 2^20 frames is ~5 h at 60 fps
-constexpr std::uint32_t kMaxFrames = 1'000'000;    // ~4.6 h at 60 fps: anything more is a typo
 constexpr std::size_t kMaxShownValueChars = 60;    // "(got …)" shows at most this much of a value
 
 // ---- Paths and messages ------------------------------------------------------------------------------
@@ -776,7 +775,7 @@ RenderSettings read_render(const Reader& r, const Node& n) {
     }
     if (auto v = Reader::optional(n, "cutoff")) s.cutoff = r.u32(*v, 0, std::numeric_limits<std::uint32_t>::max());
     if (auto v = Reader::optional(n, "groups")) s.groups = r.u32(*v, 1, kMaxGroups);
-    if (auto v = Reader::optional(n, "frames")) s.frames = r.u32(*v, 1, kMaxFrames);
+    if (auto v = Reader::optional(n, "frames")) s.frames = r.u32(*v, 1, kMaxSceneFrames);
     if (auto v = Reader::optional(n, "softness")) s.softness = r.real(*v, kNonNegative);
     if (auto v = Reader::optional(n, "transmittance_threshold"))
         s.transmittance_threshold = r.real(*v, Bounds{0.0, false, 1.0, true});

@@ -46,6 +46,8 @@ inline constexpr double kMaxDefaultCameraCoordinate = 1e17;
 // 16 float steps (2^-24) of the unit view direction. Closer, the rounding of each ray's direction is a
 // sizeable part of a pixel and neighbouring pixels merge into blocks: the field of view is too small.
 inline constexpr double kMinPixelAngle = 0x1.0p-20;
+// render.frames: ~4.6 h at 60 fps; anything more is a typo.
+inline constexpr std::uint32_t kMaxSceneFrames = 1'000'000;
 // Colour components: the image clamps at 1, so 10^6 is far beyond any meaningful intensity, and products
 // of three colours summed over layers (c_base·(c_light + c_amb), front-to-back sums) stay finite; light and
 // ambient of 3·10^38 used to render infinite pixels, which the PNG writer then refused.
