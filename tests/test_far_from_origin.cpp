@@ -57,7 +57,8 @@ std::vector<Ball> random_balls(std::uint64_t seed, std::size_t n) {
     std::vector<Ball> balls;
     for (std::size_t i = 0; i < n; ++i) {
         glm::dvec3 c;
-        for (int a = 0; a < 3; ++a) c[a] = double(rng.uniform(-1.0f, 1.0f)) * (a == 1 ? 2.0 : 3.0) + 1e-4 * rng.uniform(0.0f, 1.0f);
+        for (int a = 0; a < 3; ++a)
+            c[a] = double(rng.uniform(-1.0f, 1.0f)) * (a == 1 ? 2.0 : 3.0) + 1e-4 * rng.uniform(0.0f, 1.0f);
         balls.push_back({c, double(rng.uniform(0.2f, 0.6f))});
     }
     return balls;
@@ -87,8 +88,8 @@ std::string scene_json(const std::vector<Ball>& balls, glm::dvec3 offset, const 
     s << "{ \"light\": { \"direction\": " << vec(kToLight) << " },\n  \"smoke\": { \"shape\": \"" << shape
       << "\", \"particles\": [\n";
     for (std::size_t i = 0; i < balls.size(); ++i)
-        s << "    { \"center\": " << vec(balls[i].center + offset) << ", \"radius\": " << number(balls[i].radius) << " }"
-          << (i + 1 < balls.size() ? ",\n" : "\n");
+        s << "    { \"center\": " << vec(balls[i].center + offset) << ", \"radius\": " << number(balls[i].radius)
+          << " }" << (i + 1 < balls.size() ? ",\n" : "\n");
     s << "  ] }";
     if (!ground.empty()) {
         s << ",\n  \"ground\": { \"corners\": [";

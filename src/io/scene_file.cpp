@@ -474,10 +474,10 @@ json parse_json(std::string_view text, const Reader& reader, const std::string& 
 
 // ---- Extent and motion ---------------------------------------------------------------------------------
 
-// Empty when the particle (in the frame of `origin`) stays within ±kMaxSceneCoordinate of the world's 0 with a radius <= kMaxSceneCoordinate over
-// `steps` frame steps of ParticleSystem::advance(), else what goes wrong (bounds in double: the float
-// steps' rounding is relative 2^-24 per step, nowhere near the factor of 10^4 between the bound and the
-// first overflow).
+// Empty when the particle (in the frame of `origin`) stays within ±kMaxSceneCoordinate of the world's 0
+// with a radius <= kMaxSceneCoordinate over `steps` frame steps of ParticleSystem::advance(), else what
+// goes wrong (bounds in double: the float steps' rounding is relative 2^-24 per step, nowhere near the
+// factor of 10^4 between the bound and the first overflow).
 std::string particle_extent_problem(const Particle& p, std::uint64_t steps, const glm::dvec3& origin) {
     const double n = double(steps);
     for (int a = 0; a < 3; ++a) {
@@ -565,8 +565,8 @@ void check_fov_resolution(const Reader& r, const Node& n, float fov_deg, std::ui
                   "fov_deg must be at least " + shown_rounded_up(smallest));
 }
 
-// The default camera must stand within ±kMaxDefaultCameraCoordinate of the world's 0. `path`: /camera/fov_deg when the file
-// gave the field of view (it is what backs the camera off), else /camera.
+// The default camera must stand within ±kMaxDefaultCameraCoordinate of the world's 0. `path`:
+// /camera/fov_deg when the file gave the field of view (it is what backs the camera off), else /camera.
 void check_default_position(const Reader& r, const DefaultView& v, const std::string& path, bool fov_given,
                             const glm::dvec3& origin) {
     const glm::dvec3 at = origin + v.position;  // in world coordinates, as the file's

@@ -2,11 +2,12 @@
 // The thesis's smoke: two perpendicular tubes of sphere particles, one slightly above the other
 // (thesis 4.1 and 4.1.1).
 //
-// Positions are sampled uniformly, around `center` (below: as if it were 0), in the cuboid x, y ∈ [−R, R], z ∈ [−L/2, L/2] around the z axis and
+// Positions are sampled uniformly in the cuboid x, y ∈ [−R, R], z ∈ [−L/2, L/2] around the z axis and
 // rejected where x² + y² > R². Of the kept samples, the 0th, 2nd, 4th, … are moved +separation in y (the
 // upper tube, along z); the 1st, 3rd, … are moved −separation in y and rotated 90° about y, (x, y, z) →
-// (z, y, −x), so that the lower tube runs along x. Output order is sample order, so the particles
-// alternate upper, lower, upper, …; with an odd count the upper tube has one more.
+// (z, y, −x), so that the lower tube runs along x; then every particle is moved by `center`. Output order
+// is sample order, so the particles alternate upper, lower, upper, …; with an odd count the upper tube has
+// one more.
 //
 // Deterministic on every platform: the own PRNG (prng.hpp), float operations that round exactly once each
 // (no FMA contraction, see CMakeLists.txt), and the rotation done by swapping coordinates, not with sin/cos.
