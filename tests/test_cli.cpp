@@ -167,6 +167,13 @@ TEST_CASE("cli: bad arguments and files name the problem and leave no output", "
         {"render " + kScene + " -o " + png.string() + " --size 12", "WxH"},
         {"render " + kScene + " -o " + png.string() + " --mode fancy", "--mode"},
         {"render " + kScene + " -o " + png.string() + " --frames -3", "--frames"},
+        {"render " + kScene + " -o " + png.string() + " --frames 5:2", "--frames 5:2: A must be less than B"},
+        {"render " + kScene + " -o " + png.string() + " --frames 3:3", "--frames 3:3: A must be less than B"},
+        {"render " + kScene + " -o " + png.string() + " --frames 0:2",
+         "--frames 0:2: B is beyond the 1 frames of the sequence (the scene's render.frames)"},
+        {"render " + kScene + " -o " + png.string() + " --frames x:2", "--frames A:B: A: 'x' is not a whole number"},
+        {"render " + kScene + " -o " + png.string() + " --frames 1:", "--frames A:B: B: '' is not a whole number"},
+        {"render " + kScene + " -o " + png.string() + " --frames -1:2", "--frames A:B: A: -1 is out of range"},
         {"render " + kScene + " -o " + png.string() + " --spp 0", "--spp: 0 is out of range [1, 64]"},
         {"render " + kScene + " -o " + png.string() + " --spp 65", "--spp: 65 is out of range [1, 64]"},
         {"render " + kScene + " -o " + png.string() + " --spp 1.5", "--spp: '1.5' is not a whole number"},
@@ -229,4 +236,66 @@ TEST_CASE("cli: --spp overrides the scene's render.spp", "[cli][spp]") {
     CHECK(render(kScene, "c.png", " --spp 4") == file_four);
     CHECK(render(four, "d.png", " --spp 1") == file_one);
     CHECK(file_one != file_four);
+}
+
+// render --frames A:B writes frames A … B-1 of the sequence: the same files, byte for byte, as a full run.
+// The sequence has every kind of state a frame inherits: particles that move, spin and grow (jitter,
+// spin_speed), a light that turns, and 3 particle groups whose optical depths are each from a different
+// frame. 2:5 starts where frame 0's full update is still in use; 5:8 where it is not (frames 0 and 1 trace
+// nothing when skipped). The still minimal scene (no motion, a light that stays) keeps frame 0's depths for
+// ever: 2:4 must trace it.
+TEST_CASE("cli: render --frames A:B writes the full run's frames A to B-1", "[cli][frames]") {
+    TempDir dir;
+    const auto with_render = [&](const std::string& scene, const std::string& name, const std::string& render) {
+        std::string text = file_bytes(scene);
+        const auto brace = text.rfind('}');
+        REQUIRE(brace != std::string::npos);
+        const auto at = text.find("\"render\"");
+        if (at != std::string::npos) {
+            // Replace the scene's render object (no nested objects in it).
+            const auto end = text.find('}', at);
+            text.replace(at, end + 1 - at, "\"render\": " + render);
+        } else {
+            text.insert(brace, ", \"render\": " + render + " ");
+        }
+        const fs::path path = dir.write(name, text);
+        REQUIRE_NOTHROW(load_scene_file(path));
+        return path;
+    };
+    const fs::path tubes = with_render(std::string(SMOKETRACE_ASSET_DIR) + "/scenes/two_tubes_sequence.json",
+                                       "tubes.json", R"({ "mode": "full", "groups": 3, "frames": 8 })");
+    const fs::path still = with_render(kScene, "still.json", R"({ "frames": 4 })");
+    const auto render = [&](const fs::path& scene, const std::string& folder, const std::string& options) {
+        fs::create_directories(dir.path / folder);
+        const CliRun r = run_cli("render " + scene.string() + " -o " + (dir.path / folder / "f.png").string() +
+                                 " --size 20x20 --threads 2" + options);
+        INFO(r.err);
+        REQUIRE(r.exit_code == 0);
+    };
+    const auto name = [](std::uint32_t f) {
+        char buffer[32];
+        std::snprintf(buffer, sizeof buffer, "f_%04u.png", f);
+        return std::string(buffer);
+    };
+    const auto check_range = [&](const fs::path& scene, const std::string& full, std::uint32_t a, std::uint32_t b,
+                                 std::uint32_t count) {
+        const std::string folder = full + "_" + std::to_string(a);
+        render(scene, folder, " --frames " + std::to_string(a) + ":" + std::to_string(b));
+        std::size_t files = 0;
+        for ([[maybe_unused]] const auto& e : fs::directory_iterator(dir.path / folder)) ++files;
+        CHECK(files == b - a);  // only the frames asked for
+        for (std::uint32_t f = 0; f < count; ++f) {
+            INFO("frame " << f << " of --frames " << a << ":" << b);
+            const bool in_range = f >= a && f < b;
+            REQUIRE(fs::exists(dir.path / folder / name(f)) == in_range);
+            if (in_range) CHECK(file_bytes(dir.path / folder / name(f)) == file_bytes(dir.path / full / name(f)));
+        }
+    };
+    render(tubes, "tubes", "");
+    check_range(tubes, "tubes", 2, 5, 8);
+    check_range(tubes, "tubes", 5, 8, 8);
+    // Frames differ from one another (the check above could not pass with a constant image).
+    CHECK(file_bytes(dir.path / "tubes" / name(4)) != file_bytes(dir.path / "tubes" / name(5)));
+    render(still, "still", "");
+    check_range(still, "still", 2, 4, 4);
 }

@@ -17,6 +17,7 @@
 #include <filesystem>
 #include <iostream>
 #include <sys/stat.h>
+#include <tuple>
 
 namespace smoketrace::cli {
 namespace {
@@ -45,12 +46,33 @@ std::filesystem::path frame_path(const std::filesystem::path& out, std::uint32_t
     return p;
 }
 
+// --frames: "N" (render N frames) or "A:B" (frames A … B − 1 of the scene's sequence).
+struct FramesArg {
+    std::optional<long long> count;
+    std::optional<std::pair<std::uint32_t, std::uint32_t>> range;
+};
+
+FramesArg parse_frames(const std::optional<std::string>& text) {
+    FramesArg f;
+    if (!text) return f;
+    const auto colon = text->find(':');
+    if (colon == std::string::npos) {
+        f.count = parse_integer(*text, "--frames", 1, 100000);
+        return f;
+    }
+    const long long a = parse_integer(text->substr(0, colon), "--frames A:B: A", 0, kMaxSceneFrames - 1);
+    const long long b = parse_integer(text->substr(colon + 1), "--frames A:B: B", 1, kMaxSceneFrames);
+    if (a >= b) throw CliError("--frames " + *text + ": A must be less than B (frames A … B-1 are rendered)");
+    f.range = std::pair{std::uint32_t(a), std::uint32_t(b)};
+    return f;
+}
+
 int run_render(const Args& args) {
     ArgReader in(args);
     const auto out_arg = in.string("-o");
     const auto mode = in.string("--mode");
     const auto size = in.size("--size", int(kMaxImageSide));
-    const auto frames = in.integer("--frames", 1, 100000);
+    const FramesArg frames = parse_frames(in.string("--frames"));
     const auto groups = in.integer("--groups", 1, 1 << 20);
     const auto cutoff = in.integer("--cutoff", 0, 1'000'000'000);
     const auto shape_arg = in.string("--shape");
@@ -87,8 +109,8 @@ int run_render(const Args& args) {
             throw CliError("--size: " + std::to_string(options.width) + "x" + std::to_string(options.height) +
                            " has more than " + std::to_string(kMaxImagePixels) + " pixels");
     }
-    if (frames) {
-        options.render.frames = std::uint32_t(*frames);
+    if (frames.count) {
+        options.render.frames = std::uint32_t(*frames.count);
         check_scene_motion(scene, options.render.frames);  // more frames than the file's: motion re-checked
     }
     if (groups) options.render.groups = std::uint32_t(*groups);
@@ -111,6 +133,14 @@ int run_render(const Args& args) {
     }
     if (spp) options.render.spp = std::uint32_t(*spp);
     const std::uint32_t frame_count = options.render.frames;
+    // The frames this run writes: all, or --frames A:B of the sequence (same names and bytes as a full run's).
+    std::uint32_t first = 0, end = frame_count;
+    if (frames.range) {
+        std::tie(first, end) = *frames.range;
+        if (end > frame_count)
+            throw CliError("--frames " + std::to_string(first) + ":" + std::to_string(end) + ": B is beyond the " +
+                           std::to_string(frame_count) + " frames of the sequence (the scene's render.frames)");
+    }
     if (to_stdout && frame_count > 1)
         throw CliError("-o -: standard output takes one frame, not " + std::to_string(frame_count) +
                        " (--frames or the scene's render.frames); write a sequence with -o OUT.png");
@@ -124,20 +154,21 @@ int run_render(const Args& args) {
     const std::vector<std::filesystem::path> inputs{scene_path, texture_dir / kSixwayLayoutFile, layout.positive,
                                                     layout.negative};
     bool timings_to_stderr = false;  // the PNG is on standard output: nothing else may go there
-    for (std::uint32_t f = 0; f < frame_count; ++f)
+    for (std::uint32_t f = first; f < end; ++f)
         if (checked_output(frame_path(out, f, frame_count), inputs).kind == OutputKind::standard_output)
             timings_to_stderr = true;
     std::ostream& report = timings_to_stderr ? std::cerr : std::cout;
     const SixwayTexture texture = load_sixway_texture(layout.positive, layout.negative, layout.grid);
 
     FrameRenderer renderer(scene, options, texture);
-    ProgressBar progress(options.render.frames);
+    renderer.skip_to(first);  // particles, light, TLAS and the groups' optical depths as the full run has them
+    ProgressBar progress(end - first);
     std::vector<FrameTimings> all;
     ImageRgba image;
     PngWriter png;  // one for the sequence: its memory is reused by every frame
-    for (std::uint32_t f = 0; f < options.render.frames; ++f) {
+    for (std::uint32_t f = first; f < end; ++f) {
         const FrameReport r = renderer.render(f, image);
-        png.write_srgb(frame_path(out, f, options.render.frames), image);
+        png.write_srgb(frame_path(out, f, frame_count), image);
         all.push_back(r.timings);
         if (timings) {
             report << "frame=" << f << " tlas=" << to_string(r.tlas) << "\n" << format_timings(r.timings, true);
@@ -145,14 +176,14 @@ int run_render(const Args& args) {
         progress.step();
     }
     progress.finish();
-    if (timings && options.render.frames > 1) report << "median\n" << format_timings(median(all), true);
+    if (timings && end - first > 1) report << "median\n" << format_timings(median(all), true);
     if (to_stdout)
         std::cerr << "wrote the PNG to standard output\n";
-    else if (options.render.frames == 1)
-        std::cerr << "wrote " << out.string() << "\n";
+    else if (end - first == 1)
+        std::cerr << "wrote " << frame_path(out, first, frame_count).string() << "\n";
     else
-        std::cerr << "wrote " << options.render.frames << " frames " << frame_path(out, 0, options.render.frames).string()
-                  << " … " << frame_path(out, options.render.frames - 1, options.render.frames).string() << "\n";
+        std::cerr << "wrote " << end - first << " frames " << frame_path(out, first, frame_count).string() << " … "
+                  << frame_path(out, end - 1, frame_count).string() << "\n";
     return 0;
 }
 
@@ -162,7 +193,9 @@ constexpr OptionHelp kOptions[] = {
     {"--mode", "basic|simple-shadow|full", "the scene's render.mode (full)",
      "basic: no optical depths, no shadows; simple-shadow: ground shadows 0 or 1; full: eq. 4.3 shadows"},
     {"--size", "WxH", "the scene's camera.width x height (512x512)", "image size in pixels, each side 1…16384"},
-    {"--frames", "N", "the scene's render.frames (1)", "frames to render, particles moving one step per frame"},
+    {"--frames", "N|A:B", "the scene's render.frames (1)",
+     "N: frames to render, particles moving one step per frame; A:B: only frames A … B-1 of the scene's sequence, "
+     "the same files a full run writes (for a batch scheduler's job array)"},
     {"--groups", "G", "the scene's render.groups (1)", "particle groups: 1/G of the optical depths updated per frame"},
     {"--cutoff", "K", "the scene's render.cutoff (0: none)",
      "a particle whose light ray meets more than K surfaces is fully dark"},
@@ -185,7 +218,7 @@ constexpr OptionHelp kOptions[] = {
 
 const RegisterCommand registration{
     {"render",
-     "render SCENE.json -o OUT.png|- [--mode basic|simple-shadow|full] [--size WxH] [--frames N] [--groups G] "
+     "render SCENE.json -o OUT.png|- [--mode basic|simple-shadow|full] [--size WxH] [--frames N|A:B] [--groups G] "
      "[--cutoff K] [--shape S] [--threads T] [--timings] [--compositing over|thesis] "
      "[--compositor tiled|one-traversal|retrace] [--spp N] [--assets DIR]",
      "render a frame (-o -: on standard output), or N frames OUT_0000.png …, of the smoke scene", &run_render,

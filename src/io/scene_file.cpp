@@ -55,7 +55,6 @@ constexpr double kMinDefaultFramingRadius = 1e-6;
 constexpr double kRadiansPerDegree = 3.14159265358979323846 / 180.0;
 
 constexpr std::uint32_t kMaxGroups = 1u << 20;     // one update spread over 2^20 frames is ~5 h at 60 fps
-constexpr std::uint32_t kMaxFrames = 1'000'000;    // ~4.6 h at 60 fps: anything more is a typo
 constexpr std::size_t kMaxShownValueChars = 60;    // "(got …)" shows at most this much of a value
 
 // ---- Paths and messages ------------------------------------------------------------------------------
@@ -226,6 +225,22 @@ public:
         return glm::normalize(d / largest);
     }
 
+    // A position in world coordinates: 3 numbers within ±kMaxSceneCoordinate, kept in double (the scene
+    // stores it relative to its origin, see local_point()).
+    [[nodiscard]] glm::dvec3 point(const Node& n) const {
+        if (!n.value->is_array() || n.value->size() != 3) wrong_type(n, "an array of 3 numbers");
+        glm::dvec3 p(0.0);
+        for (std::size_t a = 0; a < 3; ++a) {
+            const Node c = n.element(a);
+            const double v = number(c);
+            if (std::abs(v) > static_cast<double>(std::numeric_limits<float>::max()))
+                fail(c, "too large for single precision (got " + shown_value(*c.value) + ")");
+            if (!kCoordinate.contains(v)) fail(c, kCoordinate.describe(v) + " (got " + shown_value(*c.value) + ")");
+            p[int(a)] = v;
+        }
+        return p;
+    }
+
     [[nodiscard]] glm::vec3 vec3(const Node& n, const Bounds& bounds = kAny) const {
         if (!n.value->is_array() || n.value->size() != 3) wrong_type(n, "an array of 3 numbers");
         return {real(n.element(0), bounds), real(n.element(1), bounds), real(n.element(2), bounds)};
@@ -263,6 +278,51 @@ public:
 private:
     std::string source_;
 };
+
+// ---- The scene's origin -------------------------------------------------------------------------------
+
+// A file without "origin" gets one near its first particle (or the tubes' centre): that point rounded to a
+// multiple of the power of two at or above 16·scale (scale: that particle's radius). So every float the
+// scene stores is within a few scene sizes of its origin and keeps the precision the file had, however far
+// from 0 the scene is; a scene within 8 radii of 0 keeps the origin 0 (its floats are those of the world
+// coordinates); and scenes moved by less than a grid step (one frame to the next of an exported sequence)
+// share their origin. The grid is a power of two so that a dyadic scene stays exact relative to it.
+constexpr double kOriginGridScales = 16.0;
+
+glm::dvec3 origin_near(const glm::dvec3& p, double scale) {
+    const double grid = std::exp2(std::ceil(std::log2(kOriginGridScales * scale)));
+    glm::dvec3 o;
+    for (int a = 0; a < 3; ++a) o[a] = grid * std::nearbyint(p[a] / grid) + 0.0;  // + 0.0: never −0
+    return o;
+}
+
+// A world position as the scene stores it: relative to `origin`, subtracted in double, rounded once to
+// float. A nonzero difference that rounds to 0 reads as +0 (as every number that rounds to 0 does).
+glm::vec3 local_point(const glm::dvec3& world, const glm::dvec3& origin) {
+    const glm::dvec3 d = world - origin;
+    return glm::vec3(float(d.x) + 0.0f, float(d.y) + 0.0f, float(d.z) + 0.0f);
+}
+
+// One particle as a file gives it, each value checked (the centre in world coordinates, in double).
+struct ParticleValues {
+    glm::dvec3 center{0.0};
+    float radius = 1.0f;
+    glm::vec3 velocity{0.0f};
+    float spin = 0.0f, growth = 0.0f, rotation = 0.0f;
+};
+
+// The one place where a file's particle becomes a Particle of the scene, in its frame: every reader of
+// particle lists goes through it.
+Particle local_particle(const ParticleValues& v, const glm::dvec3& origin) {
+    Particle p;
+    p.center = local_point(v.center, origin);
+    p.radius = v.radius;
+    p.velocity = v.velocity;
+    p.spin = v.spin;
+    p.growth = v.growth;
+    p.rotation = v.rotation;
+    return p;
+}
 
 // ---- Paths during parsing ----------------------------------------------------------------------------
 
@@ -414,14 +474,14 @@ json parse_json(std::string_view text, const Reader& reader, const std::string& 
 
 // ---- Extent and motion ---------------------------------------------------------------------------------
 
-// Empty when the particle stays within ±kMaxSceneCoordinate with a radius <= kMaxSceneCoordinate over
-// `steps` frame steps of ParticleSystem::advance(), else what goes wrong (bounds in double: the float
-// steps' rounding is relative 2^-24 per step, nowhere near the factor of 10^4 between the bound and the
-// first overflow).
-std::string particle_extent_problem(const Particle& p, std::uint64_t steps) {
+// Empty when the particle (in the frame of `origin`) stays within ±kMaxSceneCoordinate of the world's 0
+// with a radius <= kMaxSceneCoordinate over `steps` frame steps of ParticleSystem::advance(), else what
+// goes wrong (bounds in double: the float steps' rounding is relative 2^-24 per step, nowhere near the
+// factor of 10^4 between the bound and the first overflow).
+std::string particle_extent_problem(const Particle& p, std::uint64_t steps, const glm::dvec3& origin) {
     const double n = double(steps);
     for (int a = 0; a < 3; ++a) {
-        const double reach = std::abs(double(p.center[a])) + n * std::abs(double(p.velocity[a]));
+        const double reach = std::abs(origin[a] + double(p.center[a])) + n * std::abs(double(p.velocity[a]));
         if (!(reach <= kMaxSceneCoordinate)) {
             const std::string where = steps == 0 ? "lies" : "moves";
             return where + " beyond the coordinate range +-" + shown_number(kMaxSceneCoordinate) +
@@ -505,13 +565,15 @@ void check_fov_resolution(const Reader& r, const Node& n, float fov_deg, std::ui
                   "fov_deg must be at least " + shown_rounded_up(smallest));
 }
 
-// The default camera must stand within ±kMaxDefaultCameraCoordinate. `path`: /camera/fov_deg when the file
-// gave the field of view (it is what backs the camera off), else /camera.
-void check_default_position(const Reader& r, const DefaultView& v, const std::string& path, bool fov_given) {
-    const double reach = std::max({std::abs(v.position.x), std::abs(v.position.y), std::abs(v.position.z)});
+// The default camera must stand within ±kMaxDefaultCameraCoordinate of the world's 0. `path`:
+// /camera/fov_deg when the file gave the field of view (it is what backs the camera off), else /camera.
+void check_default_position(const Reader& r, const DefaultView& v, const std::string& path, bool fov_given,
+                            const glm::dvec3& origin) {
+    const glm::dvec3 at = origin + v.position;  // in world coordinates, as the file's
+    const double reach = std::max({std::abs(at.x), std::abs(at.y), std::abs(at.z)});
     if (reach <= kMaxDefaultCameraCoordinate) return;
-    const std::string where = "(to fit the smoke into this view it would stand at (" + shown_3_digits(v.position.x) +
-                              ", " + shown_3_digits(v.position.y) + ", " + shown_3_digits(v.position.z) + "))";
+    const std::string where = "(to fit the smoke into this view it would stand at (" + shown_3_digits(at.x) + ", " +
+                              shown_3_digits(at.y) + ", " + shown_3_digits(at.z) + "))";
     if (fov_given)
         r.fail(path, "pushes the default camera beyond the coordinate limit of " +
                          shown_number(kMaxDefaultCameraCoordinate) + " " + where +
@@ -532,10 +594,10 @@ LightDescription read_light(const Reader& r, const Node& n) {
     return light;
 }
 
-Particle read_particle(const Reader& r, const Node& n) {
+ParticleValues read_particle(const Reader& r, const Node& n) {
     r.require_object(n, {"center", "radius", "velocity", "spin", "growth", "rotation"});
-    Particle p;
-    p.center = r.vec3(r.required(n, "center"), kCoordinate);
+    ParticleValues p;
+    p.center = r.point(r.required(n, "center"));
     p.radius = r.radius(r.required(n, "radius"), kRadius);
     if (auto v = Reader::optional(n, "velocity")) p.velocity = r.vec3(*v);
     if (auto s = Reader::optional(n, "spin")) p.spin = r.real(*s);
@@ -544,9 +606,10 @@ Particle read_particle(const Reader& r, const Node& n) {
     return p;
 }
 
-TubeSettings read_tubes(const Reader& r, const Node& n) {
-    r.require_object(n, {"count", "seed", "tube_radius", "tube_length", "separation", "particle_radius", "drift",
-                         "jitter_speed", "spin_speed", "growth", "random_rotation"});
+// `origin`: the file's, or (when it gave none) set here from the tubes' centre.
+TubeSettings read_tubes(const Reader& r, const Node& n, std::optional<glm::dvec3>& origin) {
+    r.require_object(n, {"count", "seed", "center", "tube_radius", "tube_length", "separation", "particle_radius",
+                         "drift", "jitter_speed", "spin_speed", "growth", "random_rotation"});
     TubeSettings t;
     if (auto v = Reader::optional(n, "count")) {
         const std::uint64_t count = r.integer(*v, 0, std::numeric_limits<std::uint64_t>::max());
@@ -563,10 +626,15 @@ TubeSettings read_tubes(const Reader& r, const Node& n) {
     if (auto v = Reader::optional(n, "spin_speed")) t.spin_speed = r.real(*v, kNonNegative);
     if (auto v = Reader::optional(n, "growth")) t.growth = r.real(*v, Bounds{-1.0, true});
     if (auto v = Reader::optional(n, "random_rotation")) t.random_rotation = r.boolean(*v);
+    glm::dvec3 center(0.0);
+    if (auto v = Reader::optional(n, "center")) center = r.point(*v);
+    if (!origin) origin = origin_near(center, t.particle_radius);
+    t.center = local_point(center, *origin);
     return t;
 }
 
-SmokeDescription read_smoke(const Reader& r, const Node& n) {
+// `origin`: the file's, or (when it gave none) set here from the first particle or the tubes; 0 if neither.
+SmokeDescription read_smoke(const Reader& r, const Node& n, std::optional<glm::dvec3>& origin) {
     r.require_object(n, {"particles", "tubes", "sigma_t", "alpha", "shape"});
     SmokeDescription smoke;
     const auto list = Reader::optional(n, "particles");
@@ -578,12 +646,17 @@ SmokeDescription read_smoke(const Reader& r, const Node& n) {
         if (const std::string problem = particle_count_problem(list->value->size(), false); !problem.empty())
             r.fail(*list, problem);  // (the scan already stopped longer lists)
         smoke.particles.reserve(list->value->size());
-        for (std::size_t i = 0; i < list->value->size(); ++i) smoke.particles.push_back(read_particle(r, list->element(i)));
+        for (std::size_t i = 0; i < list->value->size(); ++i) {
+            const ParticleValues values = read_particle(r, list->element(i));
+            if (!origin) origin = origin_near(values.center, values.radius);
+            smoke.particles.push_back(local_particle(values, *origin));
+        }
+        if (!origin) origin = glm::dvec3(0.0);  // no particles
     } else {
-        smoke.tubes = read_tubes(r, *tubes);
+        smoke.tubes = read_tubes(r, *tubes, origin);
         smoke.particles = generate_tubes(*smoke.tubes);
         for (std::size_t i = 0; i < smoke.particles.size(); ++i)
-            if (const std::string problem = particle_extent_problem(smoke.particles[i], 0); !problem.empty())
+            if (const std::string problem = particle_extent_problem(smoke.particles[i], 0, *origin); !problem.empty())
                 r.fail(*tubes, "generated particle " + std::to_string(i) + " " + problem);
     }
     if (auto v = Reader::optional(n, "sigma_t")) smoke.sigma_t = r.real(*v, kNonNegative);
@@ -597,15 +670,16 @@ SmokeDescription read_smoke(const Reader& r, const Node& n) {
     return smoke;
 }
 
-GroundDescription read_ground(const Reader& r, const Node& n) {
+GroundDescription read_ground(const Reader& r, const Node& n, const glm::dvec3& origin) {
     r.require_object(n, {"corners", "color"});
     GroundDescription ground;
     const Node corners = r.required(n, "corners");
     if (!corners.value->is_array() || corners.value->size() != 4) r.wrong_type(corners, "an array of 4 points");
+    // The checks below run on the corners relative to the origin, in double: as exact as the file's values.
     std::array<glm::dvec3, 4> v;
     for (std::size_t i = 0; i < 4; ++i) {
-        ground.corners[i] = r.vec3(corners.element(i), kCoordinate);
-        v[i] = glm::dvec3(ground.corners[i]);
+        v[i] = r.point(corners.element(i)) - origin;
+        ground.corners[i] = local_point(v[i], glm::dvec3(0.0));
     }
 
     // Newell's normal: twice the vector area, robust for any planar polygon and pointing to the side from
@@ -666,12 +740,12 @@ CameraDescription read_camera(const Reader& r, const Node& n, const SceneDescrip
 
     CameraDescription camera = default_camera(scene.smoke.particles, scene.ground, fov, width, height);
     if (auto v = Reader::optional(n, "position")) {
-        camera.position = r.vec3(*v, kCoordinate);
+        camera.position = local_point(r.point(*v), scene.origin);
     } else {
         check_default_position(r, default_view(scene.smoke.particles, scene.ground, fov, width, height),
-                               fov_node ? fov_node->path : n.path, fov_node.has_value());
+                               fov_node ? fov_node->path : n.path, fov_node.has_value(), scene.origin);
     }
-    if (auto v = Reader::optional(n, "look_at")) camera.look_at = r.vec3(*v, kCoordinate);
+    if (auto v = Reader::optional(n, "look_at")) camera.look_at = local_point(r.point(*v), scene.origin);
     const auto up = Reader::optional(n, "up");
     // Unit length (normalised in double from the file's numbers): the renderer's camera then sees |forward ×
     // up| = the sine checked below, whatever length the file gave (up = [0, 1e-30, 0] underflowed there; up =
@@ -701,7 +775,7 @@ RenderSettings read_render(const Reader& r, const Node& n) {
     }
     if (auto v = Reader::optional(n, "cutoff")) s.cutoff = r.u32(*v, 0, std::numeric_limits<std::uint32_t>::max());
     if (auto v = Reader::optional(n, "groups")) s.groups = r.u32(*v, 1, kMaxGroups);
-    if (auto v = Reader::optional(n, "frames")) s.frames = r.u32(*v, 1, kMaxFrames);
+    if (auto v = Reader::optional(n, "frames")) s.frames = r.u32(*v, 1, kMaxSceneFrames);
     if (auto v = Reader::optional(n, "softness")) s.softness = r.real(*v, kNonNegative);
     if (auto v = Reader::optional(n, "transmittance_threshold"))
         s.transmittance_threshold = r.real(*v, Bounds{0.0, false, 1.0, true});
@@ -723,7 +797,7 @@ void check_scene_motion(const SceneDescription& scene, std::uint32_t frames) {
     if (frames <= 1) return;
     const Reader r(scene.source);
     for (std::size_t i = 0; i < scene.smoke.particles.size(); ++i) {
-        const std::string problem = particle_extent_problem(scene.smoke.particles[i], frames - 1);
+        const std::string problem = particle_extent_problem(scene.smoke.particles[i], frames - 1, scene.origin);
         if (problem.empty()) continue;
         if (scene.smoke.tubes) r.fail("/smoke/tubes", "generated particle " + std::to_string(i) + " " + problem);
         r.fail("/smoke/particles/" + std::to_string(i), problem);
@@ -752,15 +826,18 @@ SceneDescription parse_scene(std::string_view json_text, std::string_view source
     const Reader r(source);
     const json document = parse_json(json_text, r, source);
     const Node root{&document, ""};
-    r.require_object(root, {"light", "ambient", "background", "smoke", "ground", "camera", "render"});
+    r.require_object(root, {"origin", "light", "ambient", "background", "smoke", "ground", "camera", "render"});
 
     SceneDescription scene;
     scene.source = source;
     scene.light = read_light(r, r.required(root, "light"));
     if (auto v = Reader::optional(root, "ambient")) scene.ambient = r.vec3(*v, kColor);
     if (auto v = Reader::optional(root, "background")) scene.background = r.vec3(*v, kColor);
-    scene.smoke = read_smoke(r, r.required(root, "smoke"));
-    if (auto v = Reader::optional(root, "ground")) scene.ground = read_ground(r, *v);
+    std::optional<glm::dvec3> origin;
+    if (auto v = Reader::optional(root, "origin")) origin = r.point(*v);
+    scene.smoke = read_smoke(r, r.required(root, "smoke"), origin);
+    scene.origin = *origin;
+    if (auto v = Reader::optional(root, "ground")) scene.ground = read_ground(r, *v, scene.origin);
     if (auto v = Reader::optional(root, "render")) scene.render = read_render(r, *v);
     check_scene_motion(scene, scene.render.frames);
     if (auto v = Reader::optional(root, "camera")) {
@@ -769,7 +846,7 @@ SceneDescription parse_scene(std::string_view json_text, std::string_view source
         const CameraDescription d;
         scene.camera = default_camera(scene.smoke.particles, scene.ground, d.fov_deg, d.width, d.height);
         check_default_position(r, default_view(scene.smoke.particles, scene.ground, d.fov_deg, d.width, d.height),
-                               "/camera", false);
+                               "/camera", false, scene.origin);
         check_renderer_accepts(r, scene.camera, "/camera");
     }
     return scene;

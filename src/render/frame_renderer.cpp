@@ -4,6 +4,7 @@
 
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace smoketrace {
 
@@ -34,13 +35,15 @@ FrameRenderer::FrameRenderer(const SceneDescription& scene, const RenderOptions&
         throw std::invalid_argument("render: spp must be in [1, " + std::to_string(kMaxSpp) + "]");
 }
 
-FrameReport FrameRenderer::render(std::uint64_t frame, ImageRgba& image) {
-    if (std::int64_t(frame) != last_frame_ + 1) throw std::logic_error("FrameRenderer: frames must be rendered in order");
-    FrameReport report;
-    FrameTimings& t = report.timings;
-    StageClock total;
-    StageClock clock;
+bool FrameRenderer::still_at(std::uint64_t frame) const {
+    if (frame == 0 || particles_.moving()) return false;
+    return desc_.light.direction_at_frame(std::int64_t(frame)) ==
+           desc_.light.direction_at_frame(std::int64_t(frame) - 1);
+}
 
+bool FrameRenderer::advance_to(std::uint64_t frame, bool trace_depths, FrameReport& report) {
+    FrameTimings& t = report.timings;
+    StageClock clock;
     const bool first = frame == 0;
     const bool moved = !first && particles_.moving();
     if (moved) particles_.advance(1);
@@ -48,36 +51,71 @@ FrameReport FrameRenderer::render(std::uint64_t frame, ImageRgba& image) {
     const bool light_turned = first || light != last_light_;
     last_frame_ = std::int64_t(frame);
     last_light_ = light;
+    const bool still = !first && !moved && !light_turned;
+    if (still) return true;
+
+    report.tlas = smoke_.update(particles_.particles(), camera_.position());
+    t.tlas_update = clock.lap_ms();
+    if (trace_depths && options_.render.mode != RenderMode::basic) {
+        // The first frame traces every particle so that none starts without a value; after that, one
+        // group per frame (thesis 4.4.2).
+        const std::uint32_t groups = first ? 1 : options_.render.groups;
+        const auto which = particle_group(particles_.size(), groups, frame);
+        OpticalDepthSettings ods;
+        ods.cutoff = options_.render.cutoff;
+        depths_.update(smoke_, particles_.particles(), which, light, ods, options_.sort, t);
+        report.depths_updated = which.size();
+    }
+    return false;
+}
+
+void FrameRenderer::skip_to(std::uint64_t frame) {
+    const auto from = std::uint64_t(last_frame_ + 1);
+    if (frame < from) throw std::logic_error("FrameRenderer: cannot skip back to an earlier frame");
+    // Which skipped frames' optical depths are still in use at `frame`: walking back from frame - 1, a
+    // frame that traces (not a still one) sets its group's values unless a later one already has; frame 0
+    // sets every group's. Only those frames trace; the others advance the particles and the TLAS alone,
+    // so the TLAS's refit-or-rebuild history is the full run's too.
+    const std::uint32_t groups = options_.render.groups;
+    std::vector<bool> traces(frame - from, false), covered(groups, false);
+    std::uint32_t uncovered = groups;
+    for (std::uint64_t f = frame; f-- > from && uncovered > 0;) {
+        if (still_at(f)) continue;
+        if (f == 0) {
+            traces[0] = true;
+            break;
+        }
+        const auto g = std::uint32_t(f % groups);
+        if (covered[g]) continue;
+        covered[g] = true;
+        --uncovered;
+        traces[f - from] = true;
+    }
+    for (std::uint64_t f = from; f < frame; ++f) {
+        FrameReport ignored;
+        advance_to(f, traces[f - from], ignored);
+    }
+}
+
+FrameReport FrameRenderer::render(std::uint64_t frame, ImageRgba& image) {
+    if (std::int64_t(frame) != last_frame_ + 1) throw std::logic_error("FrameRenderer: frames must be rendered in order");
+    FrameReport report;
+    FrameTimings& t = report.timings;
+    StageClock total;
 
     // Work is skipped only where its inputs did not change. Still particles and a still light leave the
     // TLAS and the optical depths as they were; the view is redrawn unless its flipbook frame is also the
     // one already in `image` (the billboards animate even when nothing moves).
+    const bool still = advance_to(frame, true, report);
+    const glm::vec3 light = last_light_;
     const int flipbook_frame = int(frame % std::uint64_t(texture_.frame_count()));
-    const bool still = !first && !moved && !light_turned;
     if (still && flipbook_frame == last_flipbook_frame_ && image.width == options_.width &&
         image.height == options_.height) {
         report.reused_previous = true;
         t.total = total.lap_ms();
         return report;
     }
-
-    if (!still) {
-        report.tlas = smoke_.update(particles_.particles(), camera_.position());
-        t.tlas_update = clock.lap_ms();
-
-        const bool optical_depth = options_.render.mode != RenderMode::basic;
-        if (optical_depth) {
-            // The first frame traces every particle so that none starts without a value; after that, one
-            // group per frame (thesis 4.4.2).
-            const std::uint32_t groups = first ? 1 : options_.render.groups;
-            const auto which = particle_group(particles_.size(), groups, frame);
-            OpticalDepthSettings ods;
-            ods.cutoff = options_.render.cutoff;
-            depths_.update(smoke_, particles_.particles(), which, light, ods, options_.sort, t);
-            report.depths_updated = which.size();
-        }
-    }
-    clock.lap_ms();
+    StageClock clock;
 
     ViewSettings v;
     v.mode = options_.render.mode;

@@ -18,9 +18,9 @@ void check(const TubeSettings& s) {
     auto positive = [](float v) { return finite(v) && v > 0.0f; };
     if (!positive(s.tube_radius) || !positive(s.tube_length) || !positive(s.particle_radius))
         throw std::invalid_argument("generate_tubes: radii and length must be finite and > 0");
-    if (!finite(s.separation) || !finite(s.drift) || !finite(s.jitter_speed) || !finite(s.spin_speed) ||
-        !finite(s.growth) || s.growth <= -1.0f)
-        throw std::invalid_argument("generate_tubes: separation and speeds must be finite, growth > -1");
+    if (!finite(s.center) || !finite(s.separation) || !finite(s.drift) || !finite(s.jitter_speed) ||
+        !finite(s.spin_speed) || !finite(s.growth) || s.growth <= -1.0f)
+        throw std::invalid_argument("generate_tubes: centre, separation and speeds must be finite, growth > -1");
 }
 }  // namespace
 
@@ -49,6 +49,7 @@ std::vector<Particle> generate_tubes(const TubeSettings& s) {
         } else {
             p.center = {z, y - s.separation, -x};           // lower tube: rotated 90° about y, along x
         }
+        p.center += s.center;  // exact for the default centre 0: the shipped scenes keep their bits
         p.radius = s.particle_radius;
 
         const float vx = motion_rng.uniform(-s.jitter_speed, s.jitter_speed);

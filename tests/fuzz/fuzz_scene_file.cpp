@@ -58,8 +58,12 @@ void check_format(const SceneDescription& s) {
     require(finite(s.light.rotation_per_frame_deg), "light rotation");
     require(within(s.ambient, 0.0, kMaxSceneColor) && within(s.background, 0.0, kMaxSceneColor), "ambient/background");
     require(s.smoke.particles.size() <= scene_particle_limit(), "particle count");
+    // Positions are stored relative to the origin: the origin and every world position within
+    // ±kMaxSceneCoordinate put the stored ones within twice that.
+    for (int a = 0; a < 3; ++a) require(std::abs(s.origin[a]) <= kMaxSceneCoordinate, "origin");
+    const double local_limit = 2.0 * kMaxSceneCoordinate;
     for (const Particle& p : s.smoke.particles) {
-        require(within(p.center, -kMaxSceneCoordinate, kMaxSceneCoordinate), "particle centre");
+        require(within(p.center, -local_limit, local_limit), "particle centre");
         // A normal float: the reader refuses subnormal radii (1/radius would overflow).
         require(p.radius >= kMinParticleRadius && double(p.radius) <= kMaxSceneCoordinate, "particle radius");
         require(finite(p.velocity) && finite(p.spin) && finite(p.rotation), "particle motion");
@@ -69,7 +73,7 @@ void check_format(const SceneDescription& s) {
     require(s.smoke.alpha >= 0.0f && s.smoke.alpha <= 1.0f, "alpha");
     if (s.ground) {
         for (const glm::vec3& c : s.ground->corners)
-            require(within(c, -kMaxSceneCoordinate, kMaxSceneCoordinate), "ground corner");
+            require(within(c, -local_limit, local_limit), "ground corner");
         require(finite(s.ground->normal) && std::abs(glm::length(glm::dvec3(s.ground->normal)) - 1.0) < 1e-6, "ground normal");
         require(within(s.ground->color, 0.0, kMaxSceneColor), "ground colour");
     }
@@ -81,7 +85,9 @@ void check_format(const SceneDescription& s) {
     // (The reader's expression, rounding for rounding.)
     const double half_fov = 0.5 * double(c.fov_deg) * (3.14159265358979323846 / 180.0);
     require(2.0 * std::tan(half_fov) / double(c.height) >= kMinPixelAngle, "fov too small for the image height");
-    require(within(c.position, -kMaxDefaultCameraCoordinate, kMaxDefaultCameraCoordinate), "camera position");
+    require(within(c.position, -kMaxDefaultCameraCoordinate - kMaxSceneCoordinate,
+                   kMaxDefaultCameraCoordinate + kMaxSceneCoordinate),
+            "camera position");
     require(c.width >= 1 && c.height >= 1 && c.width <= std::uint32_t(kMaxImageSide) && c.height <= std::uint32_t(kMaxImageSide) &&
                 std::uint64_t(c.width) * c.height <= kMaxImagePixels,
             "image size");

@@ -3,7 +3,9 @@
 // The format, every key's default and range, and why each default is what it is: docs/scene-format.md.
 // Conventions: y is up, every speed is per frame. A SceneDescription from parse_scene() holds only checked
 // values (finite, within kMaxSceneCoordinate / kMaxSceneColor, at most scene_particle_limit() particles);
-// every problem is a SceneFileError reading "FILE: /json/path: problem".
+// every problem is a SceneFileError reading "FILE: /json/path: problem". The file's positions are world
+// coordinates, read in double; the SceneDescription holds them relative to its `origin` (the file's
+// "origin", else one near the first particle or the tubes' centre: docs/scene-format.md).
 #include <smoketrace/render/scene_description.hpp>
 #include <smoketrace/smoke/particle_system.hpp>
 
@@ -32,9 +34,10 @@ public:
 // 50 million particles already need ~2.4 GB as Particle structs alone, before stand-ins, billboards, the
 // BVHs and the hit lists (several times more); a larger count is almost surely a typo.
 inline constexpr std::uint64_t kMaxSceneParticles = 50'000'000;
-// Scene coordinates and radii: far beyond any sensible scene, yet small enough that nothing the pipeline
-// derives in float overflows: squared distances between scene points (camera normalisation, box areas)
-// stay below ~10^32, against FLT_MAX ≈ 3.4·10^38. A particle at 10^38 used to end in "Scene: instance 0 has
+// Scene coordinates (world coordinates, as the file gives them) and radii: far beyond any sensible scene,
+// yet small enough that nothing the pipeline derives in float overflows: squared distances between scene
+// points (camera normalisation, box areas; stored relative to the origin, within 2·10^15) stay below
+// ~10^32, against FLT_MAX ≈ 3.4·10^38. A particle at 10^38 used to end in "Scene: instance 0 has
 // a non-finite or empty world box", with no file or JSON path.
 inline constexpr double kMaxSceneCoordinate = 1e15;
 // A default camera (no camera.position) frames the smoke from outside it, so it may stand beyond
@@ -46,6 +49,8 @@ inline constexpr double kMaxDefaultCameraCoordinate = 1e17;
 // 16 float steps (2^-24) of the unit view direction. Closer, the rounding of each ray's direction is a
 // sizeable part of a pixel and neighbouring pixels merge into blocks: the field of view is too small.
 inline constexpr double kMinPixelAngle = 0x1.0p-20;
+// render.frames: ~4.6 h at 60 fps; anything more is a typo.
+inline constexpr std::uint32_t kMaxSceneFrames = 1'000'000;
 // Colour components: the image clamps at 1, so 10^6 is far beyond any meaningful intensity, and products
 // of three colours summed over layers (c_base·(c_light + c_amb), front-to-back sums) stay finite; light and
 // ambient of 3·10^38 used to render infinite pixels, which the PNG writer then refused.
@@ -54,7 +59,8 @@ inline constexpr double kMaxSceneColor = 1e6;
 // The most particles a scene may hold on this machine: kMaxSceneParticles, or machine_memory_bytes() /
 // kPeakBytesPerParticle (memory_budget.hpp) when that is fewer.
 [[nodiscard]] std::uint64_t scene_particle_limit();
-// The camera a scene gets without a "camera" object: looking at the centre of the particles' bounding
+// The camera a scene gets without a "camera" object (in the frame of the particles and the ground it is
+// given, the scene's): looking at the centre of the particles' bounding
 // sphere (of the ground's when there are no particles; the origin when there is neither) from the front
 // (+z) and a little above, at the distance where that sphere fits the narrower field of view with a margin.
 [[nodiscard]] CameraDescription default_camera(const std::vector<Particle>& particles,

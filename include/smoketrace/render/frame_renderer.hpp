@@ -44,12 +44,24 @@ public:
 
     // Renders frame `frame` (0, 1, 2, … in order: particles advance one step per frame) into `image`.
     FrameReport render(std::uint64_t frame, ImageRgba& image);
+    // Brings the scene to where a full run stands after frames 0 … frame − 1 without drawing them, so that
+    // render(frame) gives the full run's image bit for bit (render --frames A:B): particles, light and TLAS
+    // advance frame by frame as render() advances them; the optical depths are traced only in the frames
+    // whose values are still in use at `frame` (each group's last update). From a fresh renderer or after
+    // the last frame rendered; frame >= the next frame.
+    void skip_to(std::uint64_t frame);
 
     [[nodiscard]] const OpticalPathLengths& depths() const { return depths_; }
     [[nodiscard]] const ParticleSystem& particles() const { return particles_; }
     [[nodiscard]] const SmokeScene& smoke() const { return smoke_; }
 
 private:
+    // What render() does before it draws: advances to `frame` (the next one), updates the TLAS and, when
+    // trace_depths, this frame's optical depths. True when nothing changed since the previous frame.
+    bool advance_to(std::uint64_t frame, bool trace_depths, FrameReport& report);
+    // Whether frame `frame` changes nothing (no particle moves and the light does not turn).
+    [[nodiscard]] bool still_at(std::uint64_t frame) const;
+
     const SceneDescription& desc_;
     RenderOptions options_;
     const SixwayTexture& texture_;

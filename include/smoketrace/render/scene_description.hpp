@@ -65,6 +65,12 @@ struct RenderSettings {
 
 struct SceneDescription {
     std::string source;  // the file name (or source name) it was read from, for messages
+    // The scene's origin in world coordinates, in double: everything below that is a position (particle
+    // centres, the tubes' centre, the ground's corners, the camera's position and look_at) is relative to it.
+    // Single-precision positions near this point keep the precision the file had wherever the scene is
+    // (a float at 10^6 is 1/16 off; relative to an origin nearby, 10^-7); world = origin + position, added in
+    // double. Directions, speeds and sizes need no origin. docs/scene-format.md says how a file sets it.
+    glm::dvec3 origin{0.0};
     LightDescription light;
     glm::vec3 ambient{0.05f};
     glm::vec3 background{0.53f, 0.81f, 0.92f};

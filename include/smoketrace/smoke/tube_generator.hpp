@@ -5,8 +5,9 @@
 // Positions are sampled uniformly in the cuboid x, y ∈ [−R, R], z ∈ [−L/2, L/2] around the z axis and
 // rejected where x² + y² > R². Of the kept samples, the 0th, 2nd, 4th, … are moved +separation in y (the
 // upper tube, along z); the 1st, 3rd, … are moved −separation in y and rotated 90° about y, (x, y, z) →
-// (z, y, −x), so that the lower tube runs along x. Output order is sample order, so the particles
-// alternate upper, lower, upper, …; with an odd count the upper tube has one more.
+// (z, y, −x), so that the lower tube runs along x; then every particle is moved by `center`. Output order
+// is sample order, so the particles alternate upper, lower, upper, …; with an odd count the upper tube has
+// one more.
 //
 // Deterministic on every platform: the own PRNG (prng.hpp), float operations that round exactly once each
 // (no FMA contraction, see CMakeLists.txt), and the rotation done by swapping coordinates, not with sin/cos.
@@ -38,6 +39,7 @@ struct TubeSettings {
     float separation = 1.35f;           // each tube's axis is this far from y = 0 (upper +, lower −)
     float particle_radius = 0.35f;
     std::uint64_t seed = 2022;          // the thesis's year; any value
+    glm::vec3 center{0.0f};             // where the tubes cross (the point above is moved here)
 
     // Optional motion (thesis 4.1.1), all zero by default: a still scene.
     glm::vec3 drift{0.0f};              // common velocity, world units per frame
