@@ -34,6 +34,25 @@ FrameRenderer::FrameRenderer(const SceneDescription& scene, const RenderOptions&
         throw std::invalid_argument("render: spp must be in [1, " + std::to_string(kMaxSpp) + "]");
 }
 
+ViewSettings FrameRenderer::view_settings(std::uint64_t frame) const {
+    ViewSettings v;
+    v.mode = options_.render.mode;
+    v.compositing = options_.render.compositing;
+    v.compositor = options_.compositor;
+    v.sigma_t = desc_.smoke.sigma_t;
+    v.alpha = desc_.smoke.alpha;
+    v.softness = options_.render.softness;
+    v.transmittance_threshold = options_.render.transmittance_threshold;
+    v.to_light = desc_.light.direction_at_frame(std::int64_t(frame));
+    v.light_color = desc_.light.color;
+    v.ambient = desc_.ambient;
+    v.background = desc_.background;
+    if (desc_.ground) v.ground_color = desc_.ground->color;
+    v.flipbook_frame = int(frame % std::uint64_t(texture_.frame_count()));
+    v.spp = int(options_.render.spp);
+    return v;
+}
+
 FrameReport FrameRenderer::render(std::uint64_t frame, ImageRgba& image) {
     if (std::int64_t(frame) != last_frame_ + 1) throw std::logic_error("FrameRenderer: frames must be rendered in order");
     FrameReport report;
@@ -79,21 +98,7 @@ FrameReport FrameRenderer::render(std::uint64_t frame, ImageRgba& image) {
     }
     clock.lap_ms();
 
-    ViewSettings v;
-    v.mode = options_.render.mode;
-    v.compositing = options_.render.compositing;
-    v.compositor = options_.compositor;
-    v.sigma_t = desc_.smoke.sigma_t;
-    v.alpha = desc_.smoke.alpha;
-    v.softness = options_.render.softness;
-    v.transmittance_threshold = options_.render.transmittance_threshold;
-    v.to_light = light;
-    v.light_color = desc_.light.color;
-    v.ambient = desc_.ambient;
-    v.background = desc_.background;
-    if (desc_.ground) v.ground_color = desc_.ground->color;
-    v.flipbook_frame = flipbook_frame;
-    v.spp = int(options_.render.spp);
+    const ViewSettings v = view_settings(frame);
     render_view(smoke_, particles_.particles(), depths_.lengths(), texture_, camera_, v, image);
     t.view = clock.lap_ms();
     last_flipbook_frame_ = flipbook_frame;
