@@ -115,9 +115,10 @@ int run_explain(const Args& args) {
 }
 
 constexpr OptionHelp kOptions[] = {
-    {"--particle", "N", "", "explain particle N's optical-depth ray (0-based, as in depths' CSV); give this or --pixel"},
-    {"--pixel", "X,Y", "", "explain pixel (X, Y) of frame 0 (0,0 the top left), every sample of it; give this or "
-                           "--particle"},
+    {"--particle", "N", "none: give --particle or --pixel",
+     "explain particle N's optical-depth ray (0-based, as in depths' CSV)"},
+    {"--pixel", "X,Y", "none: give --particle or --pixel",
+     "explain pixel (X, Y) of frame 0 (0,0 the top left), each of its samples, as render draws it"},
     {"-o", "OUT.svg|-", "none (text only)",
      "also draw the story as an SVG (-: standard output, the text then on standard error)"},
     {"--assets", "DIR", "SMOKETRACE_ASSETS, else <prefix>/share/smoketrace or assets/ beside the binary",

@@ -253,7 +253,7 @@ void write_particle_svg(std::ostream& out, const OpticalDepthStory& s, const std
     // The counter of eq. 3.1 as a step plot.
     out << fmt(R"(<text x="%.0f" y="%.2f" fill="#555">)", left, counter_top - 14)
         << "The counter of eq. 3.1: starts at -(sum of the values), +1 at each entry, -1 at each exit; in smoke "
-           "while > 0</text>\n";
+           "while &gt; 0</text>\n";
     for (std::int64_t c = c_min; c <= c_max; c += std::max<std::int64_t>(1, (c_max - c_min) / 6)) {
         out << fmt(R"(<line x1="%.0f" y1="%.2f" x2="%.2f" y2="%.2f" stroke="#ddd"/>)", left, Y(double(c)),
                    left + plot_w, Y(double(c)))
