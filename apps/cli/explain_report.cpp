@@ -24,6 +24,11 @@ namespace {
 }
 
 std::string num(double v) { return format_number(v); }
+// Six digits, for the columns of the pixel's layer table (the pixel itself is printed in full).
+std::string brief(double v) { return fmt("%.6g", v); }
+std::string brief(const glm::vec3& v) {
+    return fmt("(%s, %s, %s)", brief(v.x).c_str(), brief(v.y).c_str(), brief(v.z).c_str());
+}
 std::string vec(const glm::vec3& v) {
     return fmt("(%s, %s, %s)", num(v.x).c_str(), num(v.y).c_str(), num(v.z).c_str());
 }
@@ -168,7 +173,7 @@ void write_particle_svg(std::ostream& out, const OpticalDepthStory& s, const std
     if (!(t_end > 0.0f)) t_end = 1.0f;
     const double span = double(t_end) * 1.04;
 
-    const double W = 960, left = 110, right = 40, plot_w = W - left - right;
+    const double W = 960, left = 140, right = 40, plot_w = W - left - right;
     auto X = [&](double t) { return left + t / span * plot_w; };
     const double n = double(std::max<std::size_t>(chords.size(), 1));
     const double lane = std::clamp(220.0 / n, 5.0, 16.0);
@@ -328,15 +333,15 @@ void write_pixel_text(std::ostream& out, const PixelStory& p, const glm::vec3& r
             out << " (the search stopped at t = " << num(*s.search_cut_at)
                 << ": the layers met already left T below the threshold)";
         out << "\n";
-        out << fmt("  %3s %9s %-12s %-11s %-11s %-11s %-11s %-35s %-11s %-11s %s\n", "#", "particle", "t",
+        out << fmt("  %3s %9s %-11s %-11s %-11s %-11s %-11s %-33s %-11s %-11s %s\n", "#", "particle", "t",
                    "tex alpha", "alpha", "light map", "l", "c_new (r, g, b)", (std::string(w) + " before").c_str(),
                    (std::string(w) + " after").c_str(), "contribution (r, g, b)");
         for (std::size_t k = 0; k < s.layers.size(); ++k) {
             const LayerStory& l = s.layers[k];
-            out << fmt("  %3zu %9u %-12s %-11s %-11s %-11s %-11s %-35s %-11s %-11s %s\n", k + 1, l.particle,
-                       num(l.t).c_str(), num(l.texture_alpha).c_str(), num(l.alpha).c_str(), num(l.light_map).c_str(),
-                       num(l.length).c_str(), vec(l.color).c_str(), num(l.weight_before).c_str(),
-                       num(l.weight_after).c_str(), vec(l.contribution).c_str());
+            out << fmt("  %3zu %9u %-11s %-11s %-11s %-11s %-11s %-33s %-11s %-11s %s\n", k + 1, l.particle,
+                       brief(l.t).c_str(), brief(l.texture_alpha).c_str(), brief(l.alpha).c_str(),
+                       brief(l.light_map).c_str(), brief(l.length).c_str(), brief(l.color).c_str(),
+                       brief(l.weight_before).c_str(), brief(l.weight_after).c_str(), brief(l.contribution).c_str());
         }
         switch (s.end) {
             case SampleEnd::transmittance_threshold:
