@@ -164,7 +164,8 @@ std::map<std::string, int> svg_elements(const std::string& doc, std::string& why
             if (closing) return fail("attributes in </" + name + ">");
             const std::size_t a = j;
             while (j < doc.size() && doc[j] != '=' && !std::isspace(static_cast<unsigned char>(doc[j]))) ++j;
-            if (j == a || j + 1 >= doc.size() || doc[j] != '=' || doc[j + 1] != '"') return fail("an unquoted attribute");
+            if (j == a || j + 1 >= doc.size() || doc[j] != '=' || doc[j + 1] != '"')
+                return fail("an unquoted attribute");
             const auto end = doc.find('"', j + 2);
             if (end == std::string::npos || doc.substr(j + 2, end - j - 2).find('<') != std::string::npos)
                 return fail("a bad attribute value");
@@ -209,9 +210,9 @@ TEST_CASE("explain: a particle's l is the one depths computes, bit for bit, on t
             smoke.update(d.smoke.particles, d.camera.position);
             const Depths want = depths_of(d, smoke, d.render.cutoff);
             for (std::uint32_t i = 0; i < d.smoke.particles.size(); ++i) {
-                const OpticalDepthStory s = explain_optical_depth(smoke, d.smoke.particles, i, d.light.direction,
-                                                                  OpticalDepthSettings{d.render.cutoff},
-                                                                  HitSort::adaptive, d.smoke.sigma_t);
+                const OpticalDepthStory s =
+                    explain_optical_depth(smoke, d.smoke.particles, i, d.light.direction,
+                                          OpticalDepthSettings{d.render.cutoff}, HitSort::adaptive, d.smoke.sigma_t);
                 ++seen[int(check_story(s, want))];
             }
         }
@@ -274,8 +275,8 @@ TEST_CASE("explain: the hand-made column gives its known story, and each status"
     roofed.ground->corners = {glm::vec3(2, 1, 2), glm::vec3(4, 1, 2), glm::vec3(4, 1, -2), glm::vec3(2, 1, -2)};
     SmokeScene roofed_smoke(roofed.smoke.particles, roofed.smoke.shape, ground_of(roofed), false);
     roofed_smoke.update(roofed.smoke.particles, roofed.camera.position);
-    const OpticalDepthStory occ = explain_optical_depth(roofed_smoke, roofed.smoke.particles, 3, d.light.direction, {},
-                                                        HitSort::adaptive, 1.0f);
+    const OpticalDepthStory occ =
+        explain_optical_depth(roofed_smoke, roofed.smoke.particles, 3, d.light.direction, {}, HitSort::adaptive, 1.0f);
     CHECK(occ.outcome.status == DepthStatus::occluded);
     REQUIRE(occ.ground_t);
     CHECK(*occ.ground_t == Approx(1.0f).epsilon(1e-6));
@@ -329,7 +330,8 @@ TEST_CASE("explain: the explained pixel is the rendered one, bit for bit, in eve
                                 for (std::size_t k = 0; k < s.layers.size(); ++k) {
                                     sum += s.layers[k].contribution;
                                     if (k > 0) CHECK(s.layers[k - 1].t <= s.layers[k].t);
-                                    if (k > 0) CHECK(bits(s.layers[k - 1].weight_after) == bits(s.layers[k].weight_before));
+                                    if (k > 0)
+                                        CHECK(bits(s.layers[k - 1].weight_after) == bits(s.layers[k].weight_before));
                                 }
                                 if (s.end != SampleEnd::transmittance_threshold) sum += s.background_contribution;
                                 CHECK(sum == s.color);
@@ -391,8 +393,11 @@ TEST_CASE("cli: explain prints depths' l and render's pixel", "[explain][cli]") 
     struct Variant {
         const char* render;
     };
-    const Variant variants[] = {{R"({"mode": "basic"})"}, {R"({"mode": "simple-shadow"})"}, {R"({"mode": "full"})"},
-                                {R"({"mode": "full", "compositing": "thesis"})"}, {R"({"mode": "full", "spp": 4})"}};
+    const Variant variants[] = {{R"({"mode": "basic"})"},
+                                {R"({"mode": "simple-shadow"})"},
+                                {R"({"mode": "full"})"},
+                                {R"({"mode": "full", "compositing": "thesis"})"},
+                                {R"({"mode": "full", "spp": 4})"}};
     int k = 0;
     for (const Variant& v : variants) {
         std::string text = kColumn;
@@ -405,8 +410,8 @@ TEST_CASE("cli: explain prints depths' l and render's pixel", "[explain][cli]") 
         REQUIRE(run_cli("render " + scene.string() + " -o " + png.string()).exit_code == 0);
         const Rgba8Image image = read_png_rgba8(png);
         for (const auto& [x, y] : {std::pair{20, 20}, std::pair{20, 12}, std::pair{3, 35}, std::pair{0, 0}}) {
-            const CliRun r = run_cli_stdout("explain " + scene.string() + " --pixel " + std::to_string(x) + "," +
-                                            std::to_string(y));
+            const CliRun r =
+                run_cli_stdout("explain " + scene.string() + " --pixel " + std::to_string(x) + "," + std::to_string(y));
             INFO("pixel " << x << "," << y << ": " << r.err);
             REQUIRE(r.exit_code == 0);
             const auto srgb = lines_after(r.out, "pixel (linear) ");
@@ -473,7 +478,7 @@ TEST_CASE("cli: explain's SVGs are well-formed and written whole", "[explain][cl
         const char* needs;  // an element the drawing cannot do without
     };
     const Case cases[] = {
-        {scene.string() + " --particle 0", "path"},  // the counter's step plot
+        {scene.string() + " --particle 0", "path"},    // the counter's step plot
         {above.string() + " --particle 443", "line"},  // cut off: chords, no walk
         {above.string() + " --particle 17", "path"},
         {scene.string() + " --pixel 20,20", "rect"},  // two samples' bars

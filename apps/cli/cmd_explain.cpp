@@ -39,16 +39,18 @@ int run_explain(const Args& args) {
     const auto pixel_arg = in.string("--pixel");
     const auto assets = in.string("--assets");
     const auto threads = in.integer("--threads", 1, 4096);
-    const std::string scene_path = in.positional("scene file (smoketrace explain SCENE.json --particle N | --pixel X,Y)");
+    const std::string scene_path =
+        in.positional("scene file (smoketrace explain SCENE.json --particle N | --pixel X,Y)");
     in.finish();
     if (particle_arg && pixel_arg) throw CliError("--particle and --pixel: give one of them, not both");
-    if (!particle_arg && !pixel_arg) throw CliError("give --particle N (a particle's optical-depth ray) or --pixel X,Y");
+    if (!particle_arg && !pixel_arg)
+        throw CliError("give --particle N (a particle's optical-depth ray) or --pixel X,Y");
     std::optional<std::pair<int, int>> pixel;
     if (pixel_arg) pixel = parse_pixel(*pixel_arg);
     std::optional<std::filesystem::path> out;
     if (out_arg) {
         out = std::filesystem::path(*out_arg);
-        struct stat st{};
+        struct stat st {};
         const bool stream = ::stat(out->c_str(), &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode);
         if (*out != kStandardOutputPath && out->extension() != ".svg" && !stream)
             throw CliError("-o: '" + out->string() + "' must end in .svg");
@@ -83,9 +85,9 @@ int run_explain(const Args& args) {
         smoke.update(particles, desc.camera.position);
         OpticalDepthSettings settings;
         settings.cutoff = desc.render.cutoff;
-        const OpticalDepthStory story = explain_optical_depth(smoke, particles, std::uint32_t(*particle_arg),
-                                                              desc.light.direction_at_frame(0), settings,
-                                                              HitSort::adaptive, desc.smoke.sigma_t);
+        const OpticalDepthStory story =
+            explain_optical_depth(smoke, particles, std::uint32_t(*particle_arg), desc.light.direction_at_frame(0),
+                                  settings, HitSort::adaptive, desc.smoke.sigma_t);
         write_particle_text(text, story, particles, scene_name, desc.smoke.shape.name().c_str());
         if (target) write_particle_svg(svg, story, scene_name);
     } else {

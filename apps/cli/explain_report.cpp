@@ -85,14 +85,15 @@ std::vector<Chord> chords_of(std::span<const StoryHit> hits) {
     std::map<std::uint32_t, Chord> by_particle;
     for (const StoryHit& h : hits) {
         Chord& c = by_particle.try_emplace(h.particle, Chord{h.particle, {}, {}}).first->second;
-        if (h.value > 0) c.enter = c.enter ? std::min(*c.enter, h.t) : h.t;
-        else c.leave = c.leave ? std::max(*c.leave, h.t) : h.t;
+        if (h.value > 0)
+            c.enter = c.enter ? std::min(*c.enter, h.t) : h.t;
+        else
+            c.leave = c.leave ? std::max(*c.leave, h.t) : h.t;
     }
     std::vector<Chord> out;
     for (const auto& [p, c] : by_particle) out.push_back(c);
-    std::stable_sort(out.begin(), out.end(), [](const Chord& a, const Chord& b) {
-        return a.enter.value_or(0.0f) < b.enter.value_or(0.0f);
-    });
+    std::stable_sort(out.begin(), out.end(),
+                     [](const Chord& a, const Chord& b) { return a.enter.value_or(0.0f) < b.enter.value_or(0.0f); });
     return out;
 }
 
@@ -119,7 +120,8 @@ void write_particle_text(std::ostream& out, const OpticalDepthStory& s, std::spa
     out << "1. Every candidate the any-hit callback saw, in the order trace() met them (" << s.seen.size() << "):\n";
     out << fmt("   %5s  %9s  %-7s %s\n", "#", "particle", "surface", "t");
     for (std::size_t i = 0; i < s.seen.size(); ++i)
-        out << fmt("   %5zu  %9u  %-7s %s\n", i + 1, s.seen[i].particle, surface(s.seen[i].value), num(s.seen[i].t).c_str());
+        out << fmt("   %5zu  %9u  %-7s %s\n", i + 1, s.seen[i].particle, surface(s.seen[i].value),
+                   num(s.seen[i].t).c_str());
     if (s.ground_t)
         out << "   The ground was met at t = " << num(*s.ground_t)
             << " (opaque: committed without calling any-hit): the particle is occluded.\n";
@@ -153,7 +155,8 @@ void write_particle_text(std::ostream& out, const OpticalDepthStory& s, std::spa
             << ": the hits are not sorted or walked; the particle is fully dark (thesis 4.3.3).\n"
             << "   l = " << num(s.length) << "\n\n";
     }
-    out << "4. status " << status_name(s.outcome.status) << ", " << s.outcome.hits << " hits (as `depths` reports them)\n";
+    out << "4. status " << status_name(s.outcome.status) << ", " << s.outcome.hits
+        << " hits (as `depths` reports them)\n";
     out << "   trace() counters: TLAS nodes " << s.counters.tlas_nodes << ", BLAS nodes " << s.counters.blas_nodes
         << ", boxes tested " << s.counters.boxes_tested << ", instances entered " << s.counters.instances_entered
         << ", primitives tested " << s.counters.primitives_tested << ", any-hit calls "
@@ -199,10 +202,10 @@ void write_particle_svg(std::ostream& out, const OpticalDepthStory& s, const std
         << "</title>\n";
     const std::string head =
         "Particle " + std::to_string(s.particle) + ": its ray toward the light (" + scene_name + ", frame 0)";
-    const std::string result = ok ? "l = " + num(s.length) + " (sum of the shaded stretches), tau = l*sigma_t = " +
-                                        num(s.optical_depth) + ", T = exp(-tau) = " + num(s.transmittance)
-                                  : std::string("status ") + status_name(s.outcome.status) +
-                                        ": fully dark (l = inf, T = 0)";
+    const std::string result =
+        ok ? "l = " + num(s.length) + " (sum of the shaded stretches), tau = l*sigma_t = " + num(s.optical_depth) +
+                 ", T = exp(-tau) = " + num(s.transmittance)
+           : std::string("status ") + status_name(s.outcome.status) + ": fully dark (l = inf, T = 0)";
     out << fmt(R"(<text x="%.0f" y="26" font-size="16" font-weight="bold">)", left) << xml(head) << "</text>\n";
     out << fmt(R"(<text x="%.0f" y="46">)", left) << xml(result) << "</text>\n";
     out << fmt(R"(<text x="%.0f" y="%.0f" fill="#555">)", left, chords_top - 12)
@@ -219,11 +222,15 @@ void write_particle_svg(std::ostream& out, const OpticalDepthStory& s, const std
         const Chord& c = chords[i];
         const double y = chords_top + lane * (double(i) + 0.5);
         const double x0 = X(c.enter.value_or(0.0f)), x1 = X(c.leave.value_or(t_end));
-        out << fmt(R"(<line x1="%.2f" y1="%.2f" x2="%.2f" y2="%.2f" stroke="#636363" stroke-width="%.1f")", x0, y,
-                   x1, y, std::max(2.0, lane * 0.55))
+        out << fmt(R"(<line x1="%.2f" y1="%.2f" x2="%.2f" y2="%.2f" stroke="#636363" stroke-width="%.1f")", x0, y, x1,
+                   y, std::max(2.0, lane * 0.55))
             << (c.enter && c.leave ? "" : R"( stroke-dasharray="4 2")") << "/>\n";
-        if (c.enter) out << fmt(R"(<circle cx="%.2f" cy="%.2f" r="%.1f" fill="#31a354"/>)", x0, y, std::max(2.0, lane * 0.3)) << "\n";
-        if (c.leave) out << fmt(R"(<circle cx="%.2f" cy="%.2f" r="%.1f" fill="#de2d26"/>)", x1, y, std::max(2.0, lane * 0.3)) << "\n";
+        if (c.enter)
+            out << fmt(R"(<circle cx="%.2f" cy="%.2f" r="%.1f" fill="#31a354"/>)", x0, y, std::max(2.0, lane * 0.3))
+                << "\n";
+        if (c.leave)
+            out << fmt(R"(<circle cx="%.2f" cy="%.2f" r="%.1f" fill="#de2d26"/>)", x1, y, std::max(2.0, lane * 0.3))
+                << "\n";
         out << fmt(R"(<text x="%.0f" y="%.2f" text-anchor="end" font-size="%.0f">particle %u%s</text>)", left - 8,
                    y + std::min(lane, 11.0) * 0.35, std::min(lane, 11.0), c.particle,
                    c.particle == s.particle ? " (own)" : "")
@@ -289,10 +296,12 @@ void write_particle_svg(std::ostream& out, const OpticalDepthStory& s, const std
     out << fmt(R"(<line x1="%.0f" y1="%.0f" x2="%.0f" y2="%.0f" stroke="#636363" stroke-width="5"/>)", left, ly,
                left + 30, ly)
         << "\n";
-    out << fmt(R"(<circle cx="%.0f" cy="%.0f" r="4" fill="#31a354"/><circle cx="%.0f" cy="%.0f" r="4" fill="#de2d26"/>)",
+    out << fmt(R"(<circle cx="%.0f" cy="%.0f" r="4" fill="#31a354"/>)"
+               R"(<circle cx="%.0f" cy="%.0f" r="4" fill="#de2d26"/>)",
                left, ly, left + 30, ly)
         << "\n";
-    out << fmt(R"(<text x="%.0f" y="%.0f">chord: entry (green, +1) to exit (red, -1); dashed: entered before t = 0 or not left</text>)",
+    out << fmt(R"(<text x="%.0f" y="%.0f">chord: entry (green, +1) to exit (red, -1); )"
+               R"(dashed: entered before t = 0 or not left</text>)",
                left + 40, ly + 4)
         << "\n";
     out << fmt(R"(<rect x="%.0f" y="%.0f" width="30" height="12" fill="#9ecae1" fill-opacity="0.45"/>)", left, ly + 14)
@@ -308,7 +317,8 @@ void write_particle_svg(std::ostream& out, const OpticalDepthStory& s, const std
     out << "</svg>\n";
 }
 
-void write_pixel_text(std::ostream& out, const PixelStory& p, const glm::vec3& rendered, const std::string& scene_name) {
+void write_pixel_text(std::ostream& out, const PixelStory& p, const glm::vec3& rendered,
+                      const std::string& scene_name) {
     out << "smoketrace explain: pixel " << p.x << "," << p.y << " of " << scene_name << " (frame 0, mode "
         << to_string(p.mode) << ", compositing " << to_string(p.compositing) << ", " << p.samples.size()
         << (p.samples.size() == 1 ? " sample: the pixel's centre" : " samples, averaged") << ")\n\n";
@@ -333,8 +343,8 @@ void write_pixel_text(std::ostream& out, const PixelStory& p, const glm::vec3& r
             out << " (the search stopped at t = " << num(*s.search_cut_at)
                 << ": the layers met already left T below the threshold)";
         out << "\n";
-        out << fmt("  %3s %9s %-11s %-11s %-11s %-11s %-11s %-33s %-11s %-11s %s\n", "#", "particle", "t",
-                   "tex alpha", "alpha", "light map", "l", "c_new (r, g, b)", (std::string(w) + " before").c_str(),
+        out << fmt("  %3s %9s %-11s %-11s %-11s %-11s %-11s %-33s %-11s %-11s %s\n", "#", "particle", "t", "tex alpha",
+                   "alpha", "light map", "l", "c_new (r, g, b)", (std::string(w) + " before").c_str(),
                    (std::string(w) + " after").c_str(), "contribution (r, g, b)");
         for (std::size_t k = 0; k < s.layers.size(); ++k) {
             const LayerStory& l = s.layers[k];
@@ -353,18 +363,19 @@ void write_pixel_text(std::ostream& out, const PixelStory& p, const glm::vec3& r
                 const GroundStory& g = *s.ground;
                 out << "  stopped: the ground at t = " << num(g.t) << ", point " << vec(g.point) << "\n";
                 if (!g.shadow_ray)
-                    out << "    no shadow ray (" << (p.mode == RenderMode::basic ? "basic mode" : "the light is below the ground")
-                        << ")\n";
+                    out << "    no shadow ray ("
+                        << (p.mode == RenderMode::basic ? "basic mode" : "the light is below the ground") << ")\n";
                 else if (!g.shadow_hit)
                     out << "    shadow ray toward " << vec(g.shadow.direction) << ": met no particle, lit (shadow 1)\n";
                 else if (p.mode == RenderMode::full)
-                    out << "    shadow ray toward " << vec(g.shadow.direction) << ": nearest particle " << g.shadow_particle
-                        << " at t = " << num(g.shadow_t) << ", shadow = its exp(-l*sigma_t) = " << num(g.shadow_factor)
-                        << " (eq. 4.3)\n";
+                    out << "    shadow ray toward " << vec(g.shadow.direction) << ": nearest particle "
+                        << g.shadow_particle << " at t = " << num(g.shadow_t)
+                        << ", shadow = its exp(-l*sigma_t) = " << num(g.shadow_factor) << " (eq. 4.3)\n";
                 else
                     out << "    shadow ray toward " << vec(g.shadow.direction)
                         << ": met a particle, in shadow (simple-shadow: 0)\n";
-                out << "    ground colour c_base*(c_light*max(L.N, 0)*shadow + c_amb) = " << vec(g.color) << " (eq. 4.4)\n";
+                out << "    ground colour c_base*(c_light*max(L.N, 0)*shadow + c_amb) = " << vec(g.color)
+                    << " (eq. 4.4)\n";
                 out << "    its contribution (weight " << num(s.layers.empty() ? 1.0f : s.layers.back().weight_after)
                     << "): " << vec(s.background_contribution) << "\n";
                 break;
@@ -376,9 +387,9 @@ void write_pixel_text(std::ostream& out, const PixelStory& p, const glm::vec3& r
         }
         out << "  sample colour " << vec(s.color) << "\n";
     }
-    out << "\npixel (linear) " << vec(p.color) << ", 8-bit sRGB as the PNG stores it: "
-        << int(linear_to_srgb8(p.color.x)) << " " << int(linear_to_srgb8(p.color.y)) << " "
-        << int(linear_to_srgb8(p.color.z)) << "\n";
+    out << "\npixel (linear) " << vec(p.color)
+        << ", 8-bit sRGB as the PNG stores it: " << int(linear_to_srgb8(p.color.x)) << " "
+        << int(linear_to_srgb8(p.color.y)) << " " << int(linear_to_srgb8(p.color.z)) << "\n";
     out << "render's pixel  " << vec(rendered) << (rendered == p.color ? " (the same)" : " (DIFFERENT)") << "\n";
 }
 
@@ -423,38 +434,41 @@ void write_pixel_svg(std::ostream& out, const PixelStory& p, const std::string& 
         out << fmt(R"(<text x="20" y="%.0f" font-weight="bold">sample %zu of %zu at (%s, %s)</text>)", y + 12, i + 1,
                    p.samples.size(), num(s.offset.x).c_str(), num(s.offset.y).c_str())
             << "\n";
-        out << fmt(R"(<text x="%.0f" y="%.0f" fill="#555">%s before</text>)", W - right + 10, y + 12, over ? "T" : "1-a_prev")
+        out << fmt(R"(<text x="%.0f" y="%.0f" fill="#555">%s before</text>)", W - right + 10, y + 12,
+                   over ? "T" : "1-a_prev")
             << "\n";
         y += row + 2;
         for (const LayerStory& l : s.layers) {
             out << fmt(R"(<text x="%.0f" y="%.0f" text-anchor="end">particle %u, t %.4g, alpha %.3g</text>)", left - 8,
                        y + 12, l.particle, double(l.t), double(l.alpha))
                 << "\n";
-            out << fmt(R"(<rect x="%.0f" y="%.0f" width="%.2f" height="%.0f" fill="%s" stroke="#333" stroke-width="0.5"/>)",
+            out << fmt(R"(<rect x="%.0f" y="%.0f" width="%.2f" height="%.0f" fill="%s" )"
+                       R"(stroke="#333" stroke-width="0.5"/>)",
                        left, y + 2, len(mean(l.contribution)), row - 4, css(l.color).c_str())
                 << "\n";
-            out << fmt(R"(<text x="%.0f" y="%.0f">%.3g</text>)", W - right + 10, y + 12, double(l.weight_before)) << "\n";
+            out << fmt(R"(<text x="%.0f" y="%.0f">%.3g</text>)", W - right + 10, y + 12, double(l.weight_before))
+                << "\n";
             y += row;
         }
-        std::string end;
         if (s.end == SampleEnd::transmittance_threshold) {
-            end = "stopped: T below " + num(p.transmittance_threshold) + ", nothing behind shows";
+            const std::string why = "stopped: T below " + num(p.transmittance_threshold) + ", nothing behind shows";
+            out << fmt(R"(<text x="%.0f" y="%.0f" text-anchor="end" fill="#a50f15">%s</text>)", left - 8, y + 12,
+                       xml(why).c_str())
+                << "\n";
         } else {
-            end = s.end == SampleEnd::ground
-                      ? (s.ground->shadow_ray ? (s.ground->shadow_hit ? "ground, in shadow " + num(s.ground->shadow_factor)
-                                                                      : std::string("ground, lit"))
-                                              : std::string("ground, no shadow ray"))
-                      : std::string("sky (nothing left)");
-            out << fmt(R"(<text x="%.0f" y="%.0f" text-anchor="end">%s</text>)", left - 8, y + 12, xml(end).c_str()) << "\n";
-            out << fmt(R"(<rect x="%.0f" y="%.0f" width="%.2f" height="%.0f" fill="%s" stroke="#333" stroke-width="0.5"/>)",
+            std::string what = "sky (nothing left)";
+            if (s.ground) {
+                what = !s.ground->shadow_ray ? std::string("ground, no shadow ray")
+                       : s.ground->shadow_hit ? "ground, in shadow " + num(s.ground->shadow_factor)
+                                              : std::string("ground, lit");
+            }
+            out << fmt(R"(<text x="%.0f" y="%.0f" text-anchor="end">%s</text>)", left - 8, y + 12, xml(what).c_str())
+                << "\n";
+            out << fmt(R"(<rect x="%.0f" y="%.0f" width="%.2f" height="%.0f" fill="%s" )"
+                       R"(stroke="#333" stroke-width="0.5"/>)",
                        left, y + 2, len(mean(s.background_contribution)), row - 4, css(s.background).c_str())
                 << "\n";
-            end.clear();
         }
-        if (!end.empty())
-            out << fmt(R"(<text x="%.0f" y="%.0f" text-anchor="end" fill="#a50f15">%s</text>)", left - 8, y + 12,
-                       xml(end).c_str())
-                << "\n";
         y += row;
         // The sample: the layers' contributions stacked, summing to its colour.
         out << fmt(R"(<text x="%.0f" y="%.0f" text-anchor="end" font-weight="bold">sample colour</text>)", left - 8,
@@ -482,8 +496,8 @@ void write_pixel_svg(std::ostream& out, const PixelStory& p, const std::string& 
     // The scale.
     out << fmt(R"(<line x1="%.0f" y1="%.0f" x2="%.2f" y2="%.0f" stroke="black"/>)", left, y, left + bar_w, y) << "\n";
     for (double v : ticks(scale_max, 5)) {
-        out << fmt(R"(<line x1="%.2f" y1="%.0f" x2="%.2f" y2="%.0f" stroke="black"/>)", left + len(v), y,
-                   left + len(v), y + 5)
+        out << fmt(R"(<line x1="%.2f" y1="%.0f" x2="%.2f" y2="%.0f" stroke="black"/>)", left + len(v), y, left + len(v),
+                   y + 5)
             << "\n";
         out << fmt(R"(<text x="%.2f" y="%.0f" text-anchor="middle">%s</text>)", left + len(v), y + 18, num(v).c_str())
             << "\n";

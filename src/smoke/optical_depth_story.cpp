@@ -58,7 +58,8 @@ OpticalDepthStory explain_optical_depth(const SmokeScene& smoke, std::span<const
         for (const SurfaceHit& h : stored) {
             for (std::size_t k = 0; k < story.seen.size(); ++k) {
                 const StoryHit& s = story.seen[k];
-                if (claimed[k] || s.value != h.value || std::bit_cast<std::uint32_t>(s.t) != std::bit_cast<std::uint32_t>(h.t))
+                if (claimed[k] || s.value != h.value ||
+                    std::bit_cast<std::uint32_t>(s.t) != std::bit_cast<std::uint32_t>(h.t))
                     continue;
                 claimed[k] = true;
                 story.sorted.push_back(s);

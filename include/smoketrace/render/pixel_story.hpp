@@ -65,7 +65,7 @@ struct SampleStory {
     std::vector<LayerStory> layers;   // the ones the compositor reached, front to back
     SampleEnd end = SampleEnd::sky;
     std::optional<GroundStory> ground;
-    glm::vec3 background{0.0f};       // what lies behind the layers: the ground's colour or the sky (not for a threshold end)
+    glm::vec3 background{0.0f};       // behind the layers: the ground's colour or the sky (unset at a threshold end)
     glm::vec3 background_contribution{0.0f};
     glm::vec3 color{0.0f};            // the sample's colour
 };
