@@ -127,7 +127,9 @@ void write_particle_text(std::ostream& out, const OpticalDepthStory& s, std::spa
             << " (opaque: committed without calling any-hit): the particle is occluded.\n";
     if (s.cut_off)
         out << "   The cutoff ended the search: a surface beyond the first " << s.cutoff
-            << " (thesis 4.4.3), so the particle counts as fully dark.\n";
+            << (s.outcome.status == DepthStatus::occluded
+                    ? "; a ray for the ground alone then found the ground on the way: the particle is occluded.\n"
+                    : " (thesis 4.4.3), so the particle counts as fully dark.\n");
     out << "\n";
 
     if (s.outcome.status == DepthStatus::ok) {
@@ -155,7 +157,7 @@ void write_particle_text(std::ostream& out, const OpticalDepthStory& s, std::spa
             << ": the hits are not sorted or walked; the particle is fully dark (thesis 4.3.3).\n"
             << "   l = " << num(s.length) << "\n\n";
     }
-    out << "4. status " << status_name(s.outcome.status) << ", " << s.outcome.hits
+    out << (s.outcome.status == DepthStatus::ok ? "4" : "3") << ". status " << status_name(s.outcome.status) << ", " << s.outcome.hits
         << " hits (as `depths` reports them)\n";
     out << "   trace() counters: TLAS nodes " << s.counters.tlas_nodes << ", BLAS nodes " << s.counters.blas_nodes
         << ", boxes tested " << s.counters.boxes_tested << ", instances entered " << s.counters.instances_entered
