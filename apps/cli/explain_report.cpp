@@ -157,8 +157,8 @@ void write_particle_text(std::ostream& out, const OpticalDepthStory& s, std::spa
             << ": the hits are not sorted or walked; the particle is fully dark (thesis 4.3.3).\n"
             << "   l = " << num(s.length) << "\n\n";
     }
-    out << (s.outcome.status == DepthStatus::ok ? "4" : "3") << ". status " << status_name(s.outcome.status) << ", " << s.outcome.hits
-        << " hits (as `depths` reports them)\n";
+    out << (s.outcome.status == DepthStatus::ok ? "4" : "3") << ". status " << status_name(s.outcome.status) << ", "
+        << s.outcome.hits << " hits (as `depths` reports them)\n";
     out << "   trace() counters: TLAS nodes " << s.counters.tlas_nodes << ", BLAS nodes " << s.counters.blas_nodes
         << ", boxes tested " << s.counters.boxes_tested << ", instances entered " << s.counters.instances_entered
         << ", primitives tested " << s.counters.primitives_tested << ", any-hit calls "
