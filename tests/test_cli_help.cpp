@@ -98,7 +98,7 @@ TEST_CASE("cli help: --help lists every option of every command, each with its d
     const Run all = cli("--help");
     REQUIRE(all.exit_code == 0);
     const std::vector<std::string> commands = listed_commands(all.out);
-    REQUIRE(commands == std::vector<std::string>{"bake-sixway", "depths", "render"});
+    REQUIRE(commands == std::vector<std::string>{"bake-sixway", "depths", "explain", "render"});
     for (const std::string& command : commands) {
         INFO(command);
         const Run one = cli("help " + command);

@@ -10,6 +10,7 @@
 #include <smoketrace/trace/trace_bundle.hpp>
 
 // The thesis's optical-depth pipeline: particles, their stand-ins, the pass and the resolver (eq. 3.1).
+#include <smoketrace/smoke/optical_depth_story.hpp>
 #include <smoketrace/smoke/optical_path_lengths.hpp>
 #include <smoketrace/smoke/particle_groups.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>
@@ -18,6 +19,7 @@
 // Frames: the scene description, six-way lighting, the view compositor and the frame loop.
 #include <smoketrace/render/frame_renderer.hpp>
 #include <smoketrace/render/pixel_samples.hpp>
+#include <smoketrace/render/pixel_story.hpp>
 #include <smoketrace/render/sixway_baker.hpp>
 
 // Files: scene files in, PNG and CSV out, never destroying what an output path names.

@@ -35,6 +35,25 @@ FrameRenderer::FrameRenderer(const SceneDescription& scene, const RenderOptions&
         throw std::invalid_argument("render: spp must be in [1, " + std::to_string(kMaxSpp) + "]");
 }
 
+ViewSettings FrameRenderer::view_settings(std::uint64_t frame) const {
+    ViewSettings v;
+    v.mode = options_.render.mode;
+    v.compositing = options_.render.compositing;
+    v.compositor = options_.compositor;
+    v.sigma_t = desc_.smoke.sigma_t;
+    v.alpha = desc_.smoke.alpha;
+    v.softness = options_.render.softness;
+    v.transmittance_threshold = options_.render.transmittance_threshold;
+    v.to_light = desc_.light.direction_at_frame(std::int64_t(frame));
+    v.light_color = desc_.light.color;
+    v.ambient = desc_.ambient;
+    v.background = desc_.background;
+    if (desc_.ground) v.ground_color = desc_.ground->color;
+    v.flipbook_frame = int(frame % std::uint64_t(texture_.frame_count()));
+    v.spp = int(options_.render.spp);
+    return v;
+}
+
 bool FrameRenderer::still_at(std::uint64_t frame) const {
     if (frame == 0 || particles_.moving()) return false;
     return desc_.light.direction_at_frame(std::int64_t(frame)) ==
@@ -107,7 +126,6 @@ FrameReport FrameRenderer::render(std::uint64_t frame, ImageRgba& image) {
     // TLAS and the optical depths as they were; the view is redrawn unless its flipbook frame is also the
     // one already in `image` (the billboards animate even when nothing moves).
     const bool still = advance_to(frame, true, report);
-    const glm::vec3 light = last_light_;
     const int flipbook_frame = int(frame % std::uint64_t(texture_.frame_count()));
     if (still && flipbook_frame == last_flipbook_frame_ && image.width == options_.width &&
         image.height == options_.height) {
@@ -117,21 +135,7 @@ FrameReport FrameRenderer::render(std::uint64_t frame, ImageRgba& image) {
     }
     StageClock clock;
 
-    ViewSettings v;
-    v.mode = options_.render.mode;
-    v.compositing = options_.render.compositing;
-    v.compositor = options_.compositor;
-    v.sigma_t = desc_.smoke.sigma_t;
-    v.alpha = desc_.smoke.alpha;
-    v.softness = options_.render.softness;
-    v.transmittance_threshold = options_.render.transmittance_threshold;
-    v.to_light = light;
-    v.light_color = desc_.light.color;
-    v.ambient = desc_.ambient;
-    v.background = desc_.background;
-    if (desc_.ground) v.ground_color = desc_.ground->color;
-    v.flipbook_frame = flipbook_frame;
-    v.spp = int(options_.render.spp);
+    const ViewSettings v = view_settings(frame);
     render_view(smoke_, particles_.particles(), depths_.lengths(), texture_, camera_, v, image);
     t.view = clock.lap_ms();
     last_flipbook_frame_ = flipbook_frame;

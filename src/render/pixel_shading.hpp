@@ -93,19 +93,29 @@ public:
     // surface at t_opaque: texture alpha × the scene's alpha, faded where the surface behind is closer than
     // `softness` (soft particles, Larsson 2010, 2.7), so the quad does not cut a hard line into the ground.
     [[nodiscard]] float layer_alpha(std::uint32_t p, float t, glm::vec2 uv, float t_opaque) const {
-        float alpha = texture_.alpha(texture_.footprint(uv, billboards_[p].frame)) * s_.alpha;
+        float alpha = texture_alpha(p, uv) * s_.alpha;
         if (s_.softness > 0.0f && t_opaque < std::numeric_limits<float>::infinity())
             alpha *= std::clamp((t_opaque - t) / s_.softness, 0.0f, 1.0f);
         return alpha;
     }
 
+    // The flipbook's alpha at uv of particle p's billboard, before the scene's alpha and the fade.
+    [[nodiscard]] float texture_alpha(std::uint32_t p, glm::vec2 uv) const {
+        return texture_.alpha(texture_.footprint(uv, billboards_[p].frame));
+    }
+
     // Its colour. Thesis 4.3.5: light map × light colour, attenuated by the particle's optical depth
     // (eq. 4.2): c_new = c_p·exp(−l·σt) + c_amb.
     [[nodiscard]] glm::vec3 layer_color(const Layer& l) const {
-        const Billboard& b = billboards_[l.particle];
-        const float light_map = texture_.light_map(texture_.footprint(l.uv, b.frame), b.light_tangent);
-        return light_map * s_.light_color * b.transmittance + s_.ambient;
+        return light_map(l) * s_.light_color * billboards_[l.particle].transmittance + s_.ambient;
     }
+    // The six-way light map of a layer (thesis 4.2.2): h·lx² + v·ly² + d·lz² in its billboard's tangent space.
+    [[nodiscard]] float light_map(const Layer& l) const {
+        const Billboard& b = billboards_[l.particle];
+        return texture_.light_map(texture_.footprint(l.uv, b.frame), b.light_tangent);
+    }
+    // exp(−l·σt) of particle p, as its layers and the shadows it casts use it (1 in basic mode).
+    [[nodiscard]] float particle_transmittance(std::uint32_t p) const { return billboards_[p].transmittance; }
 
     // Whether the ground at a pixel needs a shadow ray, and the ray's flags and mask (thesis 4.3.5): toward
     // the light, stand-ins only; simple-shadow asks whether anything is in the way, full the nearest
@@ -153,15 +163,26 @@ public:
 
     // Returns false once nothing behind can contribute (transmittance below the threshold).
     bool add(const glm::vec3& c, float a) {
+        color_ += contribution(c, a);
         if (s_->compositing == Compositing::over) {
-            color_ += transmittance_ * a * c;  // the "over" operator: C += T·a·c, T *= 1 − a
             transmittance_ *= 1.0f - a;
             return transmittance_ >= s_->transmittance_threshold;
         }
-        color_ += (1.0f - previous_alpha_) * c * a;  // thesis eq. 4.1: only the previous layer's alpha
         previous_alpha_ = a;
         return true;
     }
+    // What add(c, a) would add to the colour now: the bits add() adds.
+    [[nodiscard]] glm::vec3 contribution(const glm::vec3& c, float a) const {
+        if (s_->compositing == Compositing::over) return transmittance_ * a * c;  // "over": C += T·a·c, T *= 1 − a
+        return (1.0f - previous_alpha_) * c * a;  // thesis eq. 4.1: only the previous layer's alpha
+    }
+    // The weight the next layer gets before its own alpha: the transmittance in front of it ("over"), or
+    // 1 − the previous layer's alpha (eq. 4.1).
+    [[nodiscard]] float front_weight() const {
+        return s_->compositing == Compositing::over ? transmittance_ : 1.0f - previous_alpha_;
+    }
+    [[nodiscard]] float transmittance() const { return transmittance_; }
+    [[nodiscard]] const glm::vec3& color() const { return color_; }
     glm::vec3 finish(const glm::vec3& background) {
         add(background, 1.0f);
         return color_;
@@ -210,12 +231,28 @@ private:
     float transmittance_ = 1.0f, t_farthest_ = 0.0f;
 };
 
+// What a compositor tells an observer as it works (render/pixel_story.hpp records it for smoketrace explain).
+// The compositors take the observer as a template argument: this one, the default, does nothing and
+// compiles away, so the image's hot path is the same code with or without the hook.
+struct NoPixelObserver {
+    void opaque_surface(const TraceResult&) {}                      // the closest opaque hit, or none
+    void layers_collected(std::span<const Layer>, const TraceResult&) {}  // met, before the sort; the billboard search
+    void layer(const Layer&, const glm::vec3&, const PixelCompositor&) {}  // its colour, before it is added
+    void ground(const Ray*, const TraceResult*, float, const glm::vec3&) {}  // shadow ray (or none), shadow, colour
+    void background(const glm::vec3&, const PixelCompositor&) {}    // behind the layers, before it is added
+};
+
 // A pixel's layers sorted front to back and composited, each coloured as the compositor reaches it. Returns
 // false when they made the pixel opaque: the background is not seen (finish with black).
-inline bool composite_layers(const PixelShader& shader, std::span<Layer> layers, PixelCompositor& comp) {
+template <class Observer = NoPixelObserver>
+inline bool composite_layers(const PixelShader& shader, std::span<Layer> layers, PixelCompositor& comp,
+                             Observer&& observe = {}) {
     sort_layers(layers);
-    for (const Layer& l : layers)
-        if (!comp.add(shader.layer_color(l), l.alpha)) return false;
+    for (const Layer& l : layers) {
+        const glm::vec3 c = shader.layer_color(l);
+        observe.layer(l, c, comp);
+        if (!comp.add(c, l.alpha)) return false;
+    }
     return true;
 }
 

@@ -27,15 +27,19 @@ namespace {
 constexpr std::size_t kParticlesPerChunk = 32;
 static_assert(kParticlesPerChunk % kBundleWidth == 0);
 
-struct RayOutcome {
-    DepthStatus status = DepthStatus::ok;
-    std::uint32_t hits = 0;
-};
+[[noreturn]] void over_budget(std::uint64_t budget) {
+    throw OpticalDepthBudgetError(
+        "optical-depth pass: the particles' light rays cross more than " + std::to_string(budget) +
+        " particle surfaces in all, more than the hit lists may hold (" + std::to_string(budget) + " hits need " +
+        format_bytes(budget * kPeakBytesPerStoredHit) + "; by default they may use half of this machine's " +
+        format_bytes(machine_memory_bytes()) + "); set a cutoff (\"render\": {\"cutoff\": K} in the scene file, "
+        "--cutoff K on the command line), or use fewer or smaller particles");
+}
 
-// A particle's status and hit count from its ray's search `r`, which collected `hits`. A search that
-// did not see the whole ray, because it was cut off or met the ground, is completed here.
-RayOutcome outcome_of(const AccelScene& scene, const Ray& ray, const TraceResult& r, std::span<const SurfaceHit> hits,
-                      std::uint32_t cutoff) {
+}  // namespace
+
+RayOutcome optical_depth_outcome(const AccelScene& scene, const Ray& ray, const TraceResult& r,
+                                 std::span<const SurfaceHit> hits, std::uint32_t cutoff) {
     if (r.cut_off) {
         // Cut off before the whole ray was seen: only a ground-only ray can tell whether it is occluded.
         const TraceResult g =
@@ -59,17 +63,6 @@ RayOutcome outcome_of(const AccelScene& scene, const Ray& ray, const TraceResult
     }
     return {DepthStatus::ok, static_cast<std::uint32_t>(hits.size())};
 }
-
-[[noreturn]] void over_budget(std::uint64_t budget) {
-    throw OpticalDepthBudgetError(
-        "optical-depth pass: the particles' light rays cross more than " + std::to_string(budget) +
-        " particle surfaces in all, more than the hit lists may hold (" + std::to_string(budget) + " hits need " +
-        format_bytes(budget * kPeakBytesPerStoredHit) + "; by default they may use half of this machine's " +
-        format_bytes(machine_memory_bytes()) + "); set a cutoff (\"render\": {\"cutoff\": K} in the scene file, "
-        "--cutoff K on the command line), or use fewer or smaller particles");
-}
-
-}  // namespace
 
 struct OpticalDepthPass::ThreadScratch {
     tbb::enumerable_thread_specific<Scratch> threads;
@@ -155,7 +148,7 @@ void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> 
                     const BundleResults results = trace_bundle(scene, bundle, ray_flag_none, kLightRayMask, collect, limits);
                     for (unsigned lane = 0; lane < bundle.count; ++lane) {
                         const std::vector<SurfaceHit>& hits = sc.lane_hits[lane];
-                        const RayOutcome o = outcome_of(scene, bundle.ray(lane), results[lane], hits, settings.cutoff);
+                        const RayOutcome o = optical_depth_outcome(scene, bundle.ray(lane), results[lane], hits, settings.cutoff);
                         rays_[k + lane] = {&sc, static_cast<std::uint32_t>(sc.kept.size()), o.hits, o.status};
                         if (o.status == DepthStatus::ok) sc.kept.insert(sc.kept.end(), hits.begin(), hits.end());
                     }

@@ -54,6 +54,10 @@ public:
     [[nodiscard]] const OpticalPathLengths& depths() const { return depths_; }
     [[nodiscard]] const ParticleSystem& particles() const { return particles_; }
     [[nodiscard]] const SmokeScene& smoke() const { return smoke_; }
+    [[nodiscard]] const Camera& camera() const { return camera_; }
+    [[nodiscard]] const SixwayTexture& texture() const { return texture_; }
+    // What the view pass of frame `frame` is drawn with: the options, the scene's colours and the light.
+    [[nodiscard]] ViewSettings view_settings(std::uint64_t frame) const;
 
 private:
     // What render() does before it draws: advances to `frame` (the next one), updates the TLAS and, when

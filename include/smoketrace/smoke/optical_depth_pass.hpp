@@ -25,6 +25,7 @@
 #include <smoketrace/smoke/hit_resolver.hpp>
 #include <smoketrace/geometry/ray_bundle.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>
+#include <smoketrace/trace/trace_types.hpp>
 
 #include <array>
 #include <cstdint>
@@ -75,6 +76,16 @@ struct OpticalDepthHits {
     std::vector<DepthStatus> status;
     std::vector<std::uint32_t> hit_counts;
 };
+
+// A particle's status and hit count (see the top of this file) from its ray's search `r`, which stored
+// `hits`. A search that did not see the whole ray, because it was cut off or met the ground, is completed
+// here with more trace() calls. The pass's, and explain_optical_depth()'s (optical_depth_story.hpp).
+struct RayOutcome {
+    DepthStatus status = DepthStatus::ok;
+    std::uint32_t hits = 0;
+};
+[[nodiscard]] RayOutcome optical_depth_outcome(const AccelScene& scene, const Ray& ray, const TraceResult& r,
+                                               std::span<const SurfaceHit> hits, std::uint32_t cutoff);
 
 class OpticalDepthPass {
 public:

@@ -1,0 +1,139 @@
+// smoketrace explain: one ray's story, for people learning the method (docs/explain.md). The stories are the
+// library's (smoke/optical_depth_story.hpp, render/pixel_story.hpp); this file reads the arguments and the
+// scene, and prints or draws what the library recorded.
+#include "arguments.hpp"
+#include "assets.hpp"
+#include "command.hpp"
+#include "explain_report.hpp"
+#include "output_arg.hpp"
+#include "thread_limit.hpp"
+
+#include <smoketrace/io/output_path.hpp>
+#include <smoketrace/io/scene_file.hpp>
+#include <smoketrace/io/sixway_files.hpp>
+#include <smoketrace/render/frame_renderer.hpp>
+#include <smoketrace/render/pixel_story.hpp>
+#include <smoketrace/smoke/optical_depth_story.hpp>
+
+#include <filesystem>
+#include <iostream>
+#include <sstream>
+#include <sys/stat.h>
+
+namespace smoketrace::cli {
+namespace {
+
+// "X,Y": two whole numbers >= 0; the image's size is checked once the scene is read.
+std::pair<int, int> parse_pixel(const std::string& text) {
+    const auto comma = text.find(',');
+    if (comma == std::string::npos) throw CliError("--pixel: '" + text + "' is not of the form X,Y (e.g. 256,300)");
+    const long long x = parse_integer(text.substr(0, comma), "--pixel: X", 0, 1 << 30);
+    const long long y = parse_integer(text.substr(comma + 1), "--pixel: Y", 0, 1 << 30);
+    return {int(x), int(y)};
+}
+
+int run_explain(const Args& args) {
+    ArgReader in(args);
+    const auto out_arg = in.string("-o");
+    const auto particle_arg = in.integer("--particle", 0, 0xFFFFFFFFLL);
+    const auto pixel_arg = in.string("--pixel");
+    const auto assets = in.string("--assets");
+    const auto threads = in.integer("--threads", 1, 4096);
+    const std::string scene_path =
+        in.positional("scene file (smoketrace explain SCENE.json --particle N | --pixel X,Y)");
+    in.finish();
+    if (particle_arg && pixel_arg) throw CliError("--particle and --pixel: give one of them, not both");
+    if (!particle_arg && !pixel_arg)
+        throw CliError("give --particle N (a particle's optical-depth ray) or --pixel X,Y");
+    std::optional<std::pair<int, int>> pixel;
+    if (pixel_arg) pixel = parse_pixel(*pixel_arg);
+    std::optional<std::filesystem::path> out;
+    if (out_arg) {
+        out = std::filesystem::path(*out_arg);
+        struct stat st {};
+        const bool stream = ::stat(out->c_str(), &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode);
+        if (*out != kStandardOutputPath && out->extension() != ".svg" && !stream)
+            throw CliError("-o: '" + out->string() + "' must end in .svg");
+    }
+    const ThreadLimit limit(threads ? int(*threads) : 0);
+    std::vector<std::filesystem::path> inputs{scene_path};
+    std::optional<std::filesystem::path> texture_dir;
+    if (pixel) {
+        texture_dir = find_assets(assets, "--assets");
+        inputs.push_back(*texture_dir / kSixwayLayoutFile);
+    }
+    // Before any work: -o must not be an input, a folder, or in a missing folder.
+    std::optional<OutputTarget> target;
+    if (out) target = checked_output(*out, inputs);
+    // With the SVG on standard output, the text goes to standard error.
+    std::ostream& text = target && target->kind == OutputKind::standard_output ? std::cerr : std::cout;
+
+    const SceneDescription desc = load_scene_file(scene_path);
+    const std::string scene_name = std::filesystem::path(scene_path).filename().string();
+    std::ostringstream svg;
+    if (particle_arg) {
+        const auto& particles = desc.smoke.particles;
+        if (particles.empty()) throw CliError("--particle: " + scene_path + " has no particles");
+        if (std::uint64_t(*particle_arg) >= particles.size())
+            throw CliError("--particle: " + std::to_string(*particle_arg) + " is out of range: " + scene_path +
+                           " has " + std::to_string(particles.size()) + " particles, 0…" +
+                           std::to_string(particles.size() - 1));
+        // What `smoketrace depths` traces: the scene's stand-ins and cutoff, frame 0's particles and light.
+        std::optional<GroundQuad> ground;
+        if (desc.ground) ground = GroundQuad{desc.ground->corners};
+        SmokeScene smoke(particles, desc.smoke.shape, ground, /*billboards=*/false);
+        smoke.update(particles, desc.camera.position);
+        OpticalDepthSettings settings;
+        settings.cutoff = desc.render.cutoff;
+        const OpticalDepthStory story =
+            explain_optical_depth(smoke, particles, std::uint32_t(*particle_arg), desc.light.direction_at_frame(0),
+                                  settings, HitSort::adaptive, desc.smoke.sigma_t);
+        write_particle_text(text, story, particles, scene_name, desc.smoke.shape.name().c_str());
+        if (target) write_particle_svg(svg, story, scene_name);
+    } else {
+        const RenderOptions options = RenderOptions::from_scene(desc);
+        if (pixel->first >= options.width || pixel->second >= options.height)
+            throw CliError("--pixel: " + *pixel_arg + " is outside the scene's " + std::to_string(options.width) + "x" +
+                           std::to_string(options.height) + " image (x 0…" + std::to_string(options.width - 1) +
+                           ", y 0…" + std::to_string(options.height - 1) + ")");
+        const SixwayLayout layout = read_sixway_layout(*texture_dir / kSixwayLayoutFile);
+        if (target) check_not_an_input(*target, {layout.positive, layout.negative});
+        const SixwayTexture texture = load_sixway_texture(layout.positive, layout.negative, layout.grid);
+        // Frame 0 as `render` draws it (the scene's mode, compositing, spp and size), then that frame's pixel.
+        FrameRenderer renderer(desc, options, texture);
+        ImageRgba image;
+        renderer.render(0, image);
+        const PixelStory story = explain_pixel(renderer, 0, pixel->first, pixel->second);
+        write_pixel_text(text, story, glm::vec3(image.at(pixel->first, pixel->second)), scene_name);
+        if (target) write_pixel_svg(svg, story, scene_name);
+    }
+    if (target) {
+        write_output(*target, [&](std::ostream& o) { o << svg.str(); });
+        std::cerr << (target->kind == OutputKind::standard_output ? std::string("wrote the SVG to standard output")
+                                                                  : "wrote " + out->string())
+                  << "\n";
+    }
+    return 0;
+}
+
+constexpr OptionHelp kOptions[] = {
+    {"--particle", "N", "none: give --particle or --pixel",
+     "explain particle N's optical-depth ray (0-based, as in depths' CSV)"},
+    {"--pixel", "X,Y", "none: give --particle or --pixel",
+     "explain pixel (X, Y) of frame 0 (0,0 the top left), each of its samples, as render draws it"},
+    {"-o", "OUT.svg|-", "none (text only)",
+     "also draw the story as an SVG (-: standard output, the text then on standard error)"},
+    {"--assets", "DIR", "SMOKETRACE_ASSETS, else <prefix>/share/smoketrace or assets/ beside the binary",
+     "folder of the six-way textures (--pixel only)"},
+    {"--threads", "T", "all cores", "worker threads for frame 0 (--pixel); the story is the same for any T"},
+};
+
+const RegisterCommand registration{
+    {"explain", "explain SCENE.json --particle N | --pixel X,Y [-o OUT.svg|-] [--assets DIR] [--threads T]",
+     "one ray's story, step by step, for learning the method: a particle's optical-depth ray (the any-hit "
+     "candidates, the sort, eq. 3.1's counter, l, tau, T) or a pixel's camera ray (its layers, eq. 4.2, the "
+     "ground and its shadow ray); see docs/explain.md",
+     &run_explain, kOptions}};
+
+}  // namespace
+}  // namespace smoketrace::cli

@@ -1,0 +1,26 @@
+#pragma once
+// smoketrace explain's output: a story of the library (optical_depth_story.hpp, pixel_story.hpp) as text for
+// the terminal and as an SVG diagram that reads without the text. Presentation only: every number comes
+// from the story.
+#include <smoketrace/render/pixel_story.hpp>
+#include <smoketrace/smoke/optical_depth_story.hpp>
+
+#include <ostream>
+#include <span>
+#include <string>
+
+namespace smoketrace::cli {
+
+// Numbers as the text prints them: %.9g (a float read back is the same float; `depths` writes l alike).
+std::string format_number(double v);
+
+void write_particle_text(std::ostream& out, const OpticalDepthStory& story, std::span<const Particle> particles,
+                         const std::string& scene_name, const char* shape_name);
+void write_particle_svg(std::ostream& out, const OpticalDepthStory& story, const std::string& scene_name);
+
+// `rendered`: the pixel the frame's render_view() wrote, shown beside the explained one.
+void write_pixel_text(std::ostream& out, const PixelStory& story, const glm::vec3& rendered,
+                      const std::string& scene_name);
+void write_pixel_svg(std::ostream& out, const PixelStory& story, const std::string& scene_name);
+
+}  // namespace smoketrace::cli

@@ -1,0 +1,92 @@
+// One particle's optical-depth ray told step by step, see optical_depth_story.hpp.
+#include <smoketrace/smoke/optical_depth_story.hpp>
+#include <smoketrace/trace/trace.hpp>
+
+#include <glm/geometric.hpp>
+
+#include <bit>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace smoketrace {
+
+OpticalDepthStory explain_optical_depth(const SmokeScene& smoke, std::span<const Particle> particles,
+                                        std::uint32_t particle, const glm::vec3& to_light,
+                                        const OpticalDepthSettings& settings, HitSort sort, float sigma_t) {
+    if (particle >= particles.size()) {
+        throw std::out_of_range("particle " + std::to_string(particle) + " does not exist (the scene has " +
+                                std::to_string(particles.size()) + " particles, 0…" +
+                                std::to_string(particles.size() == 0 ? 0 : particles.size() - 1) + ")");
+    }
+    const AccelScene& scene = smoke.scene();
+    OpticalDepthStory story;
+    story.particle = particle;
+    story.cutoff = settings.cutoff;
+    story.sigma_t = sigma_t;
+    // The pass's ray (OpticalDepthPass::trace: normalised direction, the particle's tmin, kOpticalDepthTmax).
+    const Particle& p = particles[particle];
+    story.ray = Ray{p.center, optical_depth_tmin(p.radius), glm::normalize(to_light), kOpticalDepthTmax};
+
+    // The pass's any-hit shader (thesis 4.3.2): store (t, ±1) and ignore, so that the search goes on; here
+    // it also notes the particle (the stand-in's user id) and keeps the order the candidates came in.
+    std::vector<SurfaceHit> stored;
+    TraceLimits limits;
+    if (settings.cutoff > 0) limits.max_any_hit_invocations = settings.cutoff;
+    const TraceResult r = trace<TlasWalk::all_hits>(
+        scene, story.ray, ray_flag_none, kLightRayMask,
+        [&](const TraceHit& h) {
+            const std::int32_t value = h.front_face() ? +1 : -1;
+            stored.push_back(SurfaceHit{h.t, value});
+            story.seen.push_back(StoryHit{h.t, h.instance_id, value});
+            return AnyHitDecision::ignore;
+        },
+        limits);
+    story.counters = r.counters;
+    story.cut_off = r.cut_off;
+    if (r.hit) story.ground_t = r.committed.t;
+    story.outcome = optical_depth_outcome(scene, story.ray, r, stored, settings.cutoff);
+
+    story.length = kFullyDarkPathLength;
+    if (story.outcome.status == DepthStatus::ok) {
+        // The resolver's sort and walk, as OpticalDepthPass::resolve() runs them on the pass's stored hits.
+        ListResolver resolve;
+        story.length = resolve(stored, sort);
+        // Who each sorted hit came from: the first unclaimed candidate with the same t and value (equal
+        // twins are interchangeable, their order within a tie changes nothing).
+        std::vector<bool> claimed(story.seen.size(), false);
+        for (const SurfaceHit& h : stored) {
+            for (std::size_t k = 0; k < story.seen.size(); ++k) {
+                const StoryHit& s = story.seen[k];
+                if (claimed[k] || s.value != h.value ||
+                    std::bit_cast<std::uint32_t>(s.t) != std::bit_cast<std::uint32_t>(h.t))
+                    continue;
+                claimed[k] = true;
+                story.sorted.push_back(s);
+                break;
+            }
+        }
+        // Eq. 3.1: the counter starts at −Σ values (the particles covering the origin); the ray is in smoke
+        // while it is > 0.
+        for (const SurfaceHit& h : stored) story.counter_start -= h.value;
+        std::int64_t counter = story.counter_start;
+        bool in_smoke = counter > 0;
+        float opened = 0.0f;  // the origin: a stretch open there starts at t = 0, as the walk's first gap does
+        for (const StoryHit& h : story.sorted) {
+            counter += h.value;
+            story.counter_after.push_back(counter);
+            if (!in_smoke && counter > 0) {
+                in_smoke = true;
+                opened = h.t;
+            } else if (in_smoke && counter <= 0) {
+                in_smoke = false;
+                if (h.t > opened) story.stretches.push_back({opened, h.t});
+            }
+        }
+    }
+    story.optical_depth = story.length * sigma_t;
+    story.transmittance = sigma_t == 0.0f ? 1.0f : std::exp(-story.length * sigma_t);
+    return story;
+}
+
+}  // namespace smoketrace

@@ -1,0 +1,509 @@
+// smoketrace explain (issue 24): the stories are the library's own computation, so what they say is what
+// depths and render give: l bit for bit, the pixel bit for bit. And the command's bad input and its SVG.
+#include "support/cli_runner.hpp"
+#include "support/fixtures.hpp"
+
+#include <smoketrace/io/png_io.hpp>
+#include <smoketrace/io/scene_file.hpp>
+#include <smoketrace/io/sixway_files.hpp>
+#include <smoketrace/render/frame_renderer.hpp>
+#include <smoketrace/render/pixel_story.hpp>
+#include <smoketrace/smoke/optical_depth_story.hpp>
+#include <smoketrace/smoke/optical_path_lengths.hpp>
+
+#include <catch2/catch.hpp>
+
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace fs = std::filesystem;
+using namespace smoketrace;
+using smoketrace::test::CliRun;
+using smoketrace::test::run_cli;
+using smoketrace::test::run_cli_stdout;
+using smoketrace::test::TempDir;
+
+namespace {
+
+const fs::path kAssets = SMOKETRACE_ASSET_DIR;
+const char* const kShipped[] = {"minimal.json", "two_tubes_above.json", "two_tubes_right.json",
+                                "two_tubes_sequence.json"};
+
+SceneDescription shipped(const char* name) { return load_scene_file(kAssets / "scenes" / name); }
+
+const SixwayTexture& texture() {
+    static const SixwayTexture t = load_sixway_texture(kAssets / std::string(kSixwayLayoutFile));
+    return t;
+}
+
+std::uint32_t bits(float f) { return std::bit_cast<std::uint32_t>(f); }
+
+// What `smoketrace depths` computes for a scene (cmd_depths.cpp): every particle through the pass and the
+// resolver, the scene's shape and the given cutoff.
+struct Depths {
+    std::vector<float> lengths;
+    std::vector<DepthStatus> status;
+    std::vector<std::uint32_t> hits;
+};
+
+std::optional<GroundQuad> ground_of(const SceneDescription& d) {
+    if (!d.ground) return std::nullopt;
+    return GroundQuad{d.ground->corners};
+}
+
+Depths depths_of(const SceneDescription& d, const SmokeScene& smoke, std::uint32_t cutoff) {
+    OpticalPathLengths depths(d.smoke.particles.size());
+    FrameTimings t;
+    depths.update(smoke, d.smoke.particles, smoketrace::test::all_of(d.smoke.particles.size()), d.light.direction,
+                  OpticalDepthSettings{cutoff}, HitSort::adaptive, t);
+    return {depths.lengths(), depths.status(), depths.hit_counts()};
+}
+
+// A story's particle checked against the pass and against itself; returns its status.
+DepthStatus check_story(const OpticalDepthStory& s, const Depths& want) {
+    const std::uint32_t i = s.particle;
+    INFO("particle " << i);
+    CHECK(s.outcome.status == want.status[i]);
+    CHECK(s.outcome.hits == want.hits[i]);
+    CHECK(bits(s.length) == bits(want.lengths[i]));  // l bit for bit: the same hits, sort and walk
+    if (s.outcome.status != DepthStatus::ok) {
+        CHECK(s.sorted.empty());
+        return s.outcome.status;
+    }
+    REQUIRE(s.sorted.size() == s.seen.size());
+    REQUIRE(s.counter_after.size() == s.sorted.size());
+    for (std::size_t k = 1; k < s.sorted.size(); ++k) CHECK(s.sorted[k - 1].t <= s.sorted[k].t);
+    if (!s.counter_after.empty()) CHECK(s.counter_after.back() == 0);  // eq. 3.1: every stretch closes
+    // The counter starts at the number of stand-ins around the origin: those the sorted list leaves without
+    // entering them (a convex stand-in the ray starts inside of is only left).
+    std::map<std::uint32_t, int> entries, exits;
+    for (const StoryHit& h : s.sorted) (h.value > 0 ? entries : exits)[h.particle]++;
+    std::int64_t around_origin = 0;
+    for (const auto& [p, n] : exits) around_origin += n - (entries.count(p) ? entries[p] : 0);
+    CHECK(s.counter_start == around_origin);
+    CHECK(exits.count(i) == 1);  // the own stand-in is left
+    // The stretches add up to l: the walk sums the same gaps in another order (in double), and l is that sum
+    // rounded to float, so they differ by at most about one float rounding, 2^-24 relative; 2^-22 allows the
+    // double sums' own rounding on top.
+    double sum = 0.0;
+    for (const SmokeStretch& st : s.stretches) sum += double(st.t1) - double(st.t0);
+    CHECK(std::abs(sum - double(s.length)) <= 0x1.0p-22 * double(s.length));
+    CHECK(s.optical_depth == s.length * s.sigma_t);
+    return DepthStatus::ok;
+}
+
+// The lines of `text` that start with `prefix` (after leading spaces), the rest of each.
+std::vector<std::string> lines_after(const std::string& text, const std::string& prefix) {
+    std::vector<std::string> out;
+    std::istringstream in(text);
+    for (std::string line; std::getline(in, line);) {
+        const auto first = line.find_first_not_of(' ');
+        if (first != std::string::npos && line.compare(first, prefix.size(), prefix) == 0)
+            out.push_back(line.substr(first + prefix.size()));
+    }
+    return out;
+}
+
+// A minimal XML well-formedness check of an SVG: one <svg> root, every element closed in order, attribute
+// values quoted, no bare '<' or '&' in text. Returns the number of elements of each name (empty: not
+// well-formed, with the reason in `why`).
+std::map<std::string, int> svg_elements(const std::string& doc, std::string& why) {
+    std::map<std::string, int> count;
+    std::vector<std::string> open;
+    std::size_t i = 0, roots = 0;
+    auto fail = [&](const std::string& m) {
+        why = m + " at byte " + std::to_string(i);
+        return std::map<std::string, int>{};
+    };
+    if (doc.rfind("<?xml ", 0) != 0) return fail("no XML declaration");
+    while (i < doc.size()) {
+        if (doc[i] != '<') {
+            if (doc[i] == '&') {
+                const auto semi = doc.find(';', i);
+                const std::string ent = semi == std::string::npos ? "" : doc.substr(i, semi - i + 1);
+                if (ent != "&amp;" && ent != "&lt;" && ent != "&gt;" && ent != "&quot;" && ent != "&apos;")
+                    return fail("bare '&'");
+            }
+            if (doc[i] == '>') return fail("bare '>'");
+            if (open.empty() && !std::isspace(static_cast<unsigned char>(doc[i]))) return fail("text outside the root");
+            ++i;
+            continue;
+        }
+        if (doc.compare(i, 2, "<?") == 0) {
+            const auto end = doc.find("?>", i);
+            if (end == std::string::npos) return fail("unclosed <?");
+            i = end + 2;
+            continue;
+        }
+        const bool closing = doc[i + 1] == '/';
+        std::size_t j = i + (closing ? 2 : 1);
+        const std::size_t name_start = j;
+        while (j < doc.size() && (std::isalnum(static_cast<unsigned char>(doc[j])) || doc[j] == '-' || doc[j] == ':'))
+            ++j;
+        const std::string name = doc.substr(name_start, j - name_start);
+        if (name.empty()) return fail("a tag without a name");
+        // Attributes: name="value", values free of '<' and '"'.
+        bool self_closing = false;
+        for (;;) {
+            while (j < doc.size() && std::isspace(static_cast<unsigned char>(doc[j]))) ++j;
+            if (j >= doc.size()) return fail("unclosed tag <" + name);
+            if (doc[j] == '>') break;
+            if (doc.compare(j, 2, "/>") == 0) {
+                self_closing = true;
+                ++j;
+                break;
+            }
+            if (closing) return fail("attributes in </" + name + ">");
+            const std::size_t a = j;
+            while (j < doc.size() && doc[j] != '=' && !std::isspace(static_cast<unsigned char>(doc[j]))) ++j;
+            if (j == a || j + 1 >= doc.size() || doc[j] != '=' || doc[j + 1] != '"')
+                return fail("an unquoted attribute");
+            const auto end = doc.find('"', j + 2);
+            if (end == std::string::npos || doc.substr(j + 2, end - j - 2).find('<') != std::string::npos)
+                return fail("a bad attribute value");
+            j = end + 1;
+        }
+        i = j + 1;
+        if (closing) {
+            if (open.empty() || open.back() != name) return fail("</" + name + "> closes nothing open");
+            open.pop_back();
+            continue;
+        }
+        if (open.empty()) ++roots;
+        ++count[name];
+        if (!self_closing) open.push_back(name);
+    }
+    if (!open.empty()) return fail("<" + open.back() + "> never closed");
+    if (roots != 1 || count["svg"] != 1) return fail("not one <svg> root");
+    return count;
+}
+
+// A hand-made scene with a known answer: light straight up, particle 0 (radius 1) at the origin, particles 1
+// and 2 (radius 1) above it at y = 3 and 3.5, overlapping. Particle 0's ray leaves its own sphere at t = 1,
+// enters 1 at 2 and 2 at 2.5, leaves 1 at 4 and 2 at 4.5: in smoke over [0, 1) and [2, 4.5), l = 3.5.
+const char* const kColumn = R"({
+    "light": { "direction": [0, 1, 0] },
+    "smoke": { "sigma_t": 2, "particles": [
+        { "center": [0, 0, 0], "radius": 1 }, { "center": [0, 3, 0], "radius": 1 },
+        { "center": [0, 3.5, 0], "radius": 1 }, { "center": [3, 0, 0], "radius": 0.5 } ] },
+    "ground": { "corners": [[-6, -2, -6], [-6, -2, 6], [6, -2, 6], [6, -2, -6]] },
+    "camera": { "position": [0, 1.5, 9], "look_at": [0, 1.5, 0], "width": 40, "height": 40 } })";
+
+}  // namespace
+
+TEST_CASE("explain: a particle's l is the one depths computes, bit for bit, on the shipped scenes", "[explain]") {
+    std::size_t seen[3] = {0, 0, 0};
+    for (const char* name : kShipped) {
+        for (const bool icosahedra : {false, true}) {
+            const SceneDescription d = shipped(name);
+            const StandInShape shape = icosahedra ? StandInShape{StandInKind::icosahedron, 0} : d.smoke.shape;
+            INFO(name << ", " << shape.name());
+            SmokeScene smoke(d.smoke.particles, shape, ground_of(d), /*billboards=*/false);
+            smoke.update(d.smoke.particles, d.camera.position);
+            const Depths want = depths_of(d, smoke, d.render.cutoff);
+            for (std::uint32_t i = 0; i < d.smoke.particles.size(); ++i) {
+                const OpticalDepthStory s =
+                    explain_optical_depth(smoke, d.smoke.particles, i, d.light.direction,
+                                          OpticalDepthSettings{d.render.cutoff}, HitSort::adaptive, d.smoke.sigma_t);
+                ++seen[int(check_story(s, want))];
+            }
+        }
+    }
+    // The shipped tubes have cut-off particles (cutoff 60) and many ok ones; the occluded status is covered by
+    // the hand-made scene below.
+    CHECK(seen[int(DepthStatus::ok)] > 1000);
+    CHECK(seen[int(DepthStatus::cutoff)] > 0);
+}
+
+TEST_CASE("explain: the hand-made column gives its known story, and each status", "[explain]") {
+    TempDir dir;
+    const SceneDescription d = load_scene_file(dir.write("column.json", kColumn));
+    SmokeScene smoke(d.smoke.particles, d.smoke.shape, ground_of(d), /*billboards=*/false);
+    smoke.update(d.smoke.particles, d.camera.position);
+    const OpticalDepthStory s =
+        explain_optical_depth(smoke, d.smoke.particles, 0, d.light.direction, {}, HitSort::adaptive, d.smoke.sigma_t);
+    REQUIRE(s.outcome.status == DepthStatus::ok);
+    CHECK(s.seen.size() == 5);
+    REQUIRE(s.sorted.size() == 5);
+    // Sphere hits are exact to a few float steps (the exact ray/sphere test rounds its result once):
+    // 1e-6 relative is about eight steps of 2^-23.
+    const float want_t[] = {1.0f, 2.0f, 2.5f, 4.0f, 4.5f};
+    const std::uint32_t want_particle[] = {0, 1, 2, 1, 2};
+    const std::int32_t want_value[] = {-1, +1, +1, -1, -1};
+    const std::int64_t want_counter[] = {0, 1, 2, 1, 0};
+    for (std::size_t k = 0; k < 5; ++k) {
+        INFO("sorted hit " << k);
+        CHECK(s.sorted[k].t == Approx(want_t[k]).epsilon(1e-6));
+        CHECK(s.sorted[k].particle == want_particle[k]);
+        CHECK(s.sorted[k].value == want_value[k]);
+        CHECK(s.counter_after[k] == want_counter[k]);
+    }
+    CHECK(s.counter_start == 1);
+    REQUIRE(s.stretches.size() == 2);
+    CHECK(s.stretches[0].t0 == 0.0f);
+    CHECK(s.stretches[0].t1 == Approx(1.0f).epsilon(1e-6));
+    CHECK(s.stretches[1].t0 == Approx(2.0f).epsilon(1e-6));
+    CHECK(s.stretches[1].t1 == Approx(4.5f).epsilon(1e-6));
+    CHECK(s.length == Approx(3.5f).epsilon(1e-6));
+    CHECK(s.optical_depth == Approx(7.0f).epsilon(1e-6));
+    CHECK(s.transmittance == Approx(std::exp(-7.0)).epsilon(1e-5));
+    CHECK_FALSE(s.cut_off);
+    CHECK_FALSE(s.ground_t);
+    CHECK(s.counters.any_hit_invocations == 5);
+
+    // A cutoff of 2: the third candidate ends the search.
+    const OpticalDepthStory cut =
+        explain_optical_depth(smoke, d.smoke.particles, 0, d.light.direction, {2}, HitSort::adaptive, 1.0f);
+    CHECK(cut.cut_off);
+    CHECK(cut.outcome.status == DepthStatus::cutoff);
+    CHECK(cut.outcome.hits == 3);
+    CHECK(cut.seen.size() == 2);
+    CHECK(std::isinf(cut.length));
+    CHECK(cut.transmittance == 0.0f);
+
+    // A roof above particle 3 (and only it): occluded, the ground met at y = 1 − 0 = t 1.
+    SceneDescription roofed = d;
+    roofed.ground = GroundDescription{};
+    roofed.ground->corners = {glm::vec3(2, 1, 2), glm::vec3(4, 1, 2), glm::vec3(4, 1, -2), glm::vec3(2, 1, -2)};
+    SmokeScene roofed_smoke(roofed.smoke.particles, roofed.smoke.shape, ground_of(roofed), false);
+    roofed_smoke.update(roofed.smoke.particles, roofed.camera.position);
+    const OpticalDepthStory occ =
+        explain_optical_depth(roofed_smoke, roofed.smoke.particles, 3, d.light.direction, {}, HitSort::adaptive, 1.0f);
+    CHECK(occ.outcome.status == DepthStatus::occluded);
+    REQUIRE(occ.ground_t);
+    CHECK(*occ.ground_t == Approx(1.0f).epsilon(1e-6));
+    CHECK(std::isinf(occ.length));
+    const Depths want = depths_of(roofed, roofed_smoke, 0);
+    for (std::uint32_t i = 0; i < roofed.smoke.particles.size(); ++i)
+        check_story(explain_optical_depth(roofed_smoke, roofed.smoke.particles, i, d.light.direction, {},
+                                          HitSort::adaptive, 1.0f),
+                    want);
+
+    CHECK_THROWS_AS(explain_optical_depth(smoke, d.smoke.particles, 4, d.light.direction, {}, HitSort::adaptive, 1.0f),
+                    std::out_of_range);
+}
+
+TEST_CASE("explain: the explained pixel is the rendered one, bit for bit, in every mode", "[explain]") {
+    // render_view() draws with the tiled compositor; the story runs the per-ray one with a recording observer.
+    // The two give the same bits (test_view_compositor.cpp), so any difference is the observer changing
+    // what it watches. Tolerance 0.
+    TempDir dir;
+    std::vector<std::pair<std::string, SceneDescription>> scenes;
+    for (const char* name : kShipped) scenes.emplace_back(name, shipped(name));
+    scenes.emplace_back("column", load_scene_file(dir.write("column.json", kColumn)));
+    std::set<SampleEnd> ends;
+    bool shadowed = false, cut_short = false;
+    std::size_t compared = 0;
+    for (const auto& [name, d] : scenes)
+        for (const RenderMode mode : {RenderMode::basic, RenderMode::simple_shadow, RenderMode::full})
+            for (const Compositing compositing : {Compositing::over, Compositing::thesis})
+                for (const std::uint32_t spp : {1u, 3u}) {
+                    RenderOptions o = RenderOptions::from_scene(d);
+                    o.render.mode = mode;
+                    o.render.compositing = compositing;
+                    o.render.spp = spp;
+                    o.width = o.height = 24;
+                    FrameRenderer renderer(d, o, texture());
+                    ImageRgba image;
+                    renderer.render(0, image);
+                    for (int y = 0; y < o.height; ++y)
+                        for (int x = (y % 2); x < o.width; x += 2) {
+                            INFO(name << ", " << to_string(mode) << ", " << to_string(compositing) << ", spp " << spp
+                                      << ", pixel " << x << "," << y);
+                            const PixelStory p = explain_pixel(renderer, 0, x, y);
+                            const glm::vec4 want = image.at(x, y);
+                            CHECK(bits(p.color.x) == bits(want.x));
+                            CHECK(bits(p.color.y) == bits(want.y));
+                            CHECK(bits(p.color.z) == bits(want.z));
+                            REQUIRE(p.samples.size() == spp);
+                            for (const SampleStory& s : p.samples) {
+                                // The recorded contributions are the terms the compositor added, in its order.
+                                glm::vec3 sum(0.0f);
+                                for (std::size_t k = 0; k < s.layers.size(); ++k) {
+                                    sum += s.layers[k].contribution;
+                                    if (k > 0) CHECK(s.layers[k - 1].t <= s.layers[k].t);
+                                    if (k > 0)
+                                        CHECK(bits(s.layers[k - 1].weight_after) == bits(s.layers[k].weight_before));
+                                }
+                                if (s.end != SampleEnd::transmittance_threshold) sum += s.background_contribution;
+                                CHECK(sum == s.color);
+                                if (s.end == SampleEnd::transmittance_threshold) {
+                                    REQUIRE_FALSE(s.layers.empty());
+                                    CHECK(s.layers.back().weight_after < o.render.transmittance_threshold);
+                                }
+                                CHECK((s.end == SampleEnd::ground) == s.ground.has_value());
+                                ends.insert(s.end);
+                                shadowed = shadowed || (s.ground && s.ground->shadow_hit);
+                                cut_short = cut_short || s.search_cut_at.has_value();
+                            }
+                            ++compared;
+                        }
+                }
+    // Not vacuous: every way a sample can end, shadows, and a billboard search cut short were met.
+    CHECK(ends.size() == 3);
+    CHECK(shadowed);
+    CHECK(cut_short);
+    CHECK(compared == 5 * 3 * 2 * 2 * 24 * 12);
+
+    SceneDescription d = shipped("minimal.json");
+    RenderOptions o = RenderOptions::from_scene(d);
+    FrameRenderer renderer(d, o, texture());
+    ImageRgba image;
+    renderer.render(0, image);
+    CHECK_THROWS_AS(explain_pixel(renderer, 0, o.width, 0), std::out_of_range);
+    CHECK_THROWS_AS(explain_pixel(renderer, 0, 0, -1), std::out_of_range);
+}
+
+TEST_CASE("cli: explain prints depths' l and render's pixel", "[explain][cli]") {
+    TempDir dir;
+    const fs::path above = kAssets / "scenes" / "two_tubes_above.json";
+    // depths' CSV rows.
+    const fs::path csv = dir.path / "d.csv";
+    REQUIRE(run_cli("depths " + above.string() + " -o " + csv.string()).exit_code == 0);
+    std::vector<std::string> rows;
+    {
+        std::istringstream in(smoketrace::test::file_bytes(csv));
+        for (std::string line; std::getline(in, line);) rows.push_back(line);
+    }
+    int inf_rows = 0;
+    for (const int i : {0, 17, 200, 443, 749}) {
+        const CliRun r = run_cli_stdout("explain " + above.string() + " --particle " + std::to_string(i));
+        INFO("particle " << i << ": " << r.err);
+        REQUIRE(r.exit_code == 0);
+        const auto l = lines_after(r.out, "l = ");
+        REQUIRE(l.size() == 1);
+        const std::string printed = l[0].substr(0, l[0].find(' '));
+        const std::string row = rows.at(std::size_t(i) + 1);
+        const auto a = row.find(','), b = row.find(',', a + 1);
+        CHECK(printed == row.substr(a + 1, b - a - 1));  // the same %.9g text as the CSV: the same float
+        inf_rows += printed == "inf";
+    }
+    CHECK(inf_rows >= 1);  // 443 is cut off (cutoff 60): fully dark
+
+    // --pixel against render's PNG, in every mode, both compositings and several samples: scene files made
+    // from the hand-made column with the render settings in them.
+    struct Variant {
+        const char* render;
+    };
+    const Variant variants[] = {{R"({"mode": "basic"})"},
+                                {R"({"mode": "simple-shadow"})"},
+                                {R"({"mode": "full"})"},
+                                {R"({"mode": "full", "compositing": "thesis"})"},
+                                {R"({"mode": "full", "spp": 4})"}};
+    int k = 0;
+    for (const Variant& v : variants) {
+        std::string text = kColumn;
+        text.insert(text.rfind('}'), std::string(R"(, "render": )") + v.render);
+        std::string stem("variant");
+        stem += std::to_string(k++);
+        const fs::path scene = dir.write(stem + ".json", text);
+        const fs::path png = dir.path / (stem + ".png");
+        INFO(v.render);
+        REQUIRE(run_cli("render " + scene.string() + " -o " + png.string()).exit_code == 0);
+        const Rgba8Image image = read_png_rgba8(png);
+        for (const auto& [x, y] : {std::pair{20, 20}, std::pair{20, 12}, std::pair{3, 35}, std::pair{0, 0}}) {
+            const CliRun r =
+                run_cli_stdout("explain " + scene.string() + " --pixel " + std::to_string(x) + "," + std::to_string(y));
+            INFO("pixel " << x << "," << y << ": " << r.err);
+            REQUIRE(r.exit_code == 0);
+            const auto srgb = lines_after(r.out, "pixel (linear) ");
+            REQUIRE(srgb.size() == 1);
+            std::istringstream in(srgb[0].substr(srgb[0].rfind(':') + 1));
+            int rgb[3] = {-1, -1, -1};
+            in >> rgb[0] >> rgb[1] >> rgb[2];
+            const std::uint8_t* px = &image.pixels[(std::size_t(y) * std::size_t(image.width) + std::size_t(x)) * 4];
+            CHECK(rgb[0] == px[0]);
+            CHECK(rgb[1] == px[1]);
+            CHECK(rgb[2] == px[2]);
+            CHECK(r.out.find("(the same)") != std::string::npos);
+        }
+    }
+}
+
+TEST_CASE("cli: explain's bad input names the argument and writes nothing", "[explain][cli]") {
+    TempDir dir;
+    const std::string scene = (kAssets / "scenes" / "minimal.json").string();
+    const fs::path svg = dir.path / "out.svg";
+    const std::string o = " -o " + svg.string();
+    const fs::path empty = dir.write("empty.json", R"({"light":{"direction":[0,1,0]},"smoke":{"particles":[]}})");
+    struct Case {
+        std::string args, expect;
+    };
+    const Case cases[] = {
+        {"explain " + scene + " --particle 5" + o, "--particle: 5 is out of range"},
+        {"explain " + scene + " --particle -1" + o, "--particle"},
+        {"explain " + scene + " --particle x" + o, "--particle: 'x' is not a whole number"},
+        {"explain " + empty.string() + " --particle 0" + o, "has no particles"},
+        {"explain " + scene + " --pixel 512,0" + o, "--pixel: 512,0 is outside the scene's 512x512 image"},
+        {"explain " + scene + " --pixel 0,512" + o, "--pixel"},
+        {"explain " + scene + " --pixel 3" + o, "--pixel: '3' is not of the form X,Y"},
+        {"explain " + scene + " --pixel a,b" + o, "--pixel: X: 'a' is not a whole number"},
+        {"explain " + scene + " --pixel -1,2" + o, "--pixel: X"},
+        {"explain " + scene + " --pixel 1,2,3" + o, "--pixel: Y: '2,3' is not a whole number"},
+        {"explain " + scene + " --pixel 1,2 --particle 0" + o, "give one of them, not both"},
+        {"explain " + scene + o, "give --particle N"},
+        {"explain --particle 0" + o, "missing scene file"},
+        {"explain " + scene + " --particle 0 -o " + (dir.path / "out.png").string(), "must end in .svg"},
+        {"explain " + scene + " --particle 0 -o " + scene, "-o"},
+        {"explain " + scene + " --particle 0 -o " + (dir.path / "no" / "x.svg").string(), "does not exist"},
+    };
+    for (const Case& c : cases) {
+        INFO(c.args);
+        const CliRun r = run_cli(c.args);
+        INFO(r.err);
+        CHECK(r.exit_code != 0);
+        CHECK(r.err.find(c.expect) != std::string::npos);
+        CHECK_FALSE(fs::exists(svg));
+    }
+    for (const auto& e : fs::directory_iterator(dir.path)) CHECK(e.path().extension() == ".json");
+}
+
+TEST_CASE("cli: explain's SVGs are well-formed and written whole", "[explain][cli]") {
+    TempDir dir;
+    std::string text = kColumn;
+    text.insert(text.rfind('}'), R"(, "render": {"spp": 2})");
+    const fs::path scene = dir.write("column.json", text);
+    const fs::path above = kAssets / "scenes" / "two_tubes_above.json";
+    const fs::path svg = dir.path / "story.svg";
+    struct Case {
+        std::string args;
+        const char* needs;  // an element the drawing cannot do without
+    };
+    const Case cases[] = {
+        {scene.string() + " --particle 0", "path"},    // the counter's step plot
+        {above.string() + " --particle 443", "line"},  // cut off: chords, no walk
+        {above.string() + " --particle 17", "path"},
+        {scene.string() + " --pixel 20,20", "rect"},  // two samples' bars
+    };
+    for (const Case& c : cases) {
+        INFO(c.args);
+        dir.write("story.svg", "an older file, replaced whole");
+        const CliRun r = run_cli("explain " + c.args + " -o " + svg.string());
+        INFO(r.err);
+        REQUIRE(r.exit_code == 0);
+        const std::string doc = smoketrace::test::file_bytes(svg);
+        std::string why;
+        const auto elements = svg_elements(doc, why);
+        INFO(why);
+        REQUIRE_FALSE(elements.empty());
+        CHECK(elements.count(c.needs) == 1);
+        CHECK(elements.at("text") >= 5);  // labels, legend, units
+        // Nothing beside it: the temporary file was renamed into place.
+        std::size_t files = 0;
+        for (const auto& e : fs::directory_iterator(dir.path)) files += e.path().extension() != ".json";
+        CHECK(files == 1);
+        // -o -: the same SVG on standard output, the text on standard error.
+        const CliRun piped = run_cli_stdout("explain " + c.args + " -o -");
+        REQUIRE(piped.exit_code == 0);
+        CHECK(piped.out == doc);
+        CHECK(piped.err.find("smoketrace explain:") != std::string::npos);
+    }
+}
