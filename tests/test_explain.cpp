@@ -507,3 +507,24 @@ TEST_CASE("cli: explain's SVGs are well-formed and written whole", "[explain][cl
         CHECK(piped.err.find("smoketrace explain:") != std::string::npos);
     }
 }
+
+TEST_CASE("cli: explain prints positions in world coordinates for a scene far from the origin", "[explain][cli]") {
+    // The column moved by 10^6 (an explicit origin near it): the stored positions are relative to the origin,
+    // and the story must give them back as the file wrote them. The pixel's camera ray starts at the camera.
+    TempDir dir;
+    const fs::path scene = dir.write("far.json", R"({
+        "origin": [1000000, 0, -1000000],
+        "light": { "direction": [0, 1, 0] },
+        "smoke": { "particles": [ { "center": [1000000.25, 0.5, -1000000], "radius": 1 },
+                                  { "center": [1000000.25, 3.5, -1000000], "radius": 1 } ] },
+        "camera": { "position": [1000000, 1.5, -999991], "look_at": [1000000, 1.5, -1000000],
+                    "width": 40, "height": 40 } })");
+    const CliRun p = run_cli_stdout("explain " + scene.string() + " --particle 1");
+    INFO(p.err);
+    REQUIRE(p.exit_code == 0);
+    CHECK(p.out.find("centre (1000000.25, 3.5, -1000000)") != std::string::npos);
+    const CliRun x = run_cli_stdout("explain " + scene.string() + " --pixel 20,20");
+    INFO(x.err);
+    REQUIRE(x.exit_code == 0);
+    CHECK(x.out.find("camera ray from (1000000, 1.5, -999991)") != std::string::npos);
+}

@@ -88,7 +88,7 @@ int run_explain(const Args& args) {
         const OpticalDepthStory story =
             explain_optical_depth(smoke, particles, std::uint32_t(*particle_arg), desc.light.direction_at_frame(0),
                                   settings, HitSort::adaptive, desc.smoke.sigma_t);
-        write_particle_text(text, story, particles, scene_name, desc.smoke.shape.name().c_str());
+        write_particle_text(text, story, particles, scene_name, desc.smoke.shape.name().c_str(), desc.origin);
         if (target) write_particle_svg(svg, story, scene_name);
     } else {
         const RenderOptions options = RenderOptions::from_scene(desc);
@@ -104,7 +104,7 @@ int run_explain(const Args& args) {
         ImageRgba image;
         renderer.render(0, image);
         const PixelStory story = explain_pixel(renderer, 0, pixel->first, pixel->second);
-        write_pixel_text(text, story, glm::vec3(image.at(pixel->first, pixel->second)), scene_name);
+        write_pixel_text(text, story, glm::vec3(image.at(pixel->first, pixel->second)), scene_name, desc.origin);
         if (target) write_pixel_svg(svg, story, scene_name);
     }
     if (target) {

@@ -33,6 +33,14 @@ std::string vec(const glm::vec3& v) {
     return fmt("(%s, %s, %s)", num(v.x).c_str(), num(v.y).c_str(), num(v.z).c_str());
 }
 
+// A stored position in world coordinates: the scene's origin plus it, in double. For a scene at the origin
+// (the usual case) exactly the stored floats.
+std::string point(const glm::vec3& local, const glm::dvec3& origin) {
+    if (origin == glm::dvec3(0.0)) return vec(local);
+    const glm::dvec3 w = origin + glm::dvec3(local);
+    return fmt("(%.15g, %.15g, %.15g)", w.x, w.y, w.z);
+}
+
 const char* surface(std::int32_t value) { return value > 0 ? "entry" : "exit"; }
 
 const char* status_name(DepthStatus s) {
@@ -105,13 +113,13 @@ std::string format_number(double v) {
 }
 
 void write_particle_text(std::ostream& out, const OpticalDepthStory& s, std::span<const Particle> particles,
-                         const std::string& scene_name, const char* shape_name) {
+                         const std::string& scene_name, const char* shape_name, const glm::dvec3& origin) {
     const Particle& p = particles[s.particle];
     out << "smoketrace explain: particle " << s.particle << " of " << scene_name << " (frame 0)\n\n";
     out << "The optical-depth ray (thesis 4.3.2): from the particle's centre toward the light; its any-hit\n"
            "callback stores +1 for every particle surface it enters and -1 for every one it leaves.\n";
-    out << "  particle    centre " << vec(p.center) << ", radius " << num(p.radius) << "\n";
-    out << "  origin      " << vec(s.ray.origin) << "\n";
+    out << "  particle    centre " << point(p.center, origin) << ", radius " << num(p.radius) << "\n";
+    out << "  origin      " << point(s.ray.origin, origin) << "\n";
     out << "  direction   " << vec(s.ray.direction) << " (toward the light, unit length)\n";
     out << "  t range     [" << num(s.ray.tmin) << ", " << num(s.ray.tmax) << "] (tmin: 2^-22 of the radius)\n";
     out << "  stand-ins   " << shape_name << "; cutoff "
@@ -320,7 +328,7 @@ void write_particle_svg(std::ostream& out, const OpticalDepthStory& s, const std
 }
 
 void write_pixel_text(std::ostream& out, const PixelStory& p, const glm::vec3& rendered,
-                      const std::string& scene_name) {
+                      const std::string& scene_name, const glm::dvec3& origin) {
     out << "smoketrace explain: pixel " << p.x << "," << p.y << " of " << scene_name << " (frame 0, mode "
         << to_string(p.mode) << ", compositing " << to_string(p.compositing) << ", " << p.samples.size()
         << (p.samples.size() == 1 ? " sample: the pixel's centre" : " samples, averaged") << ")\n\n";
@@ -335,8 +343,8 @@ void write_pixel_text(std::ostream& out, const PixelStory& p, const glm::vec3& r
     for (std::size_t i = 0; i < p.samples.size(); ++i) {
         const SampleStory& s = p.samples[i];
         out << "\nsample " << i + 1 << " of " << p.samples.size() << " at (" << num(s.offset.x) << ", "
-            << num(s.offset.y) << ") in the pixel: camera ray from " << vec(s.ray.origin) << " along "
-            << vec(s.ray.direction) << "\n";
+            << num(s.offset.y) << ") in the pixel: camera ray from " << point(s.ray.origin, origin)
+            << " along " << vec(s.ray.direction) << "\n";
         out << "  opaque surface behind the billboards: "
             << (s.opaque_t ? "the ground at t = " + num(*s.opaque_t) : std::string("none (the ray leaves the scene)"))
             << "\n";
@@ -363,7 +371,7 @@ void write_pixel_text(std::ostream& out, const PixelStory& p, const glm::vec3& r
                 break;
             case SampleEnd::ground: {
                 const GroundStory& g = *s.ground;
-                out << "  stopped: the ground at t = " << num(g.t) << ", point " << vec(g.point) << "\n";
+                out << "  stopped: the ground at t = " << num(g.t) << ", point " << point(g.point, origin) << "\n";
                 if (!g.shadow_ray)
                     out << "    no shadow ray ("
                         << (p.mode == RenderMode::basic ? "basic mode" : "the light is below the ground") << ")\n";

@@ -14,13 +14,15 @@ namespace smoketrace::cli {
 // Numbers as the text prints them: %.9g (a float read back is the same float; `depths` writes l alike).
 std::string format_number(double v);
 
+// Positions are printed in world coordinates: `origin` (the scene's, SceneDescription::origin) plus the
+// stored position, added in double.
 void write_particle_text(std::ostream& out, const OpticalDepthStory& story, std::span<const Particle> particles,
-                         const std::string& scene_name, const char* shape_name);
+                         const std::string& scene_name, const char* shape_name, const glm::dvec3& origin);
 void write_particle_svg(std::ostream& out, const OpticalDepthStory& story, const std::string& scene_name);
 
 // `rendered`: the pixel the frame's render_view() wrote, shown beside the explained one.
 void write_pixel_text(std::ostream& out, const PixelStory& story, const glm::vec3& rendered,
-                      const std::string& scene_name);
+                      const std::string& scene_name, const glm::dvec3& origin);
 void write_pixel_svg(std::ostream& out, const PixelStory& story, const std::string& scene_name);
 
 }  // namespace smoketrace::cli
