@@ -396,9 +396,12 @@ Ratios run_traversal(const TraversalContext& ctx, const std::string& suffix, con
                      const std::vector<std::unique_ptr<er::Scene>>& scenes, const std::vector<Ray>& rays,
                      bool coherent, std::size_t tris) {
     BlasWideBvh<4> wide4;
-    wide4.collapse(blas.bvh());
+    wide4.collapse(blas.bvh(), blas.leaf_blocks());
+    // The binary tree's leaf callback is given a leaf's range; its blocks are looked up (a binary search
+    // over the leaves, a small part of a leaf visit).
     const auto binary = [&](const BoxRay& br, const float& tmax, auto&& leaf, TraversalStats& st) {
-        traverse_bvh(blas.bvh(), br, tmax, leaf, st);
+        traverse_bvh(blas.bvh(), br, tmax, [&](std::uint32_t f, std::uint32_t c) { return leaf(blas.leaf_block(f), c); },
+                     st);
     };
     const auto wide4_nearest = [&](const BoxRay& br, const float& tmax, auto&& leaf, TraversalStats& st) {
         traverse_blas_wide<BlasWalkOrder::nearest_first>(wide4, br, tmax, leaf, st);
