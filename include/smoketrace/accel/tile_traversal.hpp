@@ -2,7 +2,10 @@
 // The walk of a ray tile (geometry/ray_tile.hpp) through a BVH: once for all the tile's rays, a node entered
 // unless the tile's frustum excludes its box, or its box lies farther from the tile's origin than any ray
 // of the tile reaches. trace_tile() walks the top level with it to gather the instances the tile's rays can
-// meet (trace/trace_tile.hpp).
+// meet (trace/trace_tile.hpp); the closest-hit tile query walks a mesh BLAS's wide tree with it
+// (trace/blas_tile_traversal.hpp).
+#include <smoketrace/accel/blas_wide_bvh.hpp>
+#include <smoketrace/accel/blas_wide_traversal.hpp>
 #include <smoketrace/accel/bvh.hpp>
 #include <smoketrace/accel/bvh_traversal.hpp>
 #include <smoketrace/geometry/ray_tile.hpp>
@@ -59,6 +62,57 @@ inline void traverse_bvh_tile(const Bvh& bvh, const RayTile& tile, float reach, 
         }
         if (sp == 0) return;
         node = stack[--sp];
+    }
+}
+
+// The walk of a ray tile through a mesh BLAS's wide tree (blas_wide_bvh.hpp), nearest first: a node's
+// children that the tile may see within `reach` (read through the reference at every step, so a leaf
+// callback that shortens the rays shortens the walk) are taken in the order of their boxes' distance from
+// the tile's origin, the nearest next and the others stacked; an entry popped beyond the reach of that
+// moment is skipped. Calls leaf(ref, count, box) for each leaf reached (ref: what the leaf slot holds, box
+// its box); leaf returns true to end the walk.
+template <unsigned W, class LeafFn>
+inline void traverse_blas_wide_tile(const BlasWideBvh<W>& bvh, const RayTile& tile, const float& reach,
+                                    LeafFn&& leaf, TraversalStats& stats) {
+    using detail::kLeafRef;
+    if (bvh.empty()) return;
+    const BlasWideNode<W>* nodes = bvh.nodes();
+    auto slot_box = [&](const BlasWideNode<W>& n, unsigned i) {
+        return Aabb{glm::vec3(n.bounds[0][i], n.bounds[1][i], n.bounds[2][i]),
+                    glm::vec3(n.bounds[3][i], n.bounds[4][i], n.bounds[5][i])};
+    };
+    StackEntry stack[(W - 1) * kMaxBvhDepth + 1];
+    int sp = 0;
+    std::uint32_t ref = 0;
+    for (;;) {
+        ++stats.nodes_visited;
+        if (ref & kLeafRef) {
+            const std::uint32_t k = ref & ~kLeafRef;
+            const BlasWideNode<W>& p = nodes[k / W];
+            if (leaf(p.child[k % W], p.count[k % W], slot_box(p, k % W))) return;
+        } else {
+            const BlasWideNode<W>& n = nodes[ref];
+            // The children the tile may see, by distance (insertion into at most W entries).
+            StackEntry near[W];
+            unsigned count = 0;
+            for (unsigned i = 0; i < n.used; ++i) {
+                ++stats.boxes_tested;
+                const Aabb box = slot_box(n, i);
+                if (tile.outside(box)) continue;
+                const float d = distance_to_box(tile.origin(), box);
+                if (!(d <= reach)) continue;
+                const std::uint32_t child = (n.leaves >> i) & 1u ? kLeafRef | (ref * W + i) : n.child[i];
+                unsigned j = count++;
+                for (; j > 0 && near[j - 1].t > d; --j) near[j] = near[j - 1];
+                near[j] = StackEntry{child, d};
+            }
+            if (count != 0) {
+                for (unsigned j = count; j-- > 1;) stack[sp++] = near[j];
+                ref = near[0].node;
+                continue;
+            }
+        }
+        if (!pop_live_entry(stack, sp, reach, ref)) return;
     }
 }
 

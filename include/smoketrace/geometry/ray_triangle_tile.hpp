@@ -17,6 +17,7 @@
 #include <smoketrace/geometry/ray_tile.hpp>
 #include <smoketrace/geometry/ray_triangle.hpp>
 
+#include <bit>
 #include <cstdint>
 #include <limits>
 
@@ -201,6 +202,62 @@ template <unsigned W>
             out.on_edge |= (lanes & ~exact) << h;
             out.hit |= (lanes & exact & nonzero(n_dot_d) & in_range) << h;
             out.front |= bits(det > zero) << h;
+        }
+    }
+}
+
+// The whole test of the triangle v0 v1 v2 against tile rays: for each row r of `rows` and each block of W
+// lanes of it, the lanes lanes_of(r, block) (a mask of W bits; asked just before the block is tested, so it
+// may drop rays whose search ended meanwhile) are sheared and finished together; on_hit(lane, hit) is called
+// for each ray that meets the triangle in [tmin, tmax] of that moment (its tmax read from the tile), in lane
+// order within a block, with finish_triangle_hit()'s t, barycentrics and facing, bit for bit. The rays must
+// share their axes (rays.shared_axes).
+template <unsigned W, class LanesOf, class OnHit>
+[[gnu::always_inline]] inline void triangle_tile_hits(const RayTile& tile, const TileTriangleRays& rays,
+                                                      TileLineSet rows, const glm::vec3& v0, const glm::vec3& v1,
+                                                      const glm::vec3& v2, LanesOf&& lanes_of, OnHit&& on_hit) {
+    const glm::vec3& eye = tile.origin();
+    const glm::vec3 a = v0 - eye, b = v1 - eye, c = v2 - eye;
+    // The plane (the normal and finish_triangle_hit()'s n·(v0 − origin), the same for every ray of the tile),
+    // formed when a first ray gets past the straddle test: most triangles a tile tests are hit by none.
+    glm::dvec3 normal;
+    double n_dot_p = 0.0;
+    bool plane_ready = false;
+    const float* tmax = tile.tmax_data();
+    for (TileLineSet rs = rows; rs != 0; rs &= rs - 1) {
+        const unsigned r = unsigned(std::countr_zero(rs));
+        for (unsigned blk = 0; blk < kTileColumns / W; ++blk) {
+            const unsigned lanes = lanes_of(r, blk);
+            if (lanes == 0) continue;
+            const unsigned first = RayTile::lane(blk * W, r);
+            ShearedLanes<W> sheared;
+            const unsigned keep = shear_lanes<W>(rays, first, lanes, a, b, c, sheared);
+            if (keep == 0) continue;
+            if (!plane_ready) {
+                normal = triangle_normal(v0, v1, v2);
+                const glm::dvec3 p = glm::dvec3(v0) - glm::dvec3(eye);
+                n_dot_p = normal.x * p.x + normal.y * p.y + normal.z * p.z;
+                plane_ready = true;
+            }
+            FinishedLanes<W> done;
+            finish_lanes<W>(tile, first, keep, sheared, normal, n_dot_p, done);
+            for (unsigned m = done.hit; m != 0; m &= m - 1) {
+                const unsigned i = unsigned(std::countr_zero(m));
+                const unsigned lane = first + i;
+                TriangleHit th;
+                th.t = static_cast<float>(done.t[i]);
+                // Rounding to float must stay in range, as in finish_triangle_hit().
+                if (!(th.t >= tile.tmin() && th.t <= tmax[lane])) continue;
+                th.barycentrics = glm::vec2(float(done.b1[i]), float(done.b2[i]));
+                th.front_face = (done.front >> i) & 1u;
+                on_hit(lane, th);
+            }
+            for (unsigned m = done.on_edge; m != 0; m &= m - 1) {
+                const unsigned i = unsigned(std::countr_zero(m));
+                const unsigned lane = first + i;
+                TriangleHit th;
+                if (finish_triangle_hit(rays.ray(lane), sheared.lane(i), v0, normal, tmax[lane], th)) on_hit(lane, th);
+            }
         }
     }
 }
