@@ -200,13 +200,13 @@ TEST_CASE("ray tile: shear_lanes() and finish_lanes() are the scalar test lane b
                 p = eye + f * rng.uniform(0.5f, 9.0f) + rt * rng.uniform(-4, 4) + up * rng.uniform(-4, 4);
             if (j % 2 == 0) v[j % 3] = on_axis;  // a vertex on the middle ray
             if (j % 4 == 1) v[1] = on_axis + (v[0] - on_axis) * -1.0f;  // an edge through the middle ray
-            const glm::vec3 a = v[0] - eye, b = v[1] - eye, c = v[2] - eye;
             const glm::dvec3 normal = triangle_normal(v[0], v[1], v[2]);
             const glm::dvec3 p = glm::dvec3(v[0]) - glm::dvec3(eye);
             const double n_dot_p = normal.x * p.x + normal.y * p.y + normal.z * p.z;
             for (unsigned first = 0; first < kTileRays; first += W) {
                 ShearedLanes<W> out{};
-                const unsigned keep = shear_lanes<W>(rays, first, W == 32 ? ~0u : (1u << W) - 1u, a, b, c, out);
+                const unsigned keep = shear_lanes<W>(rays, first, W == 32 ? ~0u : (1u << W) - 1u,
+                                                     relative(rays, eye, v[0], v[1], v[2]), out);
                 // finish_lanes() against finish_triangle_hit(), lane by lane.
                 FinishedLanes<W> done{};
                 finish_lanes<W>(tile, first, keep, out, normal, n_dot_p, done);
@@ -480,4 +480,43 @@ TEST_CASE("Mesh BLAS tile query: whole images, including tiles whose rays change
     }
     CHECK(mixed > 0);
     CHECK(hit > 3000);  // 4222 rays hit
+}
+
+TEST_CASE("Mesh BLAS tile query: a wide node's children are culled as outside() and distance_to_box() cull them",
+          "[trace-tile]") {
+    // visible_children() tests eight boxes in lanes of doubles; lane by lane it must make the scalar tests'
+    // decisions and distances, bit for bit: boxes around, inside and behind the frustum, touching the eye, and
+    // huge and tiny ones.
+    Pcg32 rng(73);
+    long visible = 0, culled = 0;
+    for (int k = 0; k < 400; ++k) {
+        const glm::vec3 eye = rng.uniform(0.0f, 20.0f) * random_unit(rng);
+        const glm::vec3 at = eye + random_unit(rng);
+        const glm::vec3 up = std::abs(glm::normalize(at - eye).y) > 0.99f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0);
+        const Camera cam(eye, at, up, rng.uniform(5.0f, 120.0f), 256, 256);
+        const RayTile tile = cam.tile(int(rng.below(240)), int(rng.below(240)), 16, 16, glm::vec2(0.5f), 0.0f);
+        float bounds[6][8];
+        Aabb boxes[8];
+        for (unsigned i = 0; i < 8; ++i) {
+            const float size = std::pow(10.0f, rng.uniform(-4.0f, 2.0f));
+            const glm::vec3 c = i == 0 ? eye : eye + rng.uniform(0.0f, 40.0f) * random_unit(rng);
+            boxes[i].lo = c - size * glm::vec3(rng.uniform01(), rng.uniform01(), rng.uniform01());
+            boxes[i].hi = c + size * glm::vec3(rng.uniform01(), rng.uniform01(), rng.uniform01());
+            const float* p = planes(boxes[i]);
+            for (int j = 0; j < 6; ++j) bounds[j][i] = p[j];
+        }
+        const unsigned used = 1 + rng.below(8);
+        const float reach = k % 3 == 0 ? std::numeric_limits<float>::infinity() : rng.uniform(1.0f, 30.0f);
+        alignas(64) float dist[8];
+        const unsigned got = visible_children<8>(tile, bounds, used, reach, dist);
+        for (unsigned i = 0; i < 8; ++i) {
+            CAPTURE(k, i);
+            const bool want = i < used && !tile.outside(boxes[i]) && distance_to_box(tile.origin(), boxes[i]) <= reach;
+            REQUIRE(bool(got >> i & 1u) == want);
+            if (want) REQUIRE(same_bits(dist[i], distance_to_box(tile.origin(), boxes[i])));
+            (want ? visible : culled) += i < used;
+        }
+    }
+    CHECK(visible > 200);
+    CHECK(culled > 200);
 }

@@ -36,7 +36,8 @@ struct BlasTileHits {
 
 // Traces every ray of the tile (unit directions, as a camera's; its intervals [tmin, tmax(lane)]) to its
 // closest hit, lowering the tile's tmax to each hit. `stats` counts the tile's walk: nodes and leaves visited
-// and child boxes tested once for the whole tile, and one primitive test per ray and triangle tested.
+// and child boxes tested once for the whole tile, and for each ray the triangles of every leaf whose box it
+// enters (as the single-ray walk counts them).
 inline void closest_hit(const MeshBlas& blas, RayTile& tile, BlasTileHits& hits, TraversalStats& stats) {
     using Floats = simd::Floats<simd::kFloatLanes>;
     constexpr unsigned W = simd::kFloatLanes;
@@ -132,7 +133,7 @@ inline void closest_hit(const MeshBlas& blas, RayTile& tile, BlasTileHits& hits,
         for (std::uint32_t k = 0; k < count; ++k) {
             const TriangleBlock& b = blocks[first_block + k / kTriangleBlockLanes];
             const unsigned i = k % kTriangleBlockLanes;
-            triangle_tile_hits<W>(tile, rays, rows, b.vertex(i, 0), b.vertex(i, 1), b.vertex(i, 2), lanes_of,
+            triangle_tile_hits<W>(tile, rays, rows, BlockLaneVertices{b, i}, lanes_of,
                                   [&](unsigned lane, const TriangleHit& th) {
                                       hits.hit[lane] = BlasHit{th.t, th.barycentrics, b.primitive[i], th.front_face};
                                       hits.found[lane / kTileColumns] |= 1u << (lane % kTileColumns);

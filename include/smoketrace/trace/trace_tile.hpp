@@ -235,7 +235,7 @@ void trace_tile(const AccelScene& scene, RayTile& tile, std::uint32_t flags, std
             for (std::uint32_t k = 0; k < inst.world_triangle_count; ++k) {
                 const MeshBlas::Triangle& tri = tris[k];
                 triangle_tile_hits<W>(
-                    tile, triangle_rays, rows, tri.v0, tri.v1, tri.v2,
+                    tile, triangle_rays, rows, TriangleVertices{tri.v0, tri.v1, tri.v2},
                     // Tested once and still searching (an earlier triangle may have ended a ray).
                     [&](unsigned r, unsigned blk) { return tested[r][blk] & (alive[r] >> (blk * W)) & kBlockBits; },
                     [&](unsigned lane, const TriangleHit& th) {
