@@ -172,17 +172,25 @@ template <unsigned W>
 }
 
 // finish_triangle_hit() for the lanes `keep` of a block that shear_lanes() kept, in lanes of doubles: the
-// same operations on the same numbers, so each lane gets the scalar function's t, barycentrics and facing,
-// bit for bit. The plane's distance n·(v0 − origin) is the same for every ray of the tile (`n_dot_p`, formed
+// same operations on the same numbers, so each lane gets the scalar function's t and facing, bit for bit
+// (its barycentrics: lane_barycentrics(), for the lanes that hit). The plane's distance n·(v0 − origin) is the same for every ray of the tile (`n_dot_p`, formed
 // as the scalar function forms it). Lanes with an edge function or determinant of exactly 0 (or NaN: an
 // overflow), where the tie-break decides, are returned in `on_edge` for finish_triangle_hit() itself; `hit`
 // holds the others whose t lies in [tmin, tmax] (the tile's tmax of each ray, in double; the float t is
 // checked by the caller, as the scalar function checks it last).
 template <unsigned W>
 struct FinishedLanes {
-    alignas(64) double t[W], b1[W], b2[W];
+    alignas(64) double t[W];
     unsigned hit = 0, front = 0, on_edge = 0;
 };
+
+// finish_triangle_hit()'s barycentrics of lane i (v / det, w / det, det = u + v + w), formed for a lane that
+// hits: the same operations, so the same floats.
+template <unsigned W>
+[[nodiscard]] inline glm::vec2 lane_barycentrics(const ShearedLanes<W>& s, unsigned i) {
+    const double det = s.u[i] + s.v[i] + s.w[i];
+    return glm::vec2(float(s.v[i] / det), float(s.w[i] / det));
+}
 
 template <unsigned W>
 [[gnu::always_inline]] inline void finish_lanes(const RayTile& tile, unsigned first, unsigned keep,
@@ -213,8 +221,6 @@ template <unsigned W>
             const unsigned not_nan = bits((t > -inf) | (t < inf));
             const unsigned in_range = not_nan & ~bits(t < tmin) & ~bits(t > tmax);
             store(out.t + h, t);
-            store(out.b1 + h, v / det);
-            store(out.b2 + h, w / det);
             out.on_edge |= (lanes & ~exact) << h;
             out.hit |= (lanes & exact & nonzero(n_dot_d) & in_range) << h;
             out.front |= bits(det > zero) << h;
@@ -288,7 +294,7 @@ template <unsigned W, class Vertices, class LanesOf, class OnHit>
                 th.t = static_cast<float>(done.t[i]);
                 // Rounding to float must stay in range, as in finish_triangle_hit().
                 if (!(th.t >= tile.tmin() && th.t <= tmax[lane])) continue;
-                th.barycentrics = glm::vec2(float(done.b1[i]), float(done.b2[i]));
+                th.barycentrics = lane_barycentrics(sheared, i);
                 th.front_face = (done.front >> i) & 1u;
                 on_hit(lane, th);
             }

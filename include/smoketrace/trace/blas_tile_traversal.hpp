@@ -121,19 +121,24 @@ inline void closest_hit(const MeshBlas& blas, RayTile& tile, BlasTileHits& hits,
         // Decided once per leaf: a hit on one of its triangles lowers a ray's tmax, which the triangle test
         // itself then applies.
         unsigned entering[kTileRows][kTileColumns / W];
+        TileLineSet active = 0;  // the rows with a ray entering
         for (TileLineSet rs = rows; rs != 0; rs &= rs - 1) {
             const unsigned r = unsigned(std::countr_zero(rs));
+            unsigned any_lane = 0;
             for (unsigned blk = 0; blk < kTileColumns / W; ++blk) {
                 entering[r][blk] = enter(r, blk);
+                any_lane |= entering[r][blk];
                 stats.primitives_tested += count * unsigned(std::popcount(entering[r][blk]));
             }
+            if (any_lane != 0) active |= TileLineSet(1) << r;
         }
+        if (active == 0) return false;
         bool any = false;
         auto lanes_of = [&](unsigned r, unsigned blk) { return entering[r][blk]; };
         for (std::uint32_t k = 0; k < count; ++k) {
             const TriangleBlock& b = blocks[first_block + k / kTriangleBlockLanes];
             const unsigned i = k % kTriangleBlockLanes;
-            triangle_tile_hits<W>(tile, rays, rows, BlockLaneVertices{b, i}, lanes_of,
+            triangle_tile_hits<W>(tile, rays, active, BlockLaneVertices{b, i}, lanes_of,
                                   [&](unsigned lane, const TriangleHit& th) {
                                       hits.hit[lane] = BlasHit{th.t, th.barycentrics, b.primitive[i], th.front_face};
                                       hits.found[lane / kTileColumns] |= 1u << (lane % kTileColumns);
