@@ -22,6 +22,8 @@
 // rows' mesh) and "objects", many small icospheres merged into one mesh (overlapping boxes, empty space).
 // Our rows: "smoketrace" is the API (closest_hit / any_hit_traversal, the 8-wide tree); extra rows walk the
 // 4-wide tree ("smoketrace_wide4") and the binary tree ("smoketrace_binary", the walk before the wide tree).
+// On coherent rays "smoketrace_tile" is the tile query over the same pixels in 16×16 tiles, against Embree's
+// rtcIntersect16 packets: each API traces its largest bundle of rays, and the rays are the same bit for bit.
 //
 // Headline ratios (report()):
 //   build_ratio_vs_embree_medium_1t  our build time / Embree medium build time, one thread
@@ -31,7 +33,10 @@
 //   refit_sah_ratio_vs_at_build     the refit tree's SAH cost / its cost at build (the rebuild policy's ratio)
 //   closest_hit_ratio_vs_embree  our rays/s / the fastest Embree configuration's   (target ≥ 1)
 //   all_hits_ratio_vs_embree     our rays/s / the fastest Embree configuration's   (target ≥ 1)
-//   closest_hit_coherent_ratio_vs_embree, all_hits_coherent_ratio_vs_embree: the same, coherent rays
+//   closest_hit_coherent_ratio_vs_embree  coherent rays: our tile query (16×16 camera rays walked together,
+//                                         trace/blas_tile_traversal.hpp) / Embree's best, packets included
+//   closest_hit_coherent_single_ratio_vs_embree_single: our single-ray query / Embree's best single-ray one
+//   all_hits_coherent_ratio_vs_embree: all hits on coherent rays (single rays both)
 //   *_objects_*: the same on the second mesh; *_binary_*: the binary walk's ratio (before the wide tree)
 #include "bench_registry.hpp"
 #include "bench_util.hpp"
@@ -39,6 +44,7 @@
 
 #include "support/embree_reference.hpp"
 
+#include <smoketrace/trace/blas_tile_traversal.hpp>
 #include <smoketrace/trace/blas_traversal.hpp>
 #include <smoketrace/render/camera.hpp>
 #include <smoketrace/smoke/stand_in_shapes.hpp>
@@ -108,8 +114,11 @@ std::vector<Ray> bench_rays(std::size_t n, std::uint64_t seed) {
 
 // A pinhole camera's pixel rays, side × side, looking at the mesh from above one side, in 8×8 tiles (row by
 // row inside a tile, tiles row by row): neighbouring rays in the array are neighbours in the image.
+Camera bench_camera(int side) {
+    return Camera({0.0f, -6.5f, 2.5f}, {0.0f, 0.0f, -0.8f}, {0.0f, 0.0f, 1.0f}, 45.0f, side, side);
+}
 std::vector<Ray> camera_rays(int side) {
-    const Camera camera({0.0f, -6.5f, 2.5f}, {0.0f, 0.0f, -0.8f}, {0.0f, 0.0f, 1.0f}, 45.0f, side, side);
+    const Camera camera = bench_camera(side);
     constexpr int kTile = 8;
     std::vector<Ray> rays;
     rays.reserve(std::size_t(side) * std::size_t(side));
@@ -118,6 +127,18 @@ std::vector<Ray> camera_rays(int side) {
             for (int y = ty; y < std::min(ty + kTile, side); ++y)
                 for (int x = tx; x < std::min(tx + kTile, side); ++x) rays.push_back(camera.ray(x, y, 0.0f));
     return rays;
+}
+
+// The same pixels' rays as tiles of kTileColumns × kTileRows (geometry/ray_tile.hpp), for the tile query: lane by
+// lane bit for bit camera_rays()' rays.
+std::vector<RayTile> camera_tiles(int side) {
+    const Camera camera = bench_camera(side);
+    std::vector<RayTile> tiles;
+    for (int ty = 0; ty < side; ty += int(kTileRows))
+        for (int tx = 0; tx < side; tx += int(kTileColumns))
+            tiles.push_back(camera.tile(tx, ty, std::min(int(kTileColumns), side - tx),
+                                        std::min(int(kTileRows), side - ty), glm::vec2(0.5f), 0.0f));
+    return tiles;
 }
 
 // The second mesh: `count` small closed icospheres (level 2, 320 triangles each, radii 0.02–0.12) at random
@@ -236,6 +257,24 @@ PassResult ours_all_hits_walk(const MeshBlas& blas, const std::vector<Ray>& rays
         }, stats);
         res.hits += record.count;
         if (record.count) res.t_sum += record.t[0];
+    }
+    return res;
+}
+
+// The tile query (trace/blas_tile_traversal.hpp) over tiles [begin, end).
+PassResult ours_closest_tiles(const MeshBlas& blas, const std::vector<RayTile>& tiles, std::size_t begin,
+                              std::size_t end) {
+    PassResult res;
+    BlasTileHits hits;
+    for (std::size_t i = begin; i < end; ++i) {
+        RayTile tile = tiles[i];
+        TraversalStats stats;
+        closest_hit(blas, tile, hits, stats);
+        for (unsigned r = 0; r < tile.rows(); ++r)
+            for (TileLineSet m = hits.found[r]; m != 0; m &= m - 1) {
+                ++res.hits;
+                res.t_sum += hits.hit[RayTile::lane(unsigned(std::countr_zero(m)), r)].t;
+            }
     }
     return res;
 }
@@ -385,8 +424,10 @@ struct TraversalContext {
 };
 
 // Our rays/s over the fastest Embree configuration's, one thread: the API's and the binary walk's.
+// For coherent rays given as tiles too, `closest` is the tile query's against Embree's best of single rays and
+// packets, and `closest_single` our single-ray query's against Embree's best single-ray configuration.
 struct Ratios {
-    double closest = 0, all = 0, closest_binary = 0, all_binary = 0;
+    double closest = 0, all = 0, closest_binary = 0, all_binary = 0, closest_single = 0;
 };
 
 // Closest hit and all hits over one mesh and one ray set, at one thread and at all: our API, the 4-wide
@@ -394,11 +435,14 @@ struct Ratios {
 // Rows are named measure + suffix ("closest_coherent", ...).
 Ratios run_traversal(const TraversalContext& ctx, const std::string& suffix, const MeshBlas& blas,
                      const std::vector<std::unique_ptr<er::Scene>>& scenes, const std::vector<Ray>& rays,
-                     bool coherent, std::size_t tris) {
+                     bool coherent, std::size_t tris, const std::vector<RayTile>* tiles = nullptr) {
     BlasWideBvh<4> wide4;
-    wide4.collapse(blas.bvh());
+    wide4.collapse(blas.bvh(), blas.leaf_blocks());
+    // The binary tree's leaf callback is given a leaf's range; its blocks are looked up (a binary search
+    // over the leaves, a small part of a leaf visit).
     const auto binary = [&](const BoxRay& br, const float& tmax, auto&& leaf, TraversalStats& st) {
-        traverse_bvh(blas.bvh(), br, tmax, leaf, st);
+        traverse_bvh(blas.bvh(), br, tmax, [&](std::uint32_t f, std::uint32_t c) { return leaf(blas.leaf_block(f), c); },
+                     st);
     };
     const auto wide4_nearest = [&](const BoxRay& br, const float& tmax, auto&& leaf, TraversalStats& st) {
         traverse_blas_wide<BlasWalkOrder::nearest_first>(wide4, br, tmax, leaf, st);
@@ -444,7 +488,14 @@ Ratios run_traversal(const TraversalContext& ctx, const std::string& suffix, con
                 [&](const std::vector<Ray>& r, std::size_t b, std::size_t e) {
                     return ours_all_hits_walk(blas, r, b, e, binary);
                 });
-            constexpr std::size_t kOurs = 3;
+            const bool tiled = closest && tiles != nullptr;
+            if (tiled)
+                passes.push_back({"smoketrace_tile", threads, [&, parallel] {
+                                      return run_pass(parallel, tiles->size(), [&](std::size_t b, std::size_t e) {
+                                          return ours_closest_tiles(blas, *tiles, b, e);
+                                      });
+                                  }});
+            const std::size_t ours_count = passes.size();
             for (std::size_t i = 0; i < std::size(kEmbreeConfigs); ++i) {
                 if (!closest && !kEmbreeConfigs[i].options.context_filter) continue;
                 const er::Scene& scene = *scenes[i];
@@ -465,19 +516,24 @@ Ratios run_traversal(const TraversalContext& ctx, const std::string& suffix, con
                                       }});
             }
             time_round_robin(passes, ctx.repeats);
-            const double ours_rps = n / (stats_of(passes[0].ms).median * 1e-3);
-            double best = 0;
+            // "ours/this" is the headline API's: the tile query's where there is one.
+            const double ours_rps = n / (stats_of(passes[tiled ? 3 : 0].ms).median * 1e-3);
+            double best = 0, best_single = 0;
             for (const Contender& c : passes) {
                 const Stats st = stats_of(c.ms);
                 const double rps = n / (st.median * 1e-3);
                 ctx.rows.push_back({measure, c.name, threads, tris, n, st, rps, ours_rps / rps, c.result.hits});
                 print_row(ctx.rows.back());
-                if (&c - passes.data() >= std::ptrdiff_t(kOurs)) best = std::max(best, rps);
+                if (&c - passes.data() < std::ptrdiff_t(ours_count)) continue;
+                best = std::max(best, rps);
+                if (!c.name.ends_with("_p16")) best_single = std::max(best_single, rps);
             }
             if (threads == 1) {
+                const double single_rps = n / (stats_of(passes[0].ms).median * 1e-3);
                 const double binary_rps = n / (stats_of(passes[2].ms).median * 1e-3);
                 (closest ? ratios.closest : ratios.all) = ours_rps / best;
                 (closest ? ratios.closest_binary : ratios.all_binary) = binary_rps / best;
+                if (closest) ratios.closest_single = single_rps / best_single;
             }
         }
     }
@@ -599,7 +655,8 @@ void run_bvh(const BenchOptions& options) {
     const std::vector<Ray> camera = camera_rays(options.quick ? 512 : 1024);
     std::cout << "  coherent rays: " << camera.size() << " pinhole camera rays in 8x8 tiles\n";
     const Ratios incoherent = run_traversal(ctx, "", *blas, scenes, rays, false, tris);
-    const Ratios coherent = run_traversal(ctx, "_coherent", *blas, scenes, camera, true, tris);
+    const std::vector<RayTile> tiles = camera_tiles(options.quick ? 512 : 1024);
+    const Ratios coherent = run_traversal(ctx, "_coherent", *blas, scenes, camera, true, tris, &tiles);
 
     const TriangleMesh objects = make_many_objects(options.quick ? 400 : 2000, 7);
     const std::size_t object_tris = objects.triangles.size();
@@ -616,7 +673,7 @@ void run_bvh(const BenchOptions& options) {
     const Ratios objects_incoherent =
         run_traversal(ctx, "_objects", *object_blas, object_scenes, rays, false, object_tris);
     const Ratios objects_coherent =
-        run_traversal(ctx, "_objects_coherent", *object_blas, object_scenes, camera, true, object_tris);
+        run_traversal(ctx, "_objects_coherent", *object_blas, object_scenes, camera, true, object_tris, &tiles);
 
     // ---- CSV (written whole or not at all) ----
     CsvFile file("measure,implementation,threads,triangles,rays,median_ms,min_ms,max_ms,per_second,ours_over_this,work");
@@ -645,6 +702,8 @@ void run_bvh(const BenchOptions& options) {
     report("all_hits_objects_ratio_vs_embree", objects_incoherent.all);
     report("closest_hit_objects_coherent_ratio_vs_embree", objects_coherent.closest);
     report("all_hits_objects_coherent_ratio_vs_embree", objects_coherent.all);
+    report("closest_hit_coherent_single_ratio_vs_embree_single", coherent.closest_single);
+    report("closest_hit_objects_coherent_single_ratio_vs_embree_single", objects_coherent.closest_single);
     report("closest_hit_binary_ratio_vs_embree", incoherent.closest_binary);
     report("all_hits_binary_ratio_vs_embree", incoherent.all_binary);
     report("closest_hit_coherent_binary_ratio_vs_embree", coherent.closest_binary);

@@ -390,6 +390,37 @@ TEST_CASE("BVH refit: boxes stay tight after the primitives move, and traversal 
 // ---------------------------------------------------------------------------------------------------
 // The mesh BLAS and its queries
 
+// The blocks hold each binary leaf's triangles, lane by lane in leaf order with their input indices, each
+// leaf in blocks of its own (no two leaves share one), and zeros in the spare lanes.
+void require_blocks_hold_leaves(const MeshBlas& blas) {
+    const auto& nodes = blas.bvh().nodes;
+    std::vector<int> owner(blas.block_count(), -1);
+    std::vector<unsigned> lanes_used(blas.block_count(), 0);
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+        if (i == 1 || !nodes[i].is_leaf()) continue;
+        const std::uint32_t b0 = blas.leaf_blocks()[i];
+        REQUIRE(blas.leaf_block(nodes[i].first) == b0);
+        for (std::uint32_t k = 0; k < nodes[i].count; ++k) {
+            const std::uint32_t b = b0 + k / kTriangleBlockLanes, lane = k % kTriangleBlockLanes;
+            REQUIRE(b < blas.block_count());
+            REQUIRE((owner[b] == -1 || owner[b] == int(i)));
+            owner[b] = int(i);
+            lanes_used[b] = std::max(lanes_used[b], lane + 1);
+            const MeshBlas::Triangle& t = blas.leaf_triangles()[nodes[i].first + k];
+            const TriangleBlock& block = blas.blocks()[b];
+            REQUIRE(block.vertex(lane, 0) == t.v0);
+            REQUIRE(block.vertex(lane, 1) == t.v1);
+            REQUIRE(block.vertex(lane, 2) == t.v2);
+            REQUIRE(block.primitive[lane] == blas.primitive_id(nodes[i].first + k));
+        }
+    }
+    for (std::size_t b = 0; b < blas.block_count(); ++b) {
+        REQUIRE(owner[b] != -1);  // no block left unused
+        for (unsigned lane = lanes_used[b]; lane < kTriangleBlockLanes; ++lane)
+            for (int j = 0; j < 3; ++j) REQUIRE(blas.blocks()[b].vertex(lane, j) == glm::vec3(0.0f));
+    }
+}
+
 TEST_CASE("MeshBlas: leaf triangles are the input triangles, degenerate ones left out", "[bvh]") {
     const TriangleMesh m = random_soup(2000, 0.2f, 41);
     const MeshBlas blas(m);
@@ -410,11 +441,8 @@ TEST_CASE("MeshBlas: leaf triangles are the input triangles, degenerate ones lef
         REQUIRE(blas.leaf_triangles()[k].v0 == m.vertices[t.x]);
         REQUIRE(blas.leaf_triangles()[k].v1 == m.vertices[t.y]);
         REQUIRE(blas.leaf_triangles()[k].v2 == m.vertices[t.z]);
-        // The plane form holds the same vertices (ray_triangle_block.hpp).
-        const glm::vec3* v = &blas.leaf_triangles()[k].v0;
-        for (int j = 0; j < 3; ++j)
-            for (int a = 0; a < 3; ++a) REQUIRE(*blas.leaf_planes().at(j, a, k) == v[j][a]);
     }
+    require_blocks_hold_leaves(blas);
     // The tree's leaf ranges cover exactly the kept triangles.
     std::vector<Aabb> leaf_order_boxes;
     for (const auto& t : blas.leaf_triangles()) {
@@ -1056,10 +1084,11 @@ TEST_CASE("Mesh BLAS wide tree: the W-child box test equals the scalar slab test
 template <unsigned W>
 void check_blas_wide_walks(const MeshBlas& blas, const std::vector<Ray>& rays) {
     BlasWideBvh<W> wide;
-    wide.collapse(blas.bvh());
+    wide.collapse(blas.bvh(), blas.leaf_blocks());
     std::multiset<std::pair<std::uint32_t, std::uint32_t>> binary_leaves, wide_leaves;
-    for (const BvhNode& n : blas.bvh().nodes)
-        if (n.is_leaf()) binary_leaves.insert({n.first, n.count});
+    const auto& nodes = blas.bvh().nodes;
+    for (std::size_t i = 0; i < nodes.size(); ++i)
+        if (i != 1 && nodes[i].is_leaf()) binary_leaves.insert({blas.leaf_blocks()[i], nodes[i].count});
     for (std::size_t k = 0; k < wide.node_count(); ++k) {
         const BlasWideNode<W>& n = wide.nodes()[k];
         REQUIRE(n.used >= 1);
@@ -1083,7 +1112,11 @@ void check_blas_wide_walks(const MeshBlas& blas, const std::vector<Ray>& rays) {
                 });
             };
         };
-        traverse_bvh(blas.bvh(), BoxRay(r), tmax_ref, closest_leaf(tmax_ref, ref), s);
+        // The binary walk's leaf callback is given a leaf's range; the kernel wants its blocks.
+        auto by_range = [&](auto&& leaf) {
+            return [&, leaf](std::uint32_t f, std::uint32_t c) mutable { return leaf(blas.leaf_block(f), c); };
+        };
+        traverse_bvh(blas.bvh(), BoxRay(r), tmax_ref, by_range(closest_leaf(tmax_ref, ref)), s);
         float tmax_near = r.tmax, tmax_any = r.tmax;
         BlasHit near, any;
         traverse_blas_wide<BlasWalkOrder::nearest_first>(wide, BoxRay(r), tmax_near, closest_leaf(tmax_near, near), s);
@@ -1105,7 +1138,7 @@ void check_blas_wide_walks(const MeshBlas& blas, const std::vector<Ray>& rays) {
             return got;
         };
         const auto all_ref =
-            all([&](const float& tmax, auto&& leaf) { traverse_bvh(blas.bvh(), BoxRay(r), tmax, leaf, s); });
+            all([&](const float& tmax, auto&& leaf) { traverse_bvh(blas.bvh(), BoxRay(r), tmax, by_range(leaf), s); });
         REQUIRE(all([&](const float& tmax, auto&& leaf) {
                     traverse_blas_wide<BlasWalkOrder::nearest_first>(wide, BoxRay(r), tmax, leaf, s);
                 }) == all_ref);
@@ -1187,21 +1220,17 @@ long require_same_answers(const MeshBlas& refit, const MeshBlas& fresh, std::uin
     return hits;
 }
 
-// What a refit must leave behind: leaf copies equal to the vertices' triangles (records, normals, planes),
-// and every node box exactly the union of what lies below it.
+// What a refit must leave behind: leaf copies equal to the vertices' triangles (records, blocks), and every
+// node box exactly the union of what lies below it.
 void require_refit_consistent(const MeshBlas& blas, const TriangleMesh& m) {
     const auto& tris = blas.leaf_triangles();
-    const TrianglePlanes planes = blas.leaf_planes();
     for (std::size_t k = 0; k < tris.size(); ++k) {
         const glm::uvec3 t = m.triangles[blas.primitive_id(std::uint32_t(k))];
         REQUIRE(tris[k].v0 == m.vertices[t.x]);
         REQUIRE(tris[k].v1 == m.vertices[t.y]);
         REQUIRE(tris[k].v2 == m.vertices[t.z]);
-        REQUIRE(blas.leaf_normals()[k] == triangle_normal(tris[k].v0, tris[k].v1, tris[k].v2));
-        const glm::vec3* v = &tris[k].v0;
-        for (int j = 0; j < 3; ++j)
-            for (int a = 0; a < 3; ++a) REQUIRE(*planes.at(j, a, std::uint32_t(k)) == (&v[j].x)[a]);
     }
+    require_blocks_hold_leaves(blas);
     const auto& nodes = blas.bvh().nodes;
     for (std::size_t i = 0; i < nodes.size(); ++i) {
         if (i == 1) continue;

@@ -574,12 +574,6 @@ TEST_CASE("Watertight triangle: the 8-wide block kernel computes the scalar test
     tris.push_back({glm::vec3(1, 0, 0), glm::vec3(1, 0, 0), glm::vec3(0, 1, 0)});  // repeated vertex
     tris.push_back({glm::vec3(0, 0, 0), glm::vec3(1, 1, 1), glm::vec3(2, 2, 2)});  // collinear
     const std::size_t n = tris.size();
-    const std::size_t stride = n + kTriangleBlockLanes;
-    std::vector<float> planes(9 * stride, 0.0f);
-    for (std::size_t k = 0; k < n; ++k)
-        for (int j = 0; j < 3; ++j)
-            for (int a = 0; a < 3; ++a) planes[std::size_t(3 * j + a) * stride + k] = tris[k][j][a];
-    const TrianglePlanes view{planes.data(), stride};
 
     long lanes_checked = 0, kept = 0, on_edge = 0, near_edge = 0;
     for (int i = 0; i < 20000; ++i) {
@@ -603,8 +597,14 @@ TEST_CASE("Watertight triangle: the 8-wide block kernel computes the scalar test
         }
         const TriangleRay tr(r);
         const unsigned lanes = std::min<unsigned>(1 + rng.below(kTriangleBlockLanes), unsigned(n - first));
+        // Lanes past `lanes` hold triangles too, which the kernel must mask off.
+        TriangleBlock tb;
+        for (unsigned l = 0; l < kTriangleBlockLanes; ++l) {
+            const Tri& t = tris[(first + l) % n];
+            tb.set(l, t[0], t[1], t[2], l);
+        }
         ShearedBlock block;
-        const unsigned keep = shear_block(tr, view, first, lanes, block);
+        const unsigned keep = shear_block(tr, tb, lanes, block);
         REQUIRE((keep >> lanes) == 0u);
         for (unsigned l = 0; l < lanes; ++l) {
             const Tri& t = tris[first + l];

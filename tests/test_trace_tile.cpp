@@ -1,4 +1,5 @@
-// trace_tile(): camera rays traced a tile at a time must each see exactly what trace() shows them alone.
+// trace_tile(): camera rays traced a tile at a time must each see exactly what trace() shows them alone; and
+// the mesh BLAS's tile query (closest hit) what closest_hit() shows each ray alone.
 //
 // The kernel first, lane by lane against the scalar shear it stands for (bit for bit, no tolerance: the same
 // operations), on rays through triangle edges and vertices too. Then tiles against trace() on a random scene
@@ -10,6 +11,8 @@
 #include <smoketrace/io/scene_file.hpp>
 #include <smoketrace/render/camera.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>
+#include <smoketrace/smoke/stand_in_shapes.hpp>
+#include <smoketrace/trace/blas_tile_traversal.hpp>
 #include <smoketrace/trace/trace.hpp>
 #include <smoketrace/trace/trace_tile.hpp>
 
@@ -197,13 +200,13 @@ TEST_CASE("ray tile: shear_lanes() and finish_lanes() are the scalar test lane b
                 p = eye + f * rng.uniform(0.5f, 9.0f) + rt * rng.uniform(-4, 4) + up * rng.uniform(-4, 4);
             if (j % 2 == 0) v[j % 3] = on_axis;  // a vertex on the middle ray
             if (j % 4 == 1) v[1] = on_axis + (v[0] - on_axis) * -1.0f;  // an edge through the middle ray
-            const glm::vec3 a = v[0] - eye, b = v[1] - eye, c = v[2] - eye;
             const glm::dvec3 normal = triangle_normal(v[0], v[1], v[2]);
             const glm::dvec3 p = glm::dvec3(v[0]) - glm::dvec3(eye);
             const double n_dot_p = normal.x * p.x + normal.y * p.y + normal.z * p.z;
             for (unsigned first = 0; first < kTileRays; first += W) {
                 ShearedLanes<W> out{};
-                const unsigned keep = shear_lanes<W>(rays, first, W == 32 ? ~0u : (1u << W) - 1u, a, b, c, out);
+                const unsigned keep = shear_lanes<W>(rays, first, W == 32 ? ~0u : (1u << W) - 1u,
+                                                     relative(rays, eye, v[0], v[1], v[2]), out);
                 // finish_lanes() against finish_triangle_hit(), lane by lane.
                 FinishedLanes<W> done{};
                 finish_lanes<W>(tile, first, keep, out, normal, n_dot_p, done);
@@ -224,8 +227,9 @@ TEST_CASE("ray tile: shear_lanes() and finish_lanes() are the scalar test lane b
                     if (!hit) continue;
                     ++finished;
                     CHECK(same_bits(t, expected.t));
-                    CHECK(same_bits(float(done.b1[i]), expected.barycentrics.x));
-                    CHECK(same_bits(float(done.b2[i]), expected.barycentrics.y));
+                    const glm::vec2 b = lane_barycentrics(out, i);
+                    CHECK(same_bits(b.x, expected.barycentrics.x));
+                    CHECK(same_bits(b.y, expected.barycentrics.y));
                     CHECK(bool(done.front >> i & 1u) == expected.front_face);
                 }
                 for (unsigned i = 0; i < W; ++i) {
@@ -342,4 +346,178 @@ TEST_CASE("trace_tile: billboards at the same depth, a diagonal through a pixel 
         const SmokeView v = smoke_view(ps, ground, glm::vec3(0.1f, 0.0f, 0.2f), glm::vec3(1, 0.3f, -1), 90.0f, 48);
         CHECK(check_smoke_view(v, glm::vec2(0.5f)) > 7000);
     }
+}
+
+// ---------------------------------------------------------------------------------------------------
+// The closest-hit tile query of a mesh BLAS (trace/blas_tile_traversal.hpp) against closest_hit() per ray.
+
+namespace {
+
+// A height field of side × side quads over [-2, 2]², two triangles each, every vertex on a dyadic grid (rays
+// through shared edges and vertices are common), and a closed icosphere hovering over it.
+TriangleMesh terrain_and_ball(int side) {
+    TriangleMesh m;
+    for (int j = 0; j <= side; ++j)
+        for (int i = 0; i <= side; ++i) {
+            const float x = -2.0f + 4.0f * float(i) / float(side), z = -2.0f + 4.0f * float(j) / float(side);
+            m.vertices.emplace_back(x, float((i * 7 + j * 3) % 5) / 16.0f, z);
+        }
+    for (int j = 0; j < side; ++j)
+        for (int i = 0; i < side; ++i) {
+            const std::uint32_t a = std::uint32_t(j * (side + 1) + i), b = a + 1, c = a + std::uint32_t(side + 1),
+                                d = c + 1;
+            m.triangles.emplace_back(a, c, b);
+            m.triangles.emplace_back(b, c, d);
+        }
+    const TriangleMesh ball = make_icosphere(3, 0.75f);
+    const auto base = std::uint32_t(m.vertices.size());
+    for (const glm::vec3& v : ball.vertices) m.vertices.push_back(v + glm::vec3(0.25f, 1.0f, -0.5f));
+    for (const glm::uvec3& t : ball.triangles) m.triangles.push_back(t + glm::uvec3(base));
+    return m;
+}
+
+// n random triangles of edge about 0.3 in [-2, 2]³: overlaps and near-ties.
+TriangleMesh random_triangles(int n, Pcg32& rng) {
+    TriangleMesh m;
+    for (int k = 0; k < n; ++k) {
+        const glm::vec3 c(rng.uniform(-2, 2), rng.uniform(-2, 2), rng.uniform(-2, 2));
+        for (int j = 0; j < 3; ++j) m.vertices.push_back(c + 0.3f * random_unit(rng));
+        const auto b = std::uint32_t(3 * k);
+        m.triangles.emplace_back(b, b + 1, b + 2);
+    }
+    return m;
+}
+
+// Every ray of `tile` against closest_hit() alone: the same hit or miss, t, barycentrics and facing bit for
+// bit, the same triangle unless another one is hit at exactly the same t. Returns the rays that hit.
+std::size_t check_blas_tile(const MeshBlas& blas, RayTile tile) {
+    const RayTile before = tile;
+    BlasTileHits hits;
+    TraversalStats stats;
+    closest_hit(blas, tile, hits, stats);
+    std::size_t hit_count = 0;
+    for (unsigned r = 0; r < tile.rows(); ++r)
+        for (unsigned c = 0; c < tile.columns(); ++c) {
+            const unsigned lane = RayTile::lane(c, r);
+            const Ray ray = before.ray(lane);
+            BlasHit want;
+            BlasCounters counters;
+            const bool found = closest_hit(blas, ray, want, counters);
+            CAPTURE(lane, ray.origin.x, ray.origin.y, ray.origin.z, ray.direction.x, ray.direction.y, ray.direction.z);
+            REQUIRE(hits.found_at(lane) == found);
+            if (!found) {
+                REQUIRE(same_bits(tile.tmax(lane), before.tmax(lane)));
+                continue;
+            }
+            ++hit_count;
+            const BlasHit& got = hits.hit[lane];
+            REQUIRE(same_bits(got.t, want.t));
+            REQUIRE(same_bits(tile.tmax(lane), want.t));
+            if (got.primitive != want.primitive) {
+                // A tie: the other triangle must be hit at the same t by this ray alone.
+                const Ray at_t{ray.origin, ray.tmin, ray.direction, want.t};
+                bool other_hit = false;
+                BlasHit h;
+                any_hit_traversal(blas, at_t, [&](const BlasHit& cand) {
+                    other_hit = other_hit || (cand.primitive == got.primitive && same_bits(cand.t, got.t));
+                    return AnyHitDecision::ignore;
+                }, h, counters);
+                REQUIRE(other_hit);
+                continue;
+            }
+            REQUIRE(same_bits(got.barycentrics.x, want.barycentrics.x));
+            REQUIRE(same_bits(got.barycentrics.y, want.barycentrics.y));
+            REQUIRE(got.front_face == want.front_face);
+        }
+    return hit_count;
+}
+
+}  // namespace
+
+TEST_CASE("Mesh BLAS tile query: every ray's closest hit is closest_hit()'s for that ray alone", "[trace-tile]") {
+    Pcg32 rng(71);
+    const MeshBlas ground(terrain_and_ball(24));
+    const MeshBlas soup(random_triangles(3000, rng));
+    std::size_t hit = 0, tiles = 0;
+    for (int k = 0; k < 60; ++k) {
+        const MeshBlas& blas = k % 3 == 2 ? soup : ground;
+        // Eyes around and inside the meshes; eyes on the dyadic grid look along grid-aligned directions too.
+        const glm::vec3 eye = k % 4 == 0 ? glm::vec3(0.5f, 0.75f, 0.25f) : rng.uniform(2.0f, 9.0f) * random_unit(rng);
+        const glm::vec3 at = k % 5 == 0 ? glm::vec3(0.5f, 0.0f, 0.25f)
+                                        : glm::vec3(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
+        const int size = 32 + int(rng.below(200));
+        const glm::vec3 up = std::abs(glm::normalize(at - eye).y) > 0.99f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0);
+        const Camera cam(eye, at, up, rng.uniform(10.0f, 100.0f), size, size);
+        const int x0 = int(rng.below(unsigned(size))), y0 = int(rng.below(unsigned(size)));
+        const int cols = std::min(int(1 + rng.below(kTileColumns)), size - x0);
+        const int rows = std::min(int(1 + rng.below(kTileRows)), size - y0);
+        RayTile tile = cam.tile(x0, y0, cols, rows, glm::vec2(rng.uniform01(), rng.uniform01()),
+                                k % 2 == 0 ? 0.0f : rng.uniform(0.0f, 3.0f));
+        // Some rays end early.
+        if (k % 3 == 1)
+            for (unsigned lane = 0; lane < kTileRays; ++lane)
+                if (rng.below(3) == 0) tile.set_tmax(lane, rng.uniform(0.5f, 8.0f));
+        CAPTURE(k, size, x0, y0, cols, rows);
+        hit += check_blas_tile(blas, tile);
+        ++tiles;
+    }
+    CHECK(hit > 1500);  // most tiles see the meshes (2056 rays hit)
+}
+
+TEST_CASE("Mesh BLAS tile query: whole images, including tiles whose rays change dominant axis", "[trace-tile]") {
+    const MeshBlas blas(terrain_and_ball(16));
+    // A wide view along a diagonal: the dominant axis of the camera rays changes inside some tiles, which are
+    // then traced ray by ray.
+    std::size_t hit = 0, mixed = 0;
+    for (const glm::vec3& eye : {glm::vec3(4.0f, 4.0f, 4.0f), glm::vec3(0.0f, 3.0f, 0.0f), glm::vec3(-3.0f, 0.5f, 2.0f)}) {
+        const Camera cam(eye, glm::vec3(0.0f), std::abs(eye.x) + std::abs(eye.z) == 0 ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0),
+                         90.0f, 96, 80);
+        for (int y0 = 0; y0 < 80; y0 += 16)
+            for (int x0 = 0; x0 < 96; x0 += 16) {
+                const RayTile tile = cam.tile(x0, y0, 16, 16, glm::vec2(0.5f), 0.0f);
+                mixed += !TileTriangleRays(tile).shared_axes;
+                hit += check_blas_tile(blas, tile);
+            }
+    }
+    CHECK(mixed > 0);
+    CHECK(hit > 3000);  // 4222 rays hit
+}
+
+TEST_CASE("Mesh BLAS tile query: a wide node's children are culled as outside() and distance_to_box() cull them",
+          "[trace-tile]") {
+    // visible_children() tests eight boxes in lanes of doubles; lane by lane it must make the scalar tests'
+    // decisions and distances, bit for bit: boxes around, inside and behind the frustum, touching the eye, and
+    // huge and tiny ones.
+    Pcg32 rng(73);
+    long visible = 0, culled = 0;
+    for (int k = 0; k < 400; ++k) {
+        const glm::vec3 eye = rng.uniform(0.0f, 20.0f) * random_unit(rng);
+        const glm::vec3 at = eye + random_unit(rng);
+        const glm::vec3 up = std::abs(glm::normalize(at - eye).y) > 0.99f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0);
+        const Camera cam(eye, at, up, rng.uniform(5.0f, 120.0f), 256, 256);
+        const RayTile tile = cam.tile(int(rng.below(240)), int(rng.below(240)), 16, 16, glm::vec2(0.5f), 0.0f);
+        float bounds[6][8];
+        Aabb boxes[8];
+        for (unsigned i = 0; i < 8; ++i) {
+            const float size = std::pow(10.0f, rng.uniform(-4.0f, 2.0f));
+            const glm::vec3 c = i == 0 ? eye : eye + rng.uniform(0.0f, 40.0f) * random_unit(rng);
+            boxes[i].lo = c - size * glm::vec3(rng.uniform01(), rng.uniform01(), rng.uniform01());
+            boxes[i].hi = c + size * glm::vec3(rng.uniform01(), rng.uniform01(), rng.uniform01());
+            const float* p = planes(boxes[i]);
+            for (int j = 0; j < 6; ++j) bounds[j][i] = p[j];
+        }
+        const unsigned used = 1 + rng.below(8);
+        const float reach = k % 3 == 0 ? std::numeric_limits<float>::infinity() : rng.uniform(1.0f, 30.0f);
+        alignas(64) float dist[8];
+        const unsigned got = visible_children<8>(tile, bounds, used, reach, dist);
+        for (unsigned i = 0; i < 8; ++i) {
+            CAPTURE(k, i);
+            const bool want = i < used && !tile.outside(boxes[i]) && distance_to_box(tile.origin(), boxes[i]) <= reach;
+            REQUIRE(bool(got >> i & 1u) == want);
+            if (want) REQUIRE(same_bits(dist[i], distance_to_box(tile.origin(), boxes[i])));
+            (want ? visible : culled) += i < used;
+        }
+    }
+    CHECK(visible > 200);
+    CHECK(culled > 200);
 }

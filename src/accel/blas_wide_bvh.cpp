@@ -8,9 +8,11 @@
 namespace smoketrace {
 
 template <unsigned W>
-void BlasWideBvh<W>::collapse(const Bvh& binary) {
+void BlasWideBvh<W>::collapse(const Bvh& binary, std::span<const std::uint32_t> leaf_refs) {
     nodes_.clear();
     if (binary.nodes.empty()) return;
+    if (leaf_refs.size() != binary.nodes.size())
+        throw std::invalid_argument("BlasWideBvh: one leaf reference per binary node expected");
     // Breadth of the work list, not the binary tree's depth, bounds the memory: no native recursion.
     struct Job {
         std::uint32_t binary;
@@ -36,7 +38,7 @@ void BlasWideBvh<W>::collapse(const Bvh& binary) {
             const BvhNode& c = binary.nodes[slot[i]];
             if (c.is_leaf()) {
                 if (c.count > 255) throw std::length_error("BlasWideBvh: a leaf of more than 255 primitives");
-                w.child[i] = c.first;
+                w.child[i] = leaf_refs[slot[i]];
                 w.count[i] = static_cast<std::uint8_t>(c.count);
                 w.leaves |= std::uint8_t(1u << i);
             } else {

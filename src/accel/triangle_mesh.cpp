@@ -5,8 +5,10 @@
 #include <glm/geometric.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <type_traits>
 #include <stdexcept>
@@ -106,28 +108,47 @@ MeshBlas::MeshBlas(const TriangleMesh& mesh, const BvhBuildSettings& settings)
             bvh_.prim_indices[k] = id;  // leaf slot k now names the input triangle directly
         }
     });
-    refresh_leaf_data();
-    wide_.collapse(bvh_);
+    assign_blocks();
+    refresh_blocks();
+    wide_.collapse(bvh_, leaf_blocks_);
     sah_at_build_ = sah_current_ = bvh_.sah_cost(settings_.costs);
 }
 
-void MeshBlas::refresh_leaf_data(bool normals_current) {
-    const std::size_t n = triangles_.size();
-    normals_.resize(n);
-    // Planes padded to whole blocks plus one, so that a block read starting at any triangle stays inside
-    // (the padding is zeros: lanes past a leaf's end are masked off, never used). A refit keeps the size
-    // and overwrites the triangles' columns only.
-    const std::size_t stride = (n + 2 * kTriangleBlockLanes - 1) / kTriangleBlockLanes * kTriangleBlockLanes;
-    if (stride != plane_stride_ || planes_.size() != 9 * stride) {
-        plane_stride_ = stride;
-        planes_.assign(9 * plane_stride_, 0.0f);
+void MeshBlas::assign_blocks() {
+    const auto& nodes = bvh_.nodes;
+    leaf_blocks_.assign(nodes.size(), 0);
+    leaf_starts_.clear();
+    std::size_t count = 0;
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+        if (i == 1 || !nodes[i].is_leaf()) continue;  // node 1: the layout's padding slot (bvh.hpp)
+        leaf_blocks_[i] = static_cast<std::uint32_t>(count);
+        leaf_starts_.emplace_back(nodes[i].first, static_cast<std::uint32_t>(count));
+        count += (nodes[i].count + kTriangleBlockLanes - 1) / kTriangleBlockLanes;
     }
-    tbb::parallel_for(Range(0, n, kParallelGrain), [&](const Range& r) {
-        for (std::size_t k = r.begin(); k < r.end(); ++k) {
-            const glm::vec3* v = &triangles_[k].v0;
-            if (!normals_current) normals_[k] = triangle_normal(v[0], v[1], v[2]);
-            for (int j = 0; j < 3; ++j)
-                for (int a = 0; a < 3; ++a) planes_[std::size_t(3 * j + a) * plane_stride_ + k] = (&v[j].x)[a];
+    if (count > std::numeric_limits<std::uint32_t>::max())
+        throw std::length_error("MeshBlas: too many triangle blocks");
+    std::sort(leaf_starts_.begin(), leaf_starts_.end());
+    blocks_.assign(count, TriangleBlock{});  // spare lanes stay zero
+}
+
+std::uint32_t MeshBlas::leaf_block(std::uint32_t first) const {
+    const auto it = std::lower_bound(leaf_starts_.begin(), leaf_starts_.end(), std::pair(first, 0u));
+    if (it == leaf_starts_.end() || it->first != first)
+        throw std::out_of_range("MeshBlas::leaf_block: no leaf starts at slot " + std::to_string(first));
+    return it->second;
+}
+
+void MeshBlas::refresh_blocks() {
+    const auto& nodes = bvh_.nodes;
+    tbb::parallel_for(Range(0, nodes.size(), 1024), [&](const Range& r) {
+        for (std::size_t i = r.begin(); i < r.end(); ++i) {
+            const BvhNode& n = nodes[i];
+            if (i == 1 || !n.is_leaf()) continue;
+            for (std::uint32_t k = 0; k < n.count; ++k) {
+                const Triangle& t = triangles_[n.first + k];
+                blocks_[leaf_blocks_[i] + k / kTriangleBlockLanes].set(k % kTriangleBlockLanes, t.v0, t.v1, t.v2,
+                                                                        bvh_.prim_indices[n.first + k]);
+            }
         }
     });
 }
@@ -188,17 +209,15 @@ BlasUpdate MeshBlas::update_vertices(std::span<const glm::vec3> vertices, double
         for (std::size_t k = r.begin(); k < r.end(); ++k) {
             const glm::uvec3 t = leaf_indices_[k];
             const Triangle& tri = triangles_[k] = {vertices[t.x], vertices[t.y], vertices[t.z]};
-            // is_degenerate()'s test, on the normal the leaf data keeps anyway.
-            const glm::dvec3 normal = normals_[k] = triangle_normal(tri.v0, tri.v1, tri.v2);
-            any = any || (normal.x == 0.0 && normal.y == 0.0 && normal.z == 0.0);
+            any = any || is_degenerate(tri.v0, tri.v1, tri.v2);
         }
         if (any) became_degenerate.store(true, std::memory_order_relaxed);
     });
     if (became_degenerate.load()) return rebuild();
     refit_boxes();
     if (sah_current_ > rebuild_ratio * sah_at_build_) return rebuild();
-    refresh_leaf_data(/*normals_current=*/true);
-    wide_.collapse(bvh_);  // the walked tree from the refit one: the same topology, O(nodes)
+    refresh_blocks();
+    wide_.collapse(bvh_, leaf_blocks_);  // the walked tree from the refit one: the same topology, O(nodes)
     return BlasUpdate::refit;
 }
 

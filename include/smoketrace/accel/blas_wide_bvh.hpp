@@ -5,11 +5,12 @@
 // poorly predicted branches per step; a W-wide node replaces about log2(W) of them.
 //
 // The binary tree stays the master copy, as for the TLAS (wide_bvh.hpp): it is what the builder makes and
-// what the SAH cost is read from; collapse() derives the wide tree from it. Leaves keep their primitive
-// ranges, in the binary tree's prim_indices order, so the leaf kernels (mesh_leaf_hits) are unchanged.
+// what the SAH cost is read from; collapse() derives the wide tree from it. A leaf slot keeps its binary
+// leaf's primitive count and names where the leaf's primitives are (a mesh BLAS: its first triangle block).
 #include <smoketrace/accel/bvh.hpp>
 
 #include <cstdint>
+#include <span>
 #include <vector>
 
 namespace smoketrace {
@@ -22,7 +23,7 @@ struct alignas(64) BlasWideNode {
     // bounds[p][i]: plane p of child i, planes in the order of planes() (lo.x, lo.y, lo.z, hi.x, hi.y,
     // hi.z), so that BoxRay's near / far plane indices select a whole row.
     float bounds[6][W];
-    std::uint32_t child[W];  // inner: a node index; leaf: first entry in Bvh::prim_indices
+    std::uint32_t child[W];  // inner: a node index; leaf: what collapse() was given for it
     std::uint8_t count[W];   // leaf: its primitive count (≥ 1); inner or unused: 0
     std::uint8_t used;       // filled slots
     std::uint8_t leaves;     // bit i set when child i is a leaf
@@ -40,8 +41,10 @@ public:
 
     // Root at node 0. Each node takes the binary tree's nodes down to where its slots are full, always
     // opening the inner slot of largest surface area (the one a ray is likeliest to enter); a node's inner
-    // children are stored side by side. Throws std::length_error for a leaf of more than 255 primitives.
-    void collapse(const Bvh& binary);
+    // children are stored side by side. A leaf slot's child is leaf_refs[i] for the binary leaf node i
+    // (leaf_refs has one entry per binary node). Throws std::length_error for a leaf of more than 255
+    // primitives.
+    void collapse(const Bvh& binary, std::span<const std::uint32_t> leaf_refs);
 
     [[nodiscard]] bool empty() const { return nodes_.empty(); }
     [[nodiscard]] const Node* nodes() const { return nodes_.data(); }

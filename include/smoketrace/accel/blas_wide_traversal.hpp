@@ -19,11 +19,17 @@
 #include <smoketrace/accel/wide_box_test.hpp>
 
 #include <bit>
+#include <cstddef>
 #include <cstdint>
 
 namespace smoketrace {
 
 enum class BlasWalkOrder : std::uint8_t { nearest_first, any_order };
+
+// The default leaf prefetch: none.
+struct NoLeafPrefetch {
+    void operator()(std::uint32_t) const {}
+};
 
 namespace detail {
 
@@ -57,17 +63,24 @@ template <unsigned W>
     }
 }
 
+template <std::size_t Bytes>
+[[gnu::always_inline]] inline void prefetch_bytes(const void* p) {
+    for (std::size_t b = 0; b < Bytes; b += 64) __builtin_prefetch(static_cast<const char*>(p) + b);
+}
+
 // Stack references: an inner node's index, or kLeafRef | (node · W + slot) for the leaf in that slot.
 inline constexpr std::uint32_t kLeafRef = 0x80000000u;
 
 }  // namespace detail
 
-// Calls leaf(first, count) for every leaf whose box the ray enters before tmax; `tmax` is read through the
-// reference at every step, so a leaf callback that commits a hit narrows the search. leaf returns true to
-// end the traversal; the function then returns true. The root's own box is not tested: its children's are.
-template <BlasWalkOrder Order, unsigned W, class LeafFn>
+// Calls leaf(ref, count) for every leaf whose box the ray enters before tmax (ref: what the leaf slot holds,
+// see BlasWideBvh::collapse()); `tmax` is read through the reference at every step, so a leaf callback that
+// commits a hit narrows the search. leaf returns true to end the traversal; the function then returns true.
+// The root's own box is not tested: its children's are. prefetch_leaf(ref) is called for each leaf whose
+// box the ray enters, when it is entered: a hint to start loading the leaf's primitives.
+template <BlasWalkOrder Order, unsigned W, class LeafFn, class PrefetchLeaf = NoLeafPrefetch>
 inline bool traverse_blas_wide(const BlasWideBvh<W>& bvh, const BoxRay& ray, const float& tmax, LeafFn&& leaf,
-                               TraversalStats& stats) {
+                               TraversalStats& stats, PrefetchLeaf&& prefetch_leaf = {}) {
     using detail::kLeafRef;
     if (bvh.empty()) return false;
     const BlasWideNode<W>* nodes = bvh.nodes();
@@ -95,6 +108,13 @@ inline bool traverse_blas_wide(const BlasWideBvh<W>& bvh, const BoxRay& ray, con
             boxes += n.used;
             alignas(4 * W) float t[W];
             unsigned hits = box_test.test(n, tmax, t);
+            // Every child entered is fetched now, so that the cache misses of siblings overlap instead of
+            // following one another (an incoherent ray's walk waits on memory more than it computes).
+            for (unsigned m = hits; m != 0; m &= m - 1) {
+                const unsigned i = unsigned(std::countr_zero(m));
+                if ((n.leaves >> i) & 1u) prefetch_leaf(n.child[i]);
+                else detail::prefetch_bytes<sizeof(BlasWideNode<W>)>(nodes + n.child[i]);
+            }
             // Without a branch: whether a hit child is a leaf is as unpredictable as which children are hit.
             auto ref_of = [&](unsigned i) {
                 const std::uint32_t leaf_bits = 0u - ((unsigned(n.leaves) >> i) & 1u);

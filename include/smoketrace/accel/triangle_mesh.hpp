@@ -40,8 +40,10 @@ enum class BlasUpdate : std::uint8_t { refit, rebuild };
 [[nodiscard]] const char* to_string(BlasUpdate u);
 
 // A BVH over a mesh's triangles. Triangles are copied into leaf order, once as records (three vertices
-// each, 36 bytes) and once as planes for the 8-wide test, so that a leaf's tests read consecutive memory
-// instead of chasing indices. Degenerate triangles are left out of the tree: they can never be hit.
+// each, 36 bytes: what a refit and the scene's world-space copies read) and once in blocks of eight for the
+// 8-wide test (ray_triangle_block.hpp), each leaf owning whole blocks, so that a leaf's test reads a few
+// consecutive cache lines instead of chasing indices. Degenerate triangles are left out of the tree: they
+// can never be hit.
 class MeshBlas {
 public:
     struct Triangle {
@@ -53,16 +55,21 @@ public:
 
     // The binary SAH tree: the master copy (SAH cost, single-leaf check, refit).
     [[nodiscard]] const Bvh& bvh() const { return bvh_; }
-    // The wide tree collapsed from it, which the queries walk (blas_wide_traversal.hpp).
+    // The wide tree collapsed from it, which the queries walk (blas_wide_traversal.hpp). Its leaves name
+    // their first block (blocks()), not a leaf range.
     [[nodiscard]] const BlasWideBvh<kMeshBlasWidth>& wide() const { return wide_; }
     [[nodiscard]] Aabb bounds() const { return bvh_.empty() ? Aabb{} : bvh_.bounds(); }
     // Leaf order: triangle k of a leaf range is leaf_triangles()[k], input triangle primitive_id(k).
     [[nodiscard]] const std::vector<Triangle>& leaf_triangles() const { return triangles_; }
-    // The same triangles in plane form (ray_triangle_block.hpp).
-    [[nodiscard]] TrianglePlanes leaf_planes() const { return {planes_.data(), plane_stride_}; }
-    // Each triangle's triangle_normal(), in leaf order: the distance of a hit comes from it, and it depends
-    // on the triangle alone.
-    [[nodiscard]] const std::vector<glm::dvec3>& leaf_normals() const { return normals_; }
+    // The same triangles in blocks of eight: the binary tree's leaf node i (first, count) holds its
+    // triangles in blocks leaf_blocks()[i] …, lane by lane in leaf order, the last block's spare lanes zero.
+    // Walks of the binary tree map a leaf to its blocks with leaf_block().
+    [[nodiscard]] const TriangleBlock* blocks() const { return blocks_.data(); }
+    [[nodiscard]] std::size_t block_count() const { return blocks_.size(); }
+    [[nodiscard]] std::span<const std::uint32_t> leaf_blocks() const { return leaf_blocks_; }
+    // The first block of the binary tree's leaf whose range starts at leaf slot `first` (a binary search:
+    // for walks of the binary tree, whose leaf callback is given the range).
+    [[nodiscard]] std::uint32_t leaf_block(std::uint32_t first) const;
     [[nodiscard]] std::uint32_t primitive_id(std::uint32_t k) const { return bvh_.prim_indices[k]; }
     [[nodiscard]] std::size_t input_triangle_count() const { return input_count_; }
     [[nodiscard]] std::size_t degenerate_count() const { return input_count_ - triangles_.size(); }
@@ -80,10 +87,12 @@ public:
     [[nodiscard]] double sah_cost_at_build() const { return sah_at_build_; }
 
 private:
-    // Refreshes everything derived from the tree and the leaf-ordered triangles (normals, planes) after a
-    // build or a refit; a refit first moves triangles_ and the node boxes (and computes the normals, for
-    // its degenerate check: normals_current).
-    void refresh_leaf_data(bool normals_current = false);
+    // Lays out the blocks (one run per leaf, in node order) after a build; the tree's shape is then fixed
+    // until the next build.
+    void assign_blocks();
+    // Refreshes the blocks from the leaf-ordered triangles after a build or a refit (which first moves
+    // triangles_ and the node boxes).
+    void refresh_blocks();
     void refit_boxes();
 
     BvhBuildSettings settings_{};
@@ -97,9 +106,10 @@ private:
     Bvh bvh_;
     BlasWideBvh<kMeshBlasWidth> wide_;
     std::vector<Triangle> triangles_;
-    std::vector<glm::dvec3> normals_;
-    std::vector<float, AlignedAllocator<float, 32>> planes_;
-    std::size_t plane_stride_ = 0;
+    std::vector<TriangleBlock, AlignedAllocator<TriangleBlock, alignof(TriangleBlock)>> blocks_;
+    std::vector<std::uint32_t> leaf_blocks_;  // per binary node: a leaf's first block (inner nodes: unused)
+    // The binary leaves' (first slot, first block), in slot order: leaf_block()'s table.
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> leaf_starts_;
     std::size_t input_count_ = 0;
 };
 

@@ -130,6 +130,9 @@ public:
         return false;
     }
 
+    // The frustum's four planes through the origin (outside() tests n·q > 0, q relative to the origin).
+    [[nodiscard]] const glm::dvec3* frustum_planes() const { return planes_; }
+
     // The columns and rows whose rays can meet anything inside `box` (see above); false when none can.
     bool shadow_lanes(const Aabb& box, TileLineSet& columns, TileLineSet& rows) const {
         // In double (see outside()); then the shadow itself carries no error worth a margin. The eight corners

@@ -1,9 +1,9 @@
 #pragma once
 // The watertight ray/triangle test (ray_triangle.hpp) for eight triangles at once.
 //
-// A mesh BLAS keeps its triangles twice: as records in leaf order (for the rare full test) and as nine
-// planes of floats, plane 3·j + a holding coordinate a of vertex j of every triangle in the same order
-// (structure of arrays). shear_block() reads eight consecutive triangles from the planes, shears them in
+// A mesh BLAS keeps its triangles in blocks of eight (TriangleBlock): nine rows of eight floats, row 3·j + a
+// holding coordinate a of vertex j of each lane's triangle (structure of arrays), and each lane's input
+// triangle index, 320 bytes on five whole cache lines. shear_block() reads a block, shears its triangles in
 // lanes of floats (core/simd/lanes.hpp: one AVX2 operation for the eight), decides from float edge
 // functions which of them do not straddle the ray (exactly: see float_edge), and only those go on to
 // finish_triangle_hit(), one by one. Most triangles of a leaf straddle (a ray crosses a closed surface
@@ -36,17 +36,24 @@ struct ShearedBlock {
     }
 };
 
-// Triangles in plane form: `planes` points at nine arrays of `stride` floats each (vertex j, axis a at
-// planes + (3·j + a)·stride); every array holds at least kTriangleBlockLanes − 1 readable floats past its
-// last triangle, so a block read at any triangle index stays inside it.
-struct TrianglePlanes {
-    const float* planes = nullptr;
-    std::size_t stride = 0;
+// Eight triangles in plane form. Lanes past the triangles a block holds are zero (never read as a triangle:
+// shear_block() masks them off). A leaf of a mesh BLAS owns its blocks whole, so its test reads
+// consecutive memory.
+struct alignas(64) TriangleBlock {
+    float planes[9][kTriangleBlockLanes];  // planes[3·j + a][i]: coordinate a of vertex j of lane i
+    std::uint32_t primitive[kTriangleBlockLanes];  // lane i's input triangle index
 
-    [[nodiscard]] const float* at(int vertex, int axis, std::uint32_t first) const {
-        return planes + std::size_t(3 * vertex + axis) * stride + first;
+    [[nodiscard]] glm::vec3 vertex(unsigned lane, int j) const {
+        return {planes[3 * j][lane], planes[3 * j + 1][lane], planes[3 * j + 2][lane]};
+    }
+    void set(unsigned lane, const glm::vec3& v0, const glm::vec3& v1, const glm::vec3& v2, std::uint32_t prim) {
+        const glm::vec3* v[3] = {&v0, &v1, &v2};
+        for (int j = 0; j < 3; ++j)
+            for (int a = 0; a < 3; ++a) planes[3 * j + a][lane] = (*v[j])[a];
+        primitive[lane] = prim;
     }
 };
+static_assert(sizeof(TriangleBlock) == 320);
 
 namespace detail {
 using BlockFloats = simd::Floats<kTriangleBlockLanes>;
@@ -77,15 +84,14 @@ using BlockDoubles = simd::Doubles<kTriangleBlockLanes / 2>;
 }
 }  // namespace detail
 
-// Shears triangles [first, first + lanes) (lanes ≤ 8) into `out`; returns the mask of those that do not
-// straddle the ray (bit i: triangle first + i), exactly the triangles for which
+// Shears lanes [0, lanes) (lanes ≤ 8) of the block into `out`; returns the mask of those that do not
+// straddle the ray (bit i: lane i), exactly the triangles for which
 // straddles(shear_triangle(...)) is false, and for those lanes (only) also the exact edge functions.
 //
 // The straddle decision is made from float edge functions wherever their signs are certain, which is
 // everywhere but on an edge (see float_edge). Only a block with a lane whose float edge function is 0
 // forms the edge functions in double, with the scalar test's operations, to decide it exactly.
-inline unsigned shear_block(const TriangleRay& r, const TrianglePlanes& tris, std::uint32_t first, unsigned lanes,
-                            ShearedBlock& out) {
+inline unsigned shear_block(const TriangleRay& r, const TriangleBlock& block, unsigned lanes, ShearedBlock& out) {
     using Floats = detail::BlockFloats;
     const unsigned valid = (1u << lanes) - 1u;
     const float* origin = &r.origin.x;
@@ -95,9 +101,9 @@ inline unsigned shear_block(const TriangleRay& r, const TrianglePlanes& tris, st
     Floats px[3], py[3];
     for (int j = 0; j < 3; ++j) {
         // shear_triangle(): (v − origin) per component, then x − sx·z and y − sy·z.
-        const Floats x = Floats::loadu(tris.at(j, r.kx, first)) - ox;
-        const Floats y = Floats::loadu(tris.at(j, r.ky, first)) - oy;
-        const Floats z = Floats::loadu(tris.at(j, r.kz, first)) - oz;
+        const Floats x = Floats::load(block.planes[3 * j + r.kx]) - ox;
+        const Floats y = Floats::load(block.planes[3 * j + r.ky]) - oy;
+        const Floats z = Floats::load(block.planes[3 * j + r.kz]) - oz;
         px[j] = x - sx * z;
         py[j] = y - sy * z;
     }

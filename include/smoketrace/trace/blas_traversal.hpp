@@ -52,30 +52,41 @@ struct SphereRay {
     SphereRay(const glm::dvec3& o, const glm::dvec3& d, float t0) : origin(o), direction(d), tmin(t0) {}
 };
 
-// Runs `on_hit(const BlasHit&)` for every triangle of the leaf slots [first, first + count) that the ray
-// hits in [tmin, tmax], in slot order. on_hit returns true to end the search (it may also lower tmax).
-// Eight triangles at a time are sheared and tested for straddling (ray_triangle_block.hpp); the few that
-// remain are finished one by one against the tmax of that moment, exactly as the scalar test would.
+// Runs `on_hit(const BlasHit&)` for every triangle of the leaf whose `count` triangles are in the blocks
+// from `first_block` on (MeshBlas::blocks()) that the ray hits in [tmin, tmax], in leaf order. on_hit
+// returns true to end the search (it may also lower tmax). Eight triangles at a time are sheared and
+// tested for straddling (ray_triangle_block.hpp); the few that remain are finished one by one against the
+// tmax of that moment, exactly as the scalar test would, with the triangle's normal formed from the block's
+// own vertices (triangle_normal() is exact, so it is the scalar test's normal bit for bit).
 template <class OnHit>
-inline bool mesh_leaf_hits(const MeshBlas& blas, const BlasRay& r, const float& tmax, std::uint32_t first,
+inline bool mesh_leaf_hits(const MeshBlas& blas, const BlasRay& r, const float& tmax, std::uint32_t first_block,
                            std::uint32_t count, TraversalStats& stats, OnHit&& on_hit) {
-    const MeshBlas::Triangle* tris = blas.leaf_triangles().data();
-    const glm::dvec3* normals = blas.leaf_normals().data();
-    const TrianglePlanes planes = blas.leaf_planes();
     stats.primitives_tested += count;
-    for (std::uint32_t k = first, end = first + count; k < end; k += kTriangleBlockLanes) {
-        ShearedBlock block;
-        unsigned keep = shear_block(r.tri, planes, k, std::min(kTriangleBlockLanes, end - k), block);
+    for (const TriangleBlock* b = blas.blocks() + first_block;; ++b, count -= kTriangleBlockLanes) {
+        ShearedBlock sheared;
+        unsigned keep = shear_block(r.tri, *b, std::min(kTriangleBlockLanes, count), sheared);
         while (keep != 0) {
             const unsigned i = unsigned(std::countr_zero(keep));
             keep &= keep - 1;
+            const glm::vec3 v0 = b->vertex(i, 0);
             TriangleHit th;
-            if (!finish_triangle_hit(r.tri, block.lane(i), tris[k + i].v0, normals[k + i], tmax, th)) continue;
-            if (on_hit(BlasHit{th.t, th.barycentrics, blas.primitive_id(k + i), th.front_face})) return true;
+            if (!finish_triangle_hit(r.tri, sheared.lane(i), v0, triangle_normal(v0, b->vertex(i, 1), b->vertex(i, 2)),
+                                     tmax, th))
+                continue;
+            if (on_hit(BlasHit{th.t, th.barycentrics, b->primitive[i], th.front_face})) return true;
         }
+        if (count <= kTriangleBlockLanes) return false;
     }
-    return false;
 }
+
+// The wide walk's leaf prefetch for a mesh: a leaf's first block (its first eight triangles, all of a
+// typical leaf).
+struct MeshLeafPrefetch {
+    const MeshBlas& blas;
+    [[gnu::always_inline]] void operator()(std::uint32_t first_block) const {
+        detail::prefetch_bytes<sizeof(TriangleBlock)>(blas.blocks() + first_block);
+    }
+};
 
 // The same for spheres: each sphere reports its entry (front) and then its exit (back), each only if
 // it lies in [tmin, tmax] at the moment it is reported. A ray starting inside reports only the exit.
@@ -122,7 +133,7 @@ inline bool blas_any_hit_search(const Blas& blas, const Ray& ray, AnyHit&& any_h
     if constexpr (std::is_same_v<Blas, MeshBlas>) {
         traverse_blas_wide<Order>(blas.wide(), BoxRay(ray), tmax, [&](std::uint32_t first, std::uint32_t count) {
             return mesh_leaf_hits(blas, r, tmax, first, count, counters.traversal, on_hit);
-        }, counters.traversal);
+        }, counters.traversal, MeshLeafPrefetch{blas});
     } else {
         traverse_bvh(blas.bvh(), BoxRay(ray), tmax, [&](std::uint32_t first, std::uint32_t count) {
             return sphere_leaf_hits(blas, r, tmax, first, count, counters.traversal, on_hit);

@@ -300,10 +300,12 @@ private:
         auto run = [&](const Bvh& bvh, auto is_mesh, auto&& leaf) {
             if (bvh.nodes[0].is_leaf()) {
                 ++blas_stats_.nodes_visited;
-                leaf(bvh.nodes[0].first, bvh.nodes[0].count);
+                // A mesh leaf is named by its first triangle block, a sphere leaf by its range.
+                if constexpr (decltype(is_mesh)::value) leaf(blas.mesh.leaf_blocks()[0], bvh.nodes[0].count);
+                else leaf(bvh.nodes[0].first, bvh.nodes[0].count);
             } else if constexpr (decltype(is_mesh)::value) {
                 traverse_blas_wide<BlasWalkOrder::nearest_first>(blas.mesh.wide(), BoxRay(obj_ray), tmax_, leaf,
-                                                                 blas_stats_);
+                                                                 blas_stats_, MeshLeafPrefetch{blas.mesh});
             } else {
                 traverse_bvh(bvh, BoxRay(obj_ray), tmax_, leaf, blas_stats_);
             }

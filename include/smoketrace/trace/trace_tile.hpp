@@ -221,7 +221,6 @@ void trace_tile(const AccelScene& scene, RayTile& tile, std::uint32_t flags, std
 
         if (inst.path == InstancePath::world_triangles && triangle_rays.shared_axes) {
             const MeshBlas::Triangle* tris = scene.world_triangles() + inst.first_world_triangle;
-            const glm::vec3& eye = tile.origin();
             // The rays the instance is tested for, counted as trace() counts a visit.
             unsigned tested[kTileRows][kTileColumns / W] = {};
             for (TileLineSet rs = rows; rs != 0; rs &= rs - 1) {
@@ -235,48 +234,13 @@ void trace_tile(const AccelScene& scene, RayTile& tile, std::uint32_t flags, std
             }
             for (std::uint32_t k = 0; k < inst.world_triangle_count; ++k) {
                 const MeshBlas::Triangle& tri = tris[k];
-                const glm::vec3 a = tri.v0 - eye, b = tri.v1 - eye, c = tri.v2 - eye;
-                const glm::dvec3 normal = triangle_normal(tri.v0, tri.v1, tri.v2);
-                // finish_triangle_hit()'s n·(v0 − origin), the same for every ray of the tile.
-                const glm::dvec3 p = glm::dvec3(tri.v0) - glm::dvec3(eye);
-                const double n_dot_p = normal.x * p.x + normal.y * p.y + normal.z * p.z;
-                for (TileLineSet rs = rows; rs != 0; rs &= rs - 1) {
-                    const unsigned r = unsigned(std::countr_zero(rs));
-                    for (unsigned blk = 0; blk < kTileColumns / W; ++blk) {
-                        // Tested once and still searching (an earlier triangle may have ended a ray).
-                        const unsigned lanes = tested[r][blk] & (alive[r] >> (blk * W)) & kBlockBits;
-                        if (lanes == 0) continue;
-                        const unsigned first = RayTile::lane(blk * W, r);
-                        ShearedLanes<W> sheared;
-                        const unsigned keep = shear_lanes<W>(triangle_rays, first, lanes, a, b, c, sheared);
-                        if (keep == 0) continue;
-                        FinishedLanes<W> done;
-                        finish_lanes<W>(tile, first, keep, sheared, normal, n_dot_p, done);
-                        auto report = [&](unsigned lane, const TriangleHit& th) {
-                            if (searches[lane].report_world_triangle(cand.index, inst, cand.opaque, k, th))
-                                end_lane(lane);
-                        };
-                        for (unsigned m = done.hit; m != 0; m &= m - 1) {
-                            const unsigned i = unsigned(std::countr_zero(m));
-                            const unsigned lane = first + i;
-                            TriangleHit th;
-                            th.t = static_cast<float>(done.t[i]);
-                            // Rounding to float must stay in range, as in finish_triangle_hit().
-                            if (!(th.t >= tile.tmin() && th.t <= tmax[lane])) continue;
-                            th.barycentrics = glm::vec2(float(done.b1[i]), float(done.b2[i]));
-                            th.front_face = (done.front >> i) & 1u;
-                            report(lane, th);
-                        }
-                        for (unsigned m = done.on_edge; m != 0; m &= m - 1) {
-                            const unsigned i = unsigned(std::countr_zero(m));
-                            const unsigned lane = first + i;
-                            TriangleHit th;
-                            if (finish_triangle_hit(triangle_rays.ray(lane), sheared.lane(i), tri.v0, normal,
-                                                    tmax[lane], th))
-                                report(lane, th);
-                        }
-                    }
-                }
+                triangle_tile_hits<W>(
+                    tile, triangle_rays, rows, TriangleVertices{tri.v0, tri.v1, tri.v2},
+                    // Tested once and still searching (an earlier triangle may have ended a ray).
+                    [&](unsigned r, unsigned blk) { return tested[r][blk] & (alive[r] >> (blk * W)) & kBlockBits; },
+                    [&](unsigned lane, const TriangleHit& th) {
+                        if (searches[lane].report_world_triangle(cand.index, inst, cand.opaque, k, th)) end_lane(lane);
+                    });
             }
         } else {
             for (TileLineSet rs = rows; rs != 0; rs &= rs - 1) {

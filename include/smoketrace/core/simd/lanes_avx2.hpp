@@ -79,6 +79,7 @@ struct Lanes<double, 4> {
 [[gnu::always_inline]] inline Doubles<4> operator/(Doubles<4> a, Doubles<4> b) { return {_mm256_div_pd(a.v, b.v)}; }
 [[gnu::always_inline]] inline Doubles<4> operator-(Doubles<4> a) { return {_mm256_xor_pd(a.v, _mm256_set1_pd(-0.0))}; }
 [[gnu::always_inline]] inline Doubles<4> sqrt(Doubles<4> a) { return {_mm256_sqrt_pd(a.v)}; }
+[[gnu::always_inline]] inline Doubles<4> max(Doubles<4> a, Doubles<4> b) { return {_mm256_max_pd(a.v, b.v)}; }
 [[gnu::always_inline]] inline Doubles<4> abs(Doubles<4> a) { return {_mm256_andnot_pd(_mm256_set1_pd(-0.0), a.v)}; }
 [[gnu::always_inline]] inline Doubles<4> copysign(Doubles<4> magnitude, Doubles<4> sign) {
     const __m256d s = _mm256_set1_pd(-0.0);

@@ -87,6 +87,9 @@ struct Lanes<double, 8> {
 [[gnu::always_inline]] inline Doubles<8> operator/(Doubles<8> a, Doubles<8> b) { return {_mm512_div_pd(a.v, b.v)}; }
 [[gnu::always_inline]] inline Doubles<8> operator-(Doubles<8> a) { return {_mm512_xor_pd(a.v, _mm512_set1_pd(-0.0))}; }
 [[gnu::always_inline]] inline Doubles<8> sqrt(Doubles<8> a) { return {_mm512_maskz_sqrt_pd(__mmask8(0xFF), a.v)}; }
+[[gnu::always_inline]] inline Doubles<8> max(Doubles<8> a, Doubles<8> b) {
+    return {_mm512_maskz_max_pd(__mmask8(0xFF), a.v, b.v)};
+}
 [[gnu::always_inline]] inline Doubles<8> abs(Doubles<8> a) { return {_mm512_andnot_pd(_mm512_set1_pd(-0.0), a.v)}; }
 [[gnu::always_inline]] inline Doubles<8> copysign(Doubles<8> magnitude, Doubles<8> sign) {
     const __m512d s = _mm512_set1_pd(-0.0);
