@@ -226,39 +226,48 @@ struct Builder {
     }
 
     // Sweeps the bins of each axis: SAH cost of splitting after bin i, relative to the parent area.
-    // An empty bin changes neither side, so its costs are those of its neighbour, copied rather than
-    // recomputed: the decisions are those of the full sweep (the first of equal costs wins either way),
-    // at a fraction of the work in the many small nodes where most bins are empty. A side without
-    // primitives costs 0, so the accumulated box is never empty where its area is taken.
+    // An empty bin changes neither side, so only the occupied bins are visited (a bit mask of them, walked
+    // bit by bit): the candidates, their order and every float operation are those of a sweep over all
+    // kBins (the first of equal costs wins), at a fraction of the work in the many small nodes where most
+    // bins are empty. A side without primitives costs 0, so no empty box's area is taken.
     Split best_split(const Binning& binning, float parent_area) const {
         Split best;
         for (int a = 0; a < 3; ++a) {
             const auto& bins = binning.bins[a];
-            std::array<float, kBins - 1> left_cost{};
+            std::uint32_t occupied = 0;
+            for (int i = 0; i < kBins; ++i) occupied |= std::uint32_t(bins[i].count != 0) << i;
+            // left_cost[i]: the cost of the left side of a split after bin i, for each occupied bin i
+            // (and for an empty one, that of the occupied bin below it: read only through that bin).
+            std::array<float, kBins> left_cost;
             Bounds4 acc;
             std::uint32_t n = 0;
-            float cost_so_far = 0.0f;
-            for (int i = 0; i < kBins - 1; ++i) {
-                if (bins[i].count != 0) {
-                    acc.grow(bins[i].bounds);
-                    n += bins[i].count;
-                    cost_so_far = acc.area() * float(n);
-                }
-                left_cost[i] = cost_so_far;
+            for (std::uint32_t m = occupied; m != 0; m &= m - 1) {
+                const int i = std::countr_zero(m);
+                acc.grow(bins[i].bounds);
+                n += bins[i].count;
+                left_cost[i] = acc.area() * float(n);
             }
+            // The left cost of a split just below bin i: that of the highest occupied bin under i, or 0.
+            auto left_below = [&](int i) {
+                const std::uint32_t below = occupied & ((1u << i) - 1u);
+                return below != 0 ? left_cost[31 - std::countl_zero(below)] : 0.0f;
+            };
+            auto consider = [&](float left, float right, int split_bin) {
+                const float cost =
+                    settings.costs.traversal + settings.costs.intersection * (left + right) / parent_area;
+                if (cost < best.cost) best = {a, split_bin, cost};
+            };
+            // The sweep from the top: first the split after bin kBins − 2 even when the last bin is empty
+            // (everything left), then the split just below each occupied bin but bin 0.
+            if (!(occupied >> (kBins - 1) & 1u)) consider(left_below(kBins - 1), 0.0f, kBins - 2);
             acc = Bounds4{};
             n = 0;
-            for (int i = kBins - 1; i > 0; --i) {
-                if (bins[i].count != 0) {
-                    acc.grow(bins[i].bounds);
-                    n += bins[i].count;
-                } else if (i < kBins - 1) {
-                    continue;  // the same partition as the split after bin i, already costed
-                }
-                const float right_cost = n != 0 ? acc.area() * float(n) : 0.0f;
-                const float cost = settings.costs.traversal +
-                                   settings.costs.intersection * (left_cost[i - 1] + right_cost) / parent_area;
-                if (cost < best.cost) best = {a, i - 1, cost};
+            for (std::uint32_t m = occupied & ~1u; m != 0;) {
+                const int i = 31 - std::countl_zero(m);
+                m &= ~(1u << i);
+                acc.grow(bins[i].bounds);
+                n += bins[i].count;
+                consider(left_below(i), acc.area() * float(n), i - 1);
             }
         }
         return best;
