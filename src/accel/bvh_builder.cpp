@@ -456,30 +456,80 @@ BvhNode to_node(const ScratchNode& s) {
     return BvhNode{Aabb{{s.lo[0], s.lo[1], s.lo[2]}, {s.hi[0], s.hi[1], s.hi[2]}}, s.first, s.count};
 }
 
-// Depth-first compaction of the scratch tree: the root at 0, padding at 1, then each node's pair.
-void compact(const ScratchNode* scratch, std::size_t slots, Bvh& out) {
-    out.nodes.clear();
-    out.nodes.reserve(slots);
-    out.nodes.push_back(to_node(scratch[0]));
-    out.nodes.push_back(BvhNode{});  // padding: pairs start at an even index
+// Depth-first compaction of a scratch tree into `out`: its root into the slot dst_root, each node's pair
+// appended when the node is reached (the root at 0, padding at 1, then the pairs, for a whole tree), leaf
+// ranges moved up by prim_base. Returns the depth of the deepest node below dst_root, which sits at
+// root_depth.
+int compact_into(const ScratchNode* scratch, Bvh& out, std::uint32_t dst_root, std::uint32_t prim_base,
+                 int root_depth) {
+    auto node = [&](std::uint32_t src) {
+        BvhNode n = to_node(scratch[src]);
+        if (n.is_leaf()) n.first += prim_base;
+        return n;
+    };
+    out.nodes[dst_root] = node(0);
     struct Item {
         std::uint32_t src, dst;
+        int depth;
     };
-    std::vector<Item> stack{{0u, 0u}};
+    std::vector<Item> stack{{0u, dst_root, root_depth}};
+    int deepest = root_depth;
     while (!stack.empty()) {
         const Item it = stack.back();
         stack.pop_back();
-        BvhNode& dst = out.nodes[it.dst];
-        if (dst.is_leaf()) continue;
+        deepest = std::max(deepest, it.depth);
+        if (out.nodes[it.dst].is_leaf()) continue;
         const std::uint32_t src_left = scratch[it.src].first;
         const auto pair = static_cast<std::uint32_t>(out.nodes.size());
-        out.nodes.push_back(to_node(scratch[src_left]));
-        out.nodes.push_back(to_node(scratch[src_left + 1]));
+        out.nodes.push_back(node(src_left));
+        out.nodes.push_back(node(src_left + 1));
         out.nodes[it.dst].first = pair;
         // Right first on the stack so the left subtree is laid out next (depth-first, left first).
-        stack.push_back({src_left + 1, pair + 1});
-        stack.push_back({src_left, pair});
+        stack.push_back({src_left + 1, pair + 1, it.depth + 1});
+        stack.push_back({src_left, pair, it.depth + 1});
     }
+    return deepest;
+}
+
+// A builder over the primitives prim_boxes[ids[k]] (ids null: every primitive, k itself), each keeping its
+// index in prim_boxes: the refs filled in parallel, their bounds taken, the scratch tree not yet built.
+std::unique_ptr<Builder> make_builder(std::span<const Aabb> prim_boxes, const std::uint32_t* ids, std::uint32_t n,
+                                      const BvhBuildSettings& settings) {
+    auto b = std::make_unique<Builder>();
+    b->settings = settings;
+    b->settings.max_leaf_size = std::max(1u, settings.max_leaf_size);
+    b->refs_storage.reset(new PrimRef[n]);  // trivially default-constructible: not written here
+    b->refs = b->refs_storage.get();
+    // The primitive copy (and the index copy after the build) run in parallel: large flat loops that
+    // touch fresh memory, each slot written by one iteration.
+    std::atomic<bool> has_empty{false};
+    using Range = tbb::blocked_range<std::uint32_t>;
+    tbb::parallel_for(Range(0, n, kCopyGrain), [&](const Range& r) {
+        bool empty = false;
+        for (std::uint32_t k = r.begin(); k < r.end(); ++k) {
+            const std::uint32_t i = ids ? ids[k] : k;
+            empty = empty || prim_boxes[i].empty();
+            b->refs[k] = PrimRef(prim_boxes[i], i);
+        }
+        if (empty) has_empty.store(true, std::memory_order_relaxed);
+    });
+    if (has_empty.load()) throw std::invalid_argument("build_bvh: empty primitive box");
+    b->scratch.reset(new ScratchNode[2 * std::size_t(n)]);  // root, padding, at most n − 1 pairs
+    return b;
+}
+
+// Builds b's scratch tree over its n refs, compacts it into out at dst_root (see compact_into) and writes
+// its primitives' indices to out.prim_indices[prim_base, prim_base + n). Returns the depth as compact_into.
+int build_into(Builder& b, std::uint32_t n, Bvh& out, std::uint32_t dst_root, std::uint32_t prim_base,
+               int root_depth) {
+    Bounds4 box, cent;
+    b.range_bounds(0, n, box, cent);
+    b.build(0, 0, n, 0, box, cent);
+    using Range = tbb::blocked_range<std::uint32_t>;
+    tbb::parallel_for(Range(0, n, kCopyGrain), [&](const Range& r) {
+        for (std::uint32_t k = r.begin(); k < r.end(); ++k) out.prim_indices[prim_base + k] = b.refs[k].id();
+    });
+    return compact_into(b.scratch.get(), out, dst_root, prim_base, root_depth);
 }
 
 }  // namespace
@@ -502,76 +552,57 @@ Bvh build_bvh(std::span<const Aabb> prim_boxes, const BvhBuildSettings& settings
     if (prim_boxes.size() >= std::numeric_limits<std::uint32_t>::max() / 2)
         throw std::length_error("build_bvh: too many primitives");
     const auto n = static_cast<std::uint32_t>(prim_boxes.size());
+    const std::unique_ptr<Builder> b = make_builder(prim_boxes, nullptr, n, settings);
     bvh.prim_indices.resize(n);
-
-    Builder b;
-    b.settings = settings;
-    b.settings.max_leaf_size = std::max(1u, settings.max_leaf_size);
-    b.refs_storage.reset(new PrimRef[n]);  // trivially default-constructible: not written here
-    b.refs = b.refs_storage.get();
-    // The primitive copy and (below) the index copy run in parallel: large flat loops that touch fresh
-    // memory, each slot written by one iteration.
-    std::atomic<bool> has_empty{false};
-    using Range = tbb::blocked_range<std::uint32_t>;
-    tbb::parallel_for(Range(0, n, kCopyGrain), [&](const Range& r) {
-        bool empty = false;
-        for (std::uint32_t i = r.begin(); i < r.end(); ++i) {
-            empty = empty || prim_boxes[i].empty();
-            b.refs[i] = PrimRef(prim_boxes[i], i);
-        }
-        if (empty) has_empty.store(true, std::memory_order_relaxed);
-    });
-    if (has_empty.load()) throw std::invalid_argument("build_bvh: empty primitive box");
-    b.scratch.reset(new ScratchNode[2 * std::size_t(n)]);  // root, padding, at most n − 1 pairs
-    Bounds4 box, cent;
-    b.range_bounds(0, n, box, cent);
-    b.build(0, 0, n, 0, box, cent);
-    tbb::parallel_for(Range(0, n, kCopyGrain), [&](const Range& r) {
-        for (std::uint32_t i = r.begin(); i < r.end(); ++i) bvh.prim_indices[i] = b.refs[i].id();
-    });
-    compact(b.scratch.get(), b.next_pair.load(), bvh);
+    bvh.nodes.reserve(2 * std::size_t(n));
+    bvh.nodes.resize(2);  // the root and the padding slot that puts pairs at even indices
+    bvh.nodes[1] = BvhNode{Aabb{}, 0, 0};
+    build_into(*b, n, bvh, 0, 0, 0);
     return bvh;
 }
 
 namespace {
 
-// Copies the subtree of `src` rooted at src_node into the node slot dst_node of `dst`, appending its
-// child pairs after it (depth-first, so a pair still comes after its parent) and its leaves' primitives,
-// mapped through `to_global`.
-void append_subtree(const Bvh& src, std::uint32_t src_node, std::span<const std::uint32_t> to_global, Bvh& dst,
-                    std::uint32_t dst_node) {
-    const BvhNode n = src.nodes[src_node];
-    dst.nodes[dst_node].bounds = n.bounds;
-    if (n.is_leaf()) {
-        dst.nodes[dst_node].first = static_cast<std::uint32_t>(dst.prim_indices.size());
-        dst.nodes[dst_node].count = n.count;
-        for (std::uint32_t i = 0; i < n.count; ++i) dst.prim_indices.push_back(to_global[src.prim_indices[n.first + i]]);
-        return;
-    }
-    const auto pair = static_cast<std::uint32_t>(dst.nodes.size());
-    dst.nodes.resize(dst.nodes.size() + 2);
-    dst.nodes[dst_node].first = pair;
-    dst.nodes[dst_node].count = 0;
-    append_subtree(src, n.first, to_global, dst, pair);
-    append_subtree(src, n.first + 1, to_global, dst, pair + 1);
-}
+// The grouped build's state: each group's members (global indices, in primitive order) and where its
+// primitives start in the joined prim_indices.
+struct Groups {
+    std::vector<std::uint32_t> members;  // group by group
+    std::vector<std::uint32_t> first;    // group g's members are members[first[g], first[g + 1])
+    std::vector<std::uint32_t> prim_base;
+};
 
-// Copies the top tree, replacing each of its leaves (one group each) by that group's tree.
-void append_joined(const Bvh& top, std::uint32_t top_node, std::span<const Bvh> groups,
-                   std::span<const std::vector<std::uint32_t>> members, Bvh& dst, std::uint32_t dst_node) {
+// Copies the top tree into `joined` depth-first, building each group's tree where the top tree has that
+// group's leaf: the group's primitives then come in the order the top tree's leaves are met. Returns the
+// deepest depth reached.
+int join_groups(const Bvh& top, std::uint32_t top_node, std::span<const Aabb> prim_boxes, const Groups& groups,
+                const BvhBuildSettings& settings, Bvh& joined, std::uint32_t dst_node, int depth) {
     const BvhNode n = top.nodes[top_node];
     if (n.is_leaf()) {
         const std::uint32_t g = top.prim_indices[n.first];
-        append_subtree(groups[g], 0, members[g], dst, dst_node);
+        const std::uint32_t count = groups.first[g + 1] - groups.first[g];
+        const std::unique_ptr<Builder> b =
+            make_builder(prim_boxes, groups.members.data() + groups.first[g], count, settings);
+        return build_into(*b, count, joined, dst_node, groups.prim_base[g], depth);
+    }
+    const auto pair = static_cast<std::uint32_t>(joined.nodes.size());
+    joined.nodes.resize(joined.nodes.size() + 2);
+    joined.nodes[dst_node].bounds = n.bounds;
+    joined.nodes[dst_node].first = pair;
+    joined.nodes[dst_node].count = 0;
+    const int l = join_groups(top, n.first, prim_boxes, groups, settings, joined, pair, depth + 1);
+    const int r = join_groups(top, n.first + 1, prim_boxes, groups, settings, joined, pair + 1, depth + 1);
+    return std::max(l, r);
+}
+
+// The top tree's leaves (one group each) from left to right.
+void leaf_order(const Bvh& top, std::uint32_t node, std::vector<std::uint32_t>& order) {
+    const BvhNode& n = top.nodes[node];
+    if (n.is_leaf()) {
+        order.push_back(top.prim_indices[n.first]);
         return;
     }
-    const auto pair = static_cast<std::uint32_t>(dst.nodes.size());
-    dst.nodes.resize(dst.nodes.size() + 2);
-    dst.nodes[dst_node].bounds = n.bounds;
-    dst.nodes[dst_node].first = pair;
-    dst.nodes[dst_node].count = 0;
-    append_joined(top, n.first, groups, members, dst, pair);
-    append_joined(top, n.first + 1, groups, members, dst, pair + 1);
+    leaf_order(top, n.first, order);
+    leaf_order(top, n.first + 1, order);
 }
 
 }  // namespace
@@ -579,35 +610,67 @@ void append_joined(const Bvh& top, std::uint32_t top_node, std::span<const Bvh> 
 Bvh build_grouped_bvh(std::span<const Aabb> prim_boxes, std::span<const std::uint32_t> group_of,
                       const BvhBuildSettings& settings) {
     if (group_of.size() != prim_boxes.size()) throw std::invalid_argument("build_grouped_bvh: one group per primitive");
-    std::vector<std::uint32_t> keys(group_of.begin(), group_of.end());
-    std::sort(keys.begin(), keys.end());
-    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
-    if (keys.size() <= 1 || keys.size() > kMaxBvhGroups) return build_bvh(prim_boxes, settings);
-
-    // Members of each group in primitive order (deterministic), their trees and their boxes.
-    std::vector<std::vector<std::uint32_t>> members(keys.size());
-    for (std::uint32_t i = 0; i < group_of.size(); ++i) {
-        const auto g = std::lower_bound(keys.begin(), keys.end(), group_of[i]) - keys.begin();
-        members[std::size_t(g)].push_back(i);
+    if (prim_boxes.size() >= std::numeric_limits<std::uint32_t>::max() / 2)
+        throw std::length_error("build_bvh: too many primitives");
+    // The distinct groups, ascending; past kMaxBvhGroups the count is all that matters.
+    std::vector<std::uint32_t> keys;
+    for (const std::uint32_t g : group_of) {
+        if (std::find(keys.begin(), keys.end(), g) != keys.end()) continue;
+        keys.push_back(g);
+        if (keys.size() > kMaxBvhGroups) return build_bvh(prim_boxes, settings);
     }
-    std::vector<Bvh> groups(keys.size());
-    std::vector<Aabb> group_boxes(keys.size());
-    std::vector<Aabb> boxes;
-    for (std::size_t g = 0; g < keys.size(); ++g) {
-        boxes.clear();
-        for (std::uint32_t i : members[g]) boxes.push_back(prim_boxes[i]);
-        groups[g] = build_bvh(boxes, settings);
-        group_boxes[g] = groups[g].bounds();
+    if (keys.size() <= 1) return build_bvh(prim_boxes, settings);
+    std::sort(keys.begin(), keys.end());
+
+    // Members of each group in primitive order (deterministic): a counting sort by group.
+    const auto n = static_cast<std::uint32_t>(prim_boxes.size());
+    const std::size_t group_count = keys.size();
+    auto group_index = [&](std::uint32_t key) {
+        return static_cast<std::uint32_t>(std::lower_bound(keys.begin(), keys.end(), key) - keys.begin());
+    };
+    Groups groups;
+    groups.first.assign(group_count + 1, 0);
+    for (const std::uint32_t g : group_of) ++groups.first[group_index(g) + 1];
+    for (std::size_t g = 0; g < group_count; ++g) groups.first[g + 1] += groups.first[g];
+    groups.members.resize(n);
+    {
+        std::vector<std::uint32_t> next(groups.first.begin(), groups.first.end() - 1);
+        for (std::uint32_t i = 0; i < n; ++i) groups.members[next[group_index(group_of[i])]++] = i;
+    }
+    // Each group's box, and the top tree over them.
+    std::vector<Aabb> group_boxes(group_count);
+    for (std::size_t g = 0; g < group_count; ++g) {
+        const std::uint32_t first = groups.first[g], last = groups.first[g + 1];
+        group_boxes[g] = tbb::parallel_reduce(
+            tbb::blocked_range<std::uint32_t>(first, last, kCopyGrain), Aabb{},
+            [&](const tbb::blocked_range<std::uint32_t>& r, Aabb acc) {
+                for (std::uint32_t k = r.begin(); k < r.end(); ++k) acc.grow(prim_boxes[groups.members[k]]);
+                return acc;
+            },
+            [](Aabb a, const Aabb& b) {
+                a.grow(b);
+                return a;
+            });
+        if (group_boxes[g].empty()) throw std::invalid_argument("build_bvh: empty primitive box");
     }
     const Bvh top = build_bvh(group_boxes, BvhBuildSettings{settings.costs, 1, settings.parallel_threshold});
+    // A group's primitives start after those of the groups whose top leaves come before its own.
+    std::vector<std::uint32_t> order;
+    leaf_order(top, 0, order);
+    groups.prim_base.assign(group_count, 0);
+    std::uint32_t base = 0;
+    for (const std::uint32_t g : order) {
+        groups.prim_base[g] = base;
+        base += groups.first[g + 1] - groups.first[g];
+    }
 
     Bvh joined;
-    joined.nodes.reserve(2 * prim_boxes.size());
-    joined.prim_indices.reserve(prim_boxes.size());
+    joined.nodes.reserve(2 * std::size_t(n));
+    joined.prim_indices.resize(n);
     joined.nodes.resize(2);  // the root and the padding slot that puts pairs at even indices
     joined.nodes[1] = BvhNode{Aabb{}, 0, 0};
-    append_joined(top, 0, groups, members, joined, 0);
-    if (joined.depth() > kMaxBvhDepth) return build_bvh(prim_boxes, settings);
+    const int depth = join_groups(top, 0, prim_boxes, groups, settings, joined, 0, 0);
+    if (depth > kMaxBvhDepth) return build_bvh(prim_boxes, settings);
     return joined;
 }
 
