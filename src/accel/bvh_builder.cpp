@@ -394,19 +394,41 @@ struct Builder {
         return mid;
     }
 
-    void make_leaf(std::uint32_t node, std::uint32_t begin, std::uint32_t end) {
-        scratch[node].first = begin;
-        scratch[node].count = end - begin;
-    }
+    // Where build() writes: the scratch tree, or (direct, one primitive per leaf) the final node array.
+    BvhNode* direct = nullptr;
+    std::uint32_t direct_prim_base = 0;
 
-    // Builds the subtree of scratch[node] over refs[begin, end), whose box and centroid bounds are given.
-    void build(std::uint32_t node, std::uint32_t begin, std::uint32_t end, int depth,
-               const Bounds4& box, const Bounds4& cent) {
+    void set_bounds(std::uint32_t node, const Aabb& bounds) {
+        if (direct) {
+            direct[node].bounds = bounds;
+        } else {
+            std::copy_n(&bounds.lo.x, 3, scratch[node].lo);
+            std::copy_n(&bounds.hi.x, 3, scratch[node].hi);
+        }
+    }
+    void set_range(std::uint32_t node, std::uint32_t first, std::uint32_t count) {
+        if (direct) {
+            direct[node].first = count != 0 ? direct_prim_base + first : first;
+            direct[node].count = count;
+        } else {
+            scratch[node].first = first;
+            scratch[node].count = count;
+        }
+    }
+    void make_leaf(std::uint32_t node, std::uint32_t begin, std::uint32_t end) { set_range(node, begin, end - begin); }
+
+    // Builds the subtree of node `node` over refs[begin, end), whose box and centroid bounds are given;
+    // returns the depth of its deepest node. In the scratch tree the node's pair is taken from next_pair.
+    // Directly into the final array it is `pair`: with one primitive per leaf a subtree of n primitives has
+    // exactly 2n − 1 nodes, so the depth-first layout compact_into() would give is known as the tree is
+    // built (the left child's pair right after the node's, the right child's after the left subtree's
+    // 2·n_left − 2 nodes), and the subtrees write their disjoint stretches of it in parallel.
+    int build(std::uint32_t node, std::uint32_t pair, std::uint32_t begin, std::uint32_t end, int depth,
+              const Bounds4& box, const Bounds4& cent) {
         const std::uint32_t n = end - begin;
         const Aabb bounds = box.aabb(), cb = cent.aabb();
-        std::copy_n(&bounds.lo.x, 3, scratch[node].lo);
-        std::copy_n(&bounds.hi.x, 3, scratch[node].hi);
-        if (n == 1) return make_leaf(node, begin, end);
+        set_bounds(node, bounds);
+        if (n == 1) return make_leaf(node, begin, end), depth;
 
         // Levels still needed if every later split halved the count exactly; past the budget, halve.
         const int levels_needed = std::bit_width(n - 1);
@@ -420,7 +442,7 @@ struct Builder {
             const float area = bounds.area();
             const Split split = area > 0.0f ? best_split(binning, area) : Split{};
             const float leaf_cost = settings.costs.intersection * float(n);
-            if (n <= settings.max_leaf_size && !(split.cost < leaf_cost)) return make_leaf(node, begin, end);
+            if (n <= settings.max_leaf_size && !(split.cost < leaf_cost)) return make_leaf(node, begin, end), depth;
             if (split.axis >= 0 && cb.hi[split.axis] > cb.lo[split.axis]) {
                 const int a = split.axis;
                 const float lo = cb.lo[a];
@@ -432,23 +454,26 @@ struct Builder {
             }
         }
         if (mid == begin || mid == end) {
-            if (n <= settings.max_leaf_size && !must_halve) return make_leaf(node, begin, end);
+            if (n <= settings.max_leaf_size && !must_halve) return make_leaf(node, begin, end), depth;
             mid = median_split(begin, end, cb);
             child_box[0] = child_box[1] = child_cent[0] = child_cent[1] = Bounds4{};
             range_bounds(begin, mid, child_box[0], child_cent[0]);
             range_bounds(mid, end, child_box[1], child_cent[1]);
         }
 
-        const std::uint32_t left = next_pair.fetch_add(2, std::memory_order_relaxed), right = left + 1;
-        scratch[node].first = left;
-        scratch[node].count = 0;
+        const std::uint32_t left = direct ? pair : next_pair.fetch_add(2, std::memory_order_relaxed), right = left + 1;
+        const std::uint32_t left_pair = left + 2, right_pair = left + 2 * (mid - begin);
+        set_range(node, left, 0);
+        int deepest_left = 0, deepest_right = 0;
         if (n >= settings.parallel_threshold) {
-            tbb::parallel_invoke([&] { build(left, begin, mid, depth + 1, child_box[0], child_cent[0]); },
-                                 [&] { build(right, mid, end, depth + 1, child_box[1], child_cent[1]); });
+            tbb::parallel_invoke(
+                [&] { deepest_left = build(left, left_pair, begin, mid, depth + 1, child_box[0], child_cent[0]); },
+                [&] { deepest_right = build(right, right_pair, mid, end, depth + 1, child_box[1], child_cent[1]); });
         } else {
-            build(left, begin, mid, depth + 1, child_box[0], child_cent[0]);
-            build(right, mid, end, depth + 1, child_box[1], child_cent[1]);
+            deepest_left = build(left, left_pair, begin, mid, depth + 1, child_box[0], child_cent[0]);
+            deepest_right = build(right, right_pair, mid, end, depth + 1, child_box[1], child_cent[1]);
         }
+        return std::max(deepest_left, deepest_right);
     }
 };
 
@@ -514,7 +539,9 @@ std::unique_ptr<Builder> make_builder(std::span<const Aabb> prim_boxes, const st
         if (empty) has_empty.store(true, std::memory_order_relaxed);
     });
     if (has_empty.load()) throw std::invalid_argument("build_bvh: empty primitive box");
-    b->scratch.reset(new ScratchNode[2 * std::size_t(n)]);  // root, padding, at most n − 1 pairs
+    // With more than one primitive per leaf the node count is known only once built: a scratch tree,
+    // compacted afterwards (root, padding, at most n − 1 pairs). With one, build_into() builds in place.
+    if (b->settings.max_leaf_size > 1) b->scratch.reset(new ScratchNode[2 * std::size_t(n)]);
     return b;
 }
 
@@ -524,12 +551,22 @@ int build_into(Builder& b, std::uint32_t n, Bvh& out, std::uint32_t dst_root, st
                int root_depth) {
     Bounds4 box, cent;
     b.range_bounds(0, n, box, cent);
-    b.build(0, 0, n, 0, box, cent);
+    int depth = 0;
+    if (b.scratch) {
+        b.build(0, 0, 0, n, 0, box, cent);
+    } else {
+        // In place: the root at dst_root, its 2n − 2 descendants appended (see Builder::build).
+        const auto pair = static_cast<std::uint32_t>(out.nodes.size());
+        out.nodes.resize(out.nodes.size() + 2 * std::size_t(n - 1));
+        b.direct = out.nodes.data();
+        b.direct_prim_base = prim_base;
+        depth = root_depth + b.build(dst_root, pair, 0, n, 0, box, cent);
+    }
     using Range = tbb::blocked_range<std::uint32_t>;
     tbb::parallel_for(Range(0, n, kCopyGrain), [&](const Range& r) {
         for (std::uint32_t k = r.begin(); k < r.end(); ++k) out.prim_indices[prim_base + k] = b.refs[k].id();
     });
-    return compact_into(b.scratch.get(), out, dst_root, prim_base, root_depth);
+    return b.scratch ? compact_into(b.scratch.get(), out, dst_root, prim_base, root_depth) : depth;
 }
 
 }  // namespace
