@@ -428,7 +428,11 @@ struct Builder {
         const std::uint32_t n = end - begin;
         const Aabb bounds = box.aabb(), cb = cent.aabb();
         set_bounds(node, bounds);
-        if (n == 1) return make_leaf(node, begin, end), depth;
+        const auto leaf = [&] {
+            make_leaf(node, begin, end);
+            return depth;
+        };
+        if (n == 1) return leaf();
 
         // Levels still needed if every later split halved the count exactly; past the budget, halve.
         const int levels_needed = std::bit_width(n - 1);
@@ -442,7 +446,7 @@ struct Builder {
             const float area = bounds.area();
             const Split split = area > 0.0f ? best_split(binning, area) : Split{};
             const float leaf_cost = settings.costs.intersection * float(n);
-            if (n <= settings.max_leaf_size && !(split.cost < leaf_cost)) return make_leaf(node, begin, end), depth;
+            if (n <= settings.max_leaf_size && !(split.cost < leaf_cost)) return leaf();
             if (split.axis >= 0 && cb.hi[split.axis] > cb.lo[split.axis]) {
                 const int a = split.axis;
                 const float lo = cb.lo[a];
@@ -454,7 +458,7 @@ struct Builder {
             }
         }
         if (mid == begin || mid == end) {
-            if (n <= settings.max_leaf_size && !must_halve) return make_leaf(node, begin, end), depth;
+            if (n <= settings.max_leaf_size && !must_halve) return leaf();
             mid = median_split(begin, end, cb);
             child_box[0] = child_box[1] = child_cent[0] = child_cent[1] = Bounds4{};
             range_bounds(begin, mid, child_box[0], child_cent[0]);
