@@ -936,6 +936,115 @@ TEST_CASE("Grouped build: no node below the top mixes groups, every primitive on
     CHECK(below[0].size() == 3);
 }
 
+// The grouped TLAS build against its definition, built here from the plain builder: each group's tree
+// over its members' boxes (in primitive order) joined under the tree of the groups' boxes, copied node by
+// node depth-first (a node's pair appended when the node is reached, left subtree first), leaves mapped to
+// global indices. The builder makes each group's tree in place, one primitive per leaf, in parallel: the
+// same array, at any thread count.
+namespace {
+void append_reference(const Bvh& src, std::uint32_t node, const std::vector<std::uint32_t>& to_global, Bvh& dst,
+                      std::uint32_t slot) {
+    const BvhNode n = src.nodes[node];
+    dst.nodes[slot].bounds = n.bounds;
+    dst.nodes[slot].count = n.count;
+    if (n.is_leaf()) {
+        dst.nodes[slot].first = static_cast<std::uint32_t>(dst.prim_indices.size());
+        for (std::uint32_t i = 0; i < n.count; ++i)
+            dst.prim_indices.push_back(to_global[src.prim_indices[n.first + i]]);
+        return;
+    }
+    const auto pair = static_cast<std::uint32_t>(dst.nodes.size());
+    dst.nodes.resize(dst.nodes.size() + 2);
+    dst.nodes[slot].first = pair;
+    append_reference(src, n.first, to_global, dst, pair);
+    append_reference(src, n.first + 1, to_global, dst, pair + 1);
+}
+
+void join_reference(const Bvh& top, std::uint32_t node, const std::vector<Bvh>& trees,
+                    const std::vector<std::vector<std::uint32_t>>& members, Bvh& dst, std::uint32_t slot) {
+    const BvhNode n = top.nodes[node];
+    if (n.is_leaf()) {
+        const std::uint32_t g = top.prim_indices[n.first];
+        return append_reference(trees[g], 0, members[g], dst, slot);
+    }
+    const auto pair = static_cast<std::uint32_t>(dst.nodes.size());
+    dst.nodes.resize(dst.nodes.size() + 2);
+    dst.nodes[slot] = BvhNode{n.bounds, pair, 0};
+    join_reference(top, n.first, trees, members, dst, pair);
+    join_reference(top, n.first + 1, trees, members, dst, pair + 1);
+}
+}  // namespace
+
+TEST_CASE("Grouped build: the joined per-group trees, the same node array with 1, 2 and 8 threads", "[bvh]") {
+    // A large group (its top levels bin and partition in parallel), a small one and a single primitive: the
+    // smoke scene's stand-ins, billboards and ground.
+    Pcg32 rng(2026);
+    std::vector<Aabb> boxes;
+    std::vector<std::uint32_t> group;
+    for (int i = 0; i < 120000; ++i) {
+        const glm::vec3 c(rng.uniform(-10, 10), rng.uniform(-3, 3), rng.uniform(-10, 10));
+        const float r = rng.uniform(0.01f, 0.2f);
+        boxes.push_back(Aabb{c - r, c + r});
+        group.push_back(i == 777 ? 4u : (i % 10 == 0 ? 2u : 1u));
+    }
+    const BvhBuildSettings settings{{}, 1};
+    // The reference, from build_bvh() of each group on one thread.
+    Bvh reference;
+    {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+        const std::vector<std::uint32_t> keys{1, 2, 4};
+        std::vector<std::vector<std::uint32_t>> members(keys.size());
+        for (std::uint32_t i = 0; i < boxes.size(); ++i)
+            members[std::size_t(std::find(keys.begin(), keys.end(), group[i]) - keys.begin())].push_back(i);
+        std::vector<Bvh> trees;
+        std::vector<Aabb> group_boxes;
+        for (const auto& m : members) {
+            std::vector<Aabb> b;
+            for (std::uint32_t i : m) b.push_back(boxes[i]);
+            trees.push_back(build_bvh(b, settings));
+            group_boxes.push_back(trees.back().bounds());
+        }
+        const Bvh top = build_bvh(group_boxes, settings);
+        reference.nodes.resize(2);
+        reference.nodes[1] = BvhNode{Aabb{}, 0, 0};
+        join_reference(top, 0, trees, members, reference, 0);
+    }
+    for (int threads : {1, 2, 8}) {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+        const Bvh bvh = build_grouped_bvh(boxes, group, settings);
+        INFO("threads " << threads);
+        REQUIRE(bvh.nodes.size() == reference.nodes.size());
+        REQUIRE(bvh.prim_indices == reference.prim_indices);
+        for (std::size_t i = 0; i < bvh.nodes.size(); ++i) {
+            REQUIRE(bvh.nodes[i].bounds.lo == reference.nodes[i].bounds.lo);
+            REQUIRE(bvh.nodes[i].bounds.hi == reference.nodes[i].bounds.hi);
+            REQUIRE(bvh.nodes[i].first == reference.nodes[i].first);
+            REQUIRE(bvh.nodes[i].count == reference.nodes[i].count);
+        }
+    }
+}
+
+TEST_CASE("BVH builder: one primitive per leaf, built in place, is the depth-first layout of its own tree",
+          "[bvh]") {
+    // The in-place build computes where each pair goes; a depth-first copy of the tree it built (a pair
+    // appended when its node is reached, left subtree first) must give back the same array.
+    const auto boxes = random_boxes(50000, 91);
+    const Bvh bvh = build_bvh(boxes, BvhBuildSettings{{}, 1});
+    check_structure(bvh, boxes, 1);
+    Bvh copy;
+    copy.nodes.resize(2);
+    copy.nodes[1] = BvhNode{Aabb{}, 0, 0};
+    std::vector<std::uint32_t> identity(boxes.size());
+    for (std::uint32_t i = 0; i < identity.size(); ++i) identity[i] = i;
+    append_reference(bvh, 0, identity, copy, 0);
+    REQUIRE(copy.nodes.size() == bvh.nodes.size());
+    CHECK(copy.prim_indices == bvh.prim_indices);
+    for (std::size_t i = 0; i < bvh.nodes.size(); ++i) {
+        REQUIRE(copy.nodes[i].first == bvh.nodes[i].first);
+        REQUIRE(copy.nodes[i].count == bvh.nodes[i].count);
+    }
+}
+
 // ChildPairTest (the AVX2 two-box test of child_pair_test_avx2.hpp where available, the scalar one
 // otherwise) must agree with the scalar slab test of aabb.hpp on every ray: the same hit bits and equal
 // entry distances. The rays

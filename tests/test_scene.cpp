@@ -16,6 +16,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <span>
 #include <stdexcept>
 #include <tuple>
 #include <utility>
@@ -325,6 +326,66 @@ TEST_CASE("scene: a singular instance transform is rejected", "[scene]") {
     flat.linear[2][2] = 0.0;  // squashes z
     CHECK_THROWS_AS(s.add_instance(Instance{b, flat, 0xFF, 0, 0}), std::domain_error);
     CHECK_THROWS_AS(s.add_instance(Instance{5, {}, 0xFF, 0, 0}), std::out_of_range);
+}
+
+TEST_CASE("scene: add_instances() gives the scene of add_instance() one by one, and adds none on error",
+          "[scene]") {
+    // Every kind of instance path (world sphere, world triangles, object space), rotated, mirrored and
+    // scaled, in batches large enough that the set-up runs on several threads.
+    auto bottom_levels = [](AccelScene& s) {
+        TriangleMesh quad;
+        quad.vertices = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
+        quad.triangles = {{0, 1, 2}, {0, 2, 3}};
+        s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 1.0f}}, false));
+        s.add_bottom_level(BottomLevel::from_mesh(quad, false));
+        s.add_bottom_level(BottomLevel::from_mesh(make_icosphere(1, 1.0f), true));
+    };
+    Pcg32 rng(12);
+    std::vector<Instance> instances;
+    for (std::uint32_t i = 0; i < 20000; ++i) {
+        AffineTransform m = AffineTransform::translate_scale(
+            {rng.uniform(-50, 50), rng.uniform(-50, 50), rng.uniform(-50, 50)}, rng.uniform(0.1f, 2.0f));
+        const glm::quat turn = glm::angleAxis(rng.uniform(0, 6.28f), glm::vec3(0, 1, 0));
+        if (i % 3 == 1) m.linear = glm::dmat3(glm::mat3_cast(turn)) * m.linear;
+        if (i % 5 == 2) m.linear[0] = -m.linear[0];  // mirrored
+        instances.push_back(Instance{i % 3, m, std::uint8_t(1u << (i % 3)), i, std::uint8_t(i % 7 == 0 ? 2 : 0)});
+    }
+    AccelScene one_by_one, bulk;
+    bottom_levels(one_by_one);
+    bottom_levels(bulk);
+    for (const Instance& in : instances) one_by_one.add_instance(in);
+    bulk.reserve_instances(instances.size());
+    CHECK(bulk.add_instances(std::span(instances).first(7000)) == 0);
+    CHECK(bulk.add_instances(std::span(instances).subspan(7000)) == 7000);
+    // A bad batch (a singular transform last, a missing bottom level) adds nothing.
+    std::vector<Instance> bad(instances.begin(), instances.begin() + 5000);
+    bad.back().object_to_world.linear[2] = glm::dvec3(0.0);  // squashes z: singular
+    CHECK_THROWS_AS(bulk.add_instances(bad), std::domain_error);
+    bad.back() = Instance{9, {}, 0xFF, 0, 0};
+    CHECK_THROWS_AS(bulk.add_instances(bad), std::out_of_range);
+    REQUIRE(bulk.instance_count() == one_by_one.instance_count());
+    one_by_one.commit();
+    bulk.commit();
+    for (std::uint32_t i = 0; i < bulk.instance_count(); ++i) {
+        INFO("instance " << i);
+        REQUIRE(bulk.instance_bounds(i).lo == one_by_one.instance_bounds(i).lo);
+        REQUIRE(bulk.instance_bounds(i).hi == one_by_one.instance_bounds(i).hi);
+        const InstanceRecord &a = bulk.record(i), &b = one_by_one.record(i);
+        REQUIRE(a.path == b.path);
+        REQUIRE(a.mask == b.mask);
+        REQUIRE(a.opaque == b.opaque);
+        REQUIRE(a.user_id == b.user_id);
+        REQUIRE(a.first_world_triangle == b.first_world_triangle);
+        REQUIRE(a.world_triangle_count == b.world_triangle_count);
+        REQUIRE(a.world_facing_flipped == b.world_facing_flipped);
+        REQUIRE(a.sphere_radius == b.sphere_radius);
+        REQUIRE(a.world_to_object_linear == b.world_to_object_linear);
+    }
+    const std::size_t triangles = 2 * ((instances.size() + 1) / 3);  // every quad instance's two
+    CHECK(std::memcmp(bulk.world_triangles(), one_by_one.world_triangles(), triangles * sizeof(MeshBlas::Triangle)) ==
+          0);
+    CHECK(bulk.tlas().prim_indices == one_by_one.tlas().prim_indices);
+    CHECK(bulk.tlas_sah_cost() == one_by_one.tlas_sah_cost());
 }
 
 TEST_CASE("scene: node masks are the OR of the subtree after build, refit and mask changes", "[scene]") {

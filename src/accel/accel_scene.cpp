@@ -4,6 +4,8 @@
 
 #include <glm/geometric.hpp>
 #include <glm/matrix.hpp>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -56,6 +58,49 @@ std::uint32_t AccelScene::add_instance(const Instance& instance) {
     update_instance(static_cast<std::uint32_t>(instances_.size() - 1));
     structure_dirty_ = true;
     return static_cast<std::uint32_t>(instances_.size() - 1);
+}
+
+std::uint32_t AccelScene::add_instances(std::span<const Instance> added) {
+    for (const Instance& in : added)
+        if (in.blas >= blases_.size())
+            throw std::out_of_range("AccelScene::add_instances: no bottom level " + std::to_string(in.blas));
+    const std::size_t first = instances_.size(), first_triangle = world_triangles_.size();
+    instances_.insert(instances_.end(), added.begin(), added.end());
+    records_.resize(instances_.size());
+    world_boxes_.resize(instances_.size());
+    for (const Instance& in : added) instance_masks_.push_back(in.mask);
+    // World-triangle slots in instance order, as add_instance() lays them out one by one.
+    std::size_t triangles = first_triangle;
+    for (std::size_t i = first; i < instances_.size(); ++i) {
+        if (const BottomLevel& b = *blases_[instances_[i].blas]; takes_world_triangles(b)) {
+            records_[i].first_world_triangle = static_cast<std::uint32_t>(triangles);
+            triangles += b.mesh.leaf_triangles().size();
+        }
+    }
+    world_triangles_.resize(triangles);
+    // Each instance's set-up reads only its own instance and bottom level and writes only its own slots.
+    try {
+        using Range = tbb::blocked_range<std::size_t>;
+        tbb::parallel_for(Range(first, instances_.size(), 4096), [&](const Range& r) {
+            for (std::size_t i = r.begin(); i < r.end(); ++i) update_instance(static_cast<std::uint32_t>(i));
+        });
+    } catch (...) {
+        instances_.resize(first);
+        records_.resize(first);
+        world_boxes_.resize(first);
+        instance_masks_.resize(first);
+        world_triangles_.resize(first_triangle);
+        throw;
+    }
+    if (!added.empty()) structure_dirty_ = true;
+    return static_cast<std::uint32_t>(first);
+}
+
+void AccelScene::reserve_instances(std::size_t count) {
+    instances_.reserve(count);
+    records_.reserve(count);
+    world_boxes_.reserve(count);
+    instance_masks_.reserve(count);
 }
 
 void AccelScene::remove_instance(std::uint32_t index) {

@@ -2,6 +2,7 @@
 #include <smoketrace/accel/bvh.hpp>
 
 #include <algorithm>
+#include <stdexcept>
 
 namespace smoketrace {
 
@@ -48,36 +49,59 @@ void Bvh::refit(std::span<const Aabb> prim_boxes) {
 }
 
 WideSlots collapse_slots(const Bvh& binary, std::uint32_t node, unsigned width, std::uint32_t* slot) {
+    // Each slot's area is taken once (kept beside it, -1 for a leaf, which is never opened), and the final
+    // order is a stable insertion sort of at most `width` keys: the choices and the order of opening the
+    // largest slot and of std::stable_sort, without recomputing areas or centres.
+    constexpr unsigned kMaxWidth = 16;
+    if (width > kMaxWidth) throw std::invalid_argument("collapse_slots: width over 16");
+    float area[kMaxWidth];
+    auto take = [&](unsigned i, std::uint32_t b) {
+        slot[i] = b;
+        const BvhNode& c = binary.nodes[b];
+        area[i] = c.is_leaf() ? -1.0f : c.bounds.area();
+    };
     unsigned n = 0;
     const BvhNode& top = binary.nodes[node];
     if (top.is_leaf()) {
         slot[n++] = node;
+        area[0] = -1.0f;
     } else {
-        slot[n++] = top.first;
-        slot[n++] = top.first + 1;
+        take(n++, top.first);
+        take(n++, top.first + 1);
     }
     while (n < width) {
         int best = -1;
         float best_area = -1.0f;
         for (unsigned i = 0; i < n; ++i) {
-            const BvhNode& c = binary.nodes[slot[i]];
-            if (!c.is_leaf() && c.bounds.area() > best_area) {
+            if (area[i] > best_area) {
                 best = int(i);
-                best_area = c.bounds.area();
+                best_area = area[i];
             }
         }
         if (best < 0) break;
-        const std::uint32_t opened = slot[best];
-        slot[best] = binary.nodes[opened].first;
-        slot[n++] = binary.nodes[opened].first + 1;
+        const std::uint32_t opened = binary.nodes[slot[best]].first;
+        take(unsigned(best), opened);
+        take(n++, opened + 1);
     }
     Aabb centres;
-    for (unsigned i = 0; i < n; ++i) centres.grow(binary.nodes[slot[i]].bounds.center());
+    glm::vec3 centre[kMaxWidth];
+    for (unsigned i = 0; i < n; ++i) {
+        centre[i] = binary.nodes[slot[i]].bounds.center();
+        centres.grow(centre[i]);
+    }
     const glm::vec3 spread = centres.extent();
     const int axis = spread.x >= spread.y ? (spread.x >= spread.z ? 0 : 2) : (spread.y >= spread.z ? 1 : 2);
-    std::stable_sort(slot, slot + n, [&](std::uint32_t a, std::uint32_t b) {
-        return binary.nodes[a].bounds.center()[axis] < binary.nodes[b].bounds.center()[axis];
-    });
+    for (unsigned i = 1; i < n; ++i) {
+        const std::uint32_t s = slot[i];
+        const float key = centre[i][axis];
+        unsigned j = i;
+        for (; j > 0 && key < centre[j - 1][axis]; --j) {
+            slot[j] = slot[j - 1];
+            centre[j] = centre[j - 1];
+        }
+        slot[j] = s;
+        centre[j][axis] = key;
+    }
     return {n, axis};
 }
 

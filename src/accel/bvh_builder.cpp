@@ -226,39 +226,48 @@ struct Builder {
     }
 
     // Sweeps the bins of each axis: SAH cost of splitting after bin i, relative to the parent area.
-    // An empty bin changes neither side, so its costs are those of its neighbour, copied rather than
-    // recomputed: the decisions are those of the full sweep (the first of equal costs wins either way),
-    // at a fraction of the work in the many small nodes where most bins are empty. A side without
-    // primitives costs 0, so the accumulated box is never empty where its area is taken.
+    // An empty bin changes neither side, so only the occupied bins are visited (a bit mask of them, walked
+    // bit by bit): the candidates, their order and every float operation are those of a sweep over all
+    // kBins (the first of equal costs wins), at a fraction of the work in the many small nodes where most
+    // bins are empty. A side without primitives costs 0, so no empty box's area is taken.
     Split best_split(const Binning& binning, float parent_area) const {
         Split best;
         for (int a = 0; a < 3; ++a) {
             const auto& bins = binning.bins[a];
-            std::array<float, kBins - 1> left_cost{};
+            std::uint32_t occupied = 0;
+            for (int i = 0; i < kBins; ++i) occupied |= std::uint32_t(bins[i].count != 0) << i;
+            // left_cost[i]: the cost of the left side of a split after bin i, for each occupied bin i
+            // (and for an empty one, that of the occupied bin below it: read only through that bin).
+            std::array<float, kBins> left_cost;
             Bounds4 acc;
             std::uint32_t n = 0;
-            float cost_so_far = 0.0f;
-            for (int i = 0; i < kBins - 1; ++i) {
-                if (bins[i].count != 0) {
-                    acc.grow(bins[i].bounds);
-                    n += bins[i].count;
-                    cost_so_far = acc.area() * float(n);
-                }
-                left_cost[i] = cost_so_far;
+            for (std::uint32_t m = occupied; m != 0; m &= m - 1) {
+                const int i = std::countr_zero(m);
+                acc.grow(bins[i].bounds);
+                n += bins[i].count;
+                left_cost[i] = acc.area() * float(n);
             }
+            // The left cost of a split just below bin i: that of the highest occupied bin under i, or 0.
+            auto left_below = [&](int i) {
+                const std::uint32_t below = occupied & ((1u << i) - 1u);
+                return below != 0 ? left_cost[31 - std::countl_zero(below)] : 0.0f;
+            };
+            auto consider = [&](float left, float right, int split_bin) {
+                const float cost =
+                    settings.costs.traversal + settings.costs.intersection * (left + right) / parent_area;
+                if (cost < best.cost) best = {a, split_bin, cost};
+            };
+            // The sweep from the top: first the split after bin kBins − 2 even when the last bin is empty
+            // (everything left), then the split just below each occupied bin but bin 0.
+            if (!(occupied >> (kBins - 1) & 1u)) consider(left_below(kBins - 1), 0.0f, kBins - 2);
             acc = Bounds4{};
             n = 0;
-            for (int i = kBins - 1; i > 0; --i) {
-                if (bins[i].count != 0) {
-                    acc.grow(bins[i].bounds);
-                    n += bins[i].count;
-                } else if (i < kBins - 1) {
-                    continue;  // the same partition as the split after bin i, already costed
-                }
-                const float right_cost = n != 0 ? acc.area() * float(n) : 0.0f;
-                const float cost = settings.costs.traversal +
-                                   settings.costs.intersection * (left_cost[i - 1] + right_cost) / parent_area;
-                if (cost < best.cost) best = {a, i - 1, cost};
+            for (std::uint32_t m = occupied & ~1u; m != 0;) {
+                const int i = 31 - std::countl_zero(m);
+                m &= ~(1u << i);
+                acc.grow(bins[i].bounds);
+                n += bins[i].count;
+                consider(left_below(i), acc.area() * float(n), i - 1);
             }
         }
         return best;
@@ -385,19 +394,45 @@ struct Builder {
         return mid;
     }
 
-    void make_leaf(std::uint32_t node, std::uint32_t begin, std::uint32_t end) {
-        scratch[node].first = begin;
-        scratch[node].count = end - begin;
-    }
+    // Where build() writes: the scratch tree, or (direct, one primitive per leaf) the final node array.
+    BvhNode* direct = nullptr;
+    std::uint32_t direct_prim_base = 0;
 
-    // Builds the subtree of scratch[node] over refs[begin, end), whose box and centroid bounds are given.
-    void build(std::uint32_t node, std::uint32_t begin, std::uint32_t end, int depth,
-               const Bounds4& box, const Bounds4& cent) {
+    void set_bounds(std::uint32_t node, const Aabb& bounds) {
+        if (direct) {
+            direct[node].bounds = bounds;
+        } else {
+            std::copy_n(&bounds.lo.x, 3, scratch[node].lo);
+            std::copy_n(&bounds.hi.x, 3, scratch[node].hi);
+        }
+    }
+    void set_range(std::uint32_t node, std::uint32_t first, std::uint32_t count) {
+        if (direct) {
+            direct[node].first = count != 0 ? direct_prim_base + first : first;
+            direct[node].count = count;
+        } else {
+            scratch[node].first = first;
+            scratch[node].count = count;
+        }
+    }
+    void make_leaf(std::uint32_t node, std::uint32_t begin, std::uint32_t end) { set_range(node, begin, end - begin); }
+
+    // Builds the subtree of node `node` over refs[begin, end), whose box and centroid bounds are given;
+    // returns the depth of its deepest node. In the scratch tree the node's pair is taken from next_pair.
+    // Directly into the final array it is `pair`: with one primitive per leaf a subtree of n primitives has
+    // exactly 2n − 1 nodes, so the depth-first layout compact_into() would give is known as the tree is
+    // built (the left child's pair right after the node's, the right child's after the left subtree's
+    // 2·n_left − 2 nodes), and the subtrees write their disjoint stretches of it in parallel.
+    int build(std::uint32_t node, std::uint32_t pair, std::uint32_t begin, std::uint32_t end, int depth,
+              const Bounds4& box, const Bounds4& cent) {
         const std::uint32_t n = end - begin;
         const Aabb bounds = box.aabb(), cb = cent.aabb();
-        std::copy_n(&bounds.lo.x, 3, scratch[node].lo);
-        std::copy_n(&bounds.hi.x, 3, scratch[node].hi);
-        if (n == 1) return make_leaf(node, begin, end);
+        set_bounds(node, bounds);
+        const auto leaf = [&] {
+            make_leaf(node, begin, end);
+            return depth;
+        };
+        if (n == 1) return leaf();
 
         // Levels still needed if every later split halved the count exactly; past the budget, halve.
         const int levels_needed = std::bit_width(n - 1);
@@ -411,7 +446,7 @@ struct Builder {
             const float area = bounds.area();
             const Split split = area > 0.0f ? best_split(binning, area) : Split{};
             const float leaf_cost = settings.costs.intersection * float(n);
-            if (n <= settings.max_leaf_size && !(split.cost < leaf_cost)) return make_leaf(node, begin, end);
+            if (n <= settings.max_leaf_size && !(split.cost < leaf_cost)) return leaf();
             if (split.axis >= 0 && cb.hi[split.axis] > cb.lo[split.axis]) {
                 const int a = split.axis;
                 const float lo = cb.lo[a];
@@ -423,23 +458,26 @@ struct Builder {
             }
         }
         if (mid == begin || mid == end) {
-            if (n <= settings.max_leaf_size && !must_halve) return make_leaf(node, begin, end);
+            if (n <= settings.max_leaf_size && !must_halve) return leaf();
             mid = median_split(begin, end, cb);
             child_box[0] = child_box[1] = child_cent[0] = child_cent[1] = Bounds4{};
             range_bounds(begin, mid, child_box[0], child_cent[0]);
             range_bounds(mid, end, child_box[1], child_cent[1]);
         }
 
-        const std::uint32_t left = next_pair.fetch_add(2, std::memory_order_relaxed), right = left + 1;
-        scratch[node].first = left;
-        scratch[node].count = 0;
+        const std::uint32_t left = direct ? pair : next_pair.fetch_add(2, std::memory_order_relaxed), right = left + 1;
+        const std::uint32_t left_pair = left + 2, right_pair = left + 2 * (mid - begin);
+        set_range(node, left, 0);
+        int deepest_left = 0, deepest_right = 0;
         if (n >= settings.parallel_threshold) {
-            tbb::parallel_invoke([&] { build(left, begin, mid, depth + 1, child_box[0], child_cent[0]); },
-                                 [&] { build(right, mid, end, depth + 1, child_box[1], child_cent[1]); });
+            tbb::parallel_invoke(
+                [&] { deepest_left = build(left, left_pair, begin, mid, depth + 1, child_box[0], child_cent[0]); },
+                [&] { deepest_right = build(right, right_pair, mid, end, depth + 1, child_box[1], child_cent[1]); });
         } else {
-            build(left, begin, mid, depth + 1, child_box[0], child_cent[0]);
-            build(right, mid, end, depth + 1, child_box[1], child_cent[1]);
+            deepest_left = build(left, left_pair, begin, mid, depth + 1, child_box[0], child_cent[0]);
+            deepest_right = build(right, right_pair, mid, end, depth + 1, child_box[1], child_cent[1]);
         }
+        return std::max(deepest_left, deepest_right);
     }
 };
 
@@ -447,30 +485,92 @@ BvhNode to_node(const ScratchNode& s) {
     return BvhNode{Aabb{{s.lo[0], s.lo[1], s.lo[2]}, {s.hi[0], s.hi[1], s.hi[2]}}, s.first, s.count};
 }
 
-// Depth-first compaction of the scratch tree: the root at 0, padding at 1, then each node's pair.
-void compact(const ScratchNode* scratch, std::size_t slots, Bvh& out) {
-    out.nodes.clear();
-    out.nodes.reserve(slots);
-    out.nodes.push_back(to_node(scratch[0]));
-    out.nodes.push_back(BvhNode{});  // padding: pairs start at an even index
+// Depth-first compaction of a scratch tree into `out`: its root into the slot dst_root, each node's pair
+// appended when the node is reached (the root at 0, padding at 1, then the pairs, for a whole tree), leaf
+// ranges moved up by prim_base. Returns the depth of the deepest node below dst_root, which sits at
+// root_depth.
+int compact_into(const ScratchNode* scratch, Bvh& out, std::uint32_t dst_root, std::uint32_t prim_base,
+                 int root_depth) {
+    auto node = [&](std::uint32_t src) {
+        BvhNode n = to_node(scratch[src]);
+        if (n.is_leaf()) n.first += prim_base;
+        return n;
+    };
+    out.nodes[dst_root] = node(0);
     struct Item {
         std::uint32_t src, dst;
+        int depth;
     };
-    std::vector<Item> stack{{0u, 0u}};
+    std::vector<Item> stack{{0u, dst_root, root_depth}};
+    int deepest = root_depth;
     while (!stack.empty()) {
         const Item it = stack.back();
         stack.pop_back();
-        BvhNode& dst = out.nodes[it.dst];
-        if (dst.is_leaf()) continue;
+        deepest = std::max(deepest, it.depth);
+        if (out.nodes[it.dst].is_leaf()) continue;
         const std::uint32_t src_left = scratch[it.src].first;
         const auto pair = static_cast<std::uint32_t>(out.nodes.size());
-        out.nodes.push_back(to_node(scratch[src_left]));
-        out.nodes.push_back(to_node(scratch[src_left + 1]));
+        out.nodes.push_back(node(src_left));
+        out.nodes.push_back(node(src_left + 1));
         out.nodes[it.dst].first = pair;
         // Right first on the stack so the left subtree is laid out next (depth-first, left first).
-        stack.push_back({src_left + 1, pair + 1});
-        stack.push_back({src_left, pair});
+        stack.push_back({src_left + 1, pair + 1, it.depth + 1});
+        stack.push_back({src_left, pair, it.depth + 1});
     }
+    return deepest;
+}
+
+// A builder over the primitives prim_boxes[ids[k]] (ids null: every primitive, k itself), each keeping its
+// index in prim_boxes: the refs filled in parallel, their bounds taken, the scratch tree not yet built.
+std::unique_ptr<Builder> make_builder(std::span<const Aabb> prim_boxes, const std::uint32_t* ids, std::uint32_t n,
+                                      const BvhBuildSettings& settings) {
+    auto b = std::make_unique<Builder>();
+    b->settings = settings;
+    b->settings.max_leaf_size = std::max(1u, settings.max_leaf_size);
+    b->refs_storage.reset(new PrimRef[n]);  // trivially default-constructible: not written here
+    b->refs = b->refs_storage.get();
+    // The primitive copy (and the index copy after the build) run in parallel: large flat loops that
+    // touch fresh memory, each slot written by one iteration.
+    std::atomic<bool> has_empty{false};
+    using Range = tbb::blocked_range<std::uint32_t>;
+    tbb::parallel_for(Range(0, n, kCopyGrain), [&](const Range& r) {
+        bool empty = false;
+        for (std::uint32_t k = r.begin(); k < r.end(); ++k) {
+            const std::uint32_t i = ids ? ids[k] : k;
+            empty = empty || prim_boxes[i].empty();
+            b->refs[k] = PrimRef(prim_boxes[i], i);
+        }
+        if (empty) has_empty.store(true, std::memory_order_relaxed);
+    });
+    if (has_empty.load()) throw std::invalid_argument("build_bvh: empty primitive box");
+    // With more than one primitive per leaf the node count is known only once built: a scratch tree,
+    // compacted afterwards (root, padding, at most n − 1 pairs). With one, build_into() builds in place.
+    if (b->settings.max_leaf_size > 1) b->scratch.reset(new ScratchNode[2 * std::size_t(n)]);
+    return b;
+}
+
+// Builds b's scratch tree over its n refs, compacts it into out at dst_root (see compact_into) and writes
+// its primitives' indices to out.prim_indices[prim_base, prim_base + n). Returns the depth as compact_into.
+int build_into(Builder& b, std::uint32_t n, Bvh& out, std::uint32_t dst_root, std::uint32_t prim_base,
+               int root_depth) {
+    Bounds4 box, cent;
+    b.range_bounds(0, n, box, cent);
+    int depth = 0;
+    if (b.scratch) {
+        b.build(0, 0, 0, n, 0, box, cent);
+    } else {
+        // In place: the root at dst_root, its 2n − 2 descendants appended (see Builder::build).
+        const auto pair = static_cast<std::uint32_t>(out.nodes.size());
+        out.nodes.resize(out.nodes.size() + 2 * std::size_t(n - 1));
+        b.direct = out.nodes.data();
+        b.direct_prim_base = prim_base;
+        depth = root_depth + b.build(dst_root, pair, 0, n, 0, box, cent);
+    }
+    using Range = tbb::blocked_range<std::uint32_t>;
+    tbb::parallel_for(Range(0, n, kCopyGrain), [&](const Range& r) {
+        for (std::uint32_t k = r.begin(); k < r.end(); ++k) out.prim_indices[prim_base + k] = b.refs[k].id();
+    });
+    return b.scratch ? compact_into(b.scratch.get(), out, dst_root, prim_base, root_depth) : depth;
 }
 
 }  // namespace
@@ -493,76 +593,57 @@ Bvh build_bvh(std::span<const Aabb> prim_boxes, const BvhBuildSettings& settings
     if (prim_boxes.size() >= std::numeric_limits<std::uint32_t>::max() / 2)
         throw std::length_error("build_bvh: too many primitives");
     const auto n = static_cast<std::uint32_t>(prim_boxes.size());
+    const std::unique_ptr<Builder> b = make_builder(prim_boxes, nullptr, n, settings);
     bvh.prim_indices.resize(n);
-
-    Builder b;
-    b.settings = settings;
-    b.settings.max_leaf_size = std::max(1u, settings.max_leaf_size);
-    b.refs_storage.reset(new PrimRef[n]);  // trivially default-constructible: not written here
-    b.refs = b.refs_storage.get();
-    // The primitive copy and (below) the index copy run in parallel: large flat loops that touch fresh
-    // memory, each slot written by one iteration.
-    std::atomic<bool> has_empty{false};
-    using Range = tbb::blocked_range<std::uint32_t>;
-    tbb::parallel_for(Range(0, n, kCopyGrain), [&](const Range& r) {
-        bool empty = false;
-        for (std::uint32_t i = r.begin(); i < r.end(); ++i) {
-            empty = empty || prim_boxes[i].empty();
-            b.refs[i] = PrimRef(prim_boxes[i], i);
-        }
-        if (empty) has_empty.store(true, std::memory_order_relaxed);
-    });
-    if (has_empty.load()) throw std::invalid_argument("build_bvh: empty primitive box");
-    b.scratch.reset(new ScratchNode[2 * std::size_t(n)]);  // root, padding, at most n − 1 pairs
-    Bounds4 box, cent;
-    b.range_bounds(0, n, box, cent);
-    b.build(0, 0, n, 0, box, cent);
-    tbb::parallel_for(Range(0, n, kCopyGrain), [&](const Range& r) {
-        for (std::uint32_t i = r.begin(); i < r.end(); ++i) bvh.prim_indices[i] = b.refs[i].id();
-    });
-    compact(b.scratch.get(), b.next_pair.load(), bvh);
+    bvh.nodes.reserve(2 * std::size_t(n));
+    bvh.nodes.resize(2);  // the root and the padding slot that puts pairs at even indices
+    bvh.nodes[1] = BvhNode{Aabb{}, 0, 0};
+    build_into(*b, n, bvh, 0, 0, 0);
     return bvh;
 }
 
 namespace {
 
-// Copies the subtree of `src` rooted at src_node into the node slot dst_node of `dst`, appending its
-// child pairs after it (depth-first, so a pair still comes after its parent) and its leaves' primitives,
-// mapped through `to_global`.
-void append_subtree(const Bvh& src, std::uint32_t src_node, std::span<const std::uint32_t> to_global, Bvh& dst,
-                    std::uint32_t dst_node) {
-    const BvhNode n = src.nodes[src_node];
-    dst.nodes[dst_node].bounds = n.bounds;
-    if (n.is_leaf()) {
-        dst.nodes[dst_node].first = static_cast<std::uint32_t>(dst.prim_indices.size());
-        dst.nodes[dst_node].count = n.count;
-        for (std::uint32_t i = 0; i < n.count; ++i) dst.prim_indices.push_back(to_global[src.prim_indices[n.first + i]]);
-        return;
-    }
-    const auto pair = static_cast<std::uint32_t>(dst.nodes.size());
-    dst.nodes.resize(dst.nodes.size() + 2);
-    dst.nodes[dst_node].first = pair;
-    dst.nodes[dst_node].count = 0;
-    append_subtree(src, n.first, to_global, dst, pair);
-    append_subtree(src, n.first + 1, to_global, dst, pair + 1);
-}
+// The grouped build's state: each group's members (global indices, in primitive order) and where its
+// primitives start in the joined prim_indices.
+struct Groups {
+    std::vector<std::uint32_t> members;  // group by group
+    std::vector<std::uint32_t> first;    // group g's members are members[first[g], first[g + 1])
+    std::vector<std::uint32_t> prim_base;
+};
 
-// Copies the top tree, replacing each of its leaves (one group each) by that group's tree.
-void append_joined(const Bvh& top, std::uint32_t top_node, std::span<const Bvh> groups,
-                   std::span<const std::vector<std::uint32_t>> members, Bvh& dst, std::uint32_t dst_node) {
+// Copies the top tree into `joined` depth-first, building each group's tree where the top tree has that
+// group's leaf: the group's primitives then come in the order the top tree's leaves are met. Returns the
+// deepest depth reached.
+int join_groups(const Bvh& top, std::uint32_t top_node, std::span<const Aabb> prim_boxes, const Groups& groups,
+                const BvhBuildSettings& settings, Bvh& joined, std::uint32_t dst_node, int depth) {
     const BvhNode n = top.nodes[top_node];
     if (n.is_leaf()) {
         const std::uint32_t g = top.prim_indices[n.first];
-        append_subtree(groups[g], 0, members[g], dst, dst_node);
+        const std::uint32_t count = groups.first[g + 1] - groups.first[g];
+        const std::unique_ptr<Builder> b =
+            make_builder(prim_boxes, groups.members.data() + groups.first[g], count, settings);
+        return build_into(*b, count, joined, dst_node, groups.prim_base[g], depth);
+    }
+    const auto pair = static_cast<std::uint32_t>(joined.nodes.size());
+    joined.nodes.resize(joined.nodes.size() + 2);
+    joined.nodes[dst_node].bounds = n.bounds;
+    joined.nodes[dst_node].first = pair;
+    joined.nodes[dst_node].count = 0;
+    const int l = join_groups(top, n.first, prim_boxes, groups, settings, joined, pair, depth + 1);
+    const int r = join_groups(top, n.first + 1, prim_boxes, groups, settings, joined, pair + 1, depth + 1);
+    return std::max(l, r);
+}
+
+// The top tree's leaves (one group each) from left to right.
+void leaf_order(const Bvh& top, std::uint32_t node, std::vector<std::uint32_t>& order) {
+    const BvhNode& n = top.nodes[node];
+    if (n.is_leaf()) {
+        order.push_back(top.prim_indices[n.first]);
         return;
     }
-    const auto pair = static_cast<std::uint32_t>(dst.nodes.size());
-    dst.nodes.resize(dst.nodes.size() + 2);
-    dst.nodes[dst_node].bounds = n.bounds;
-    dst.nodes[dst_node].first = pair;
-    dst.nodes[dst_node].count = 0;
-    append_joined(top, n.first, groups, members, dst, pair);
-    append_joined(top, n.first + 1, groups, members, dst, pair + 1);
+    leaf_order(top, n.first, order);
+    leaf_order(top, n.first + 1, order);
 }
 
 }  // namespace
@@ -570,35 +651,67 @@ void append_joined(const Bvh& top, std::uint32_t top_node, std::span<const Bvh> 
 Bvh build_grouped_bvh(std::span<const Aabb> prim_boxes, std::span<const std::uint32_t> group_of,
                       const BvhBuildSettings& settings) {
     if (group_of.size() != prim_boxes.size()) throw std::invalid_argument("build_grouped_bvh: one group per primitive");
-    std::vector<std::uint32_t> keys(group_of.begin(), group_of.end());
-    std::sort(keys.begin(), keys.end());
-    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
-    if (keys.size() <= 1 || keys.size() > kMaxBvhGroups) return build_bvh(prim_boxes, settings);
-
-    // Members of each group in primitive order (deterministic), their trees and their boxes.
-    std::vector<std::vector<std::uint32_t>> members(keys.size());
-    for (std::uint32_t i = 0; i < group_of.size(); ++i) {
-        const auto g = std::lower_bound(keys.begin(), keys.end(), group_of[i]) - keys.begin();
-        members[std::size_t(g)].push_back(i);
+    if (prim_boxes.size() >= std::numeric_limits<std::uint32_t>::max() / 2)
+        throw std::length_error("build_bvh: too many primitives");
+    // The distinct groups, ascending; past kMaxBvhGroups the count is all that matters.
+    std::vector<std::uint32_t> keys;
+    for (const std::uint32_t g : group_of) {
+        if (std::find(keys.begin(), keys.end(), g) != keys.end()) continue;
+        keys.push_back(g);
+        if (keys.size() > kMaxBvhGroups) return build_bvh(prim_boxes, settings);
     }
-    std::vector<Bvh> groups(keys.size());
-    std::vector<Aabb> group_boxes(keys.size());
-    std::vector<Aabb> boxes;
-    for (std::size_t g = 0; g < keys.size(); ++g) {
-        boxes.clear();
-        for (std::uint32_t i : members[g]) boxes.push_back(prim_boxes[i]);
-        groups[g] = build_bvh(boxes, settings);
-        group_boxes[g] = groups[g].bounds();
+    if (keys.size() <= 1) return build_bvh(prim_boxes, settings);
+    std::sort(keys.begin(), keys.end());
+
+    // Members of each group in primitive order (deterministic): a counting sort by group.
+    const auto n = static_cast<std::uint32_t>(prim_boxes.size());
+    const std::size_t group_count = keys.size();
+    auto group_index = [&](std::uint32_t key) {
+        return static_cast<std::uint32_t>(std::lower_bound(keys.begin(), keys.end(), key) - keys.begin());
+    };
+    Groups groups;
+    groups.first.assign(group_count + 1, 0);
+    for (const std::uint32_t g : group_of) ++groups.first[group_index(g) + 1];
+    for (std::size_t g = 0; g < group_count; ++g) groups.first[g + 1] += groups.first[g];
+    groups.members.resize(n);
+    {
+        std::vector<std::uint32_t> next(groups.first.begin(), groups.first.end() - 1);
+        for (std::uint32_t i = 0; i < n; ++i) groups.members[next[group_index(group_of[i])]++] = i;
+    }
+    // Each group's box, and the top tree over them.
+    std::vector<Aabb> group_boxes(group_count);
+    for (std::size_t g = 0; g < group_count; ++g) {
+        const std::uint32_t first = groups.first[g], last = groups.first[g + 1];
+        group_boxes[g] = tbb::parallel_reduce(
+            tbb::blocked_range<std::uint32_t>(first, last, kCopyGrain), Aabb{},
+            [&](const tbb::blocked_range<std::uint32_t>& r, Aabb acc) {
+                for (std::uint32_t k = r.begin(); k < r.end(); ++k) acc.grow(prim_boxes[groups.members[k]]);
+                return acc;
+            },
+            [](Aabb a, const Aabb& b) {
+                a.grow(b);
+                return a;
+            });
+        if (group_boxes[g].empty()) throw std::invalid_argument("build_bvh: empty primitive box");
     }
     const Bvh top = build_bvh(group_boxes, BvhBuildSettings{settings.costs, 1, settings.parallel_threshold});
+    // A group's primitives start after those of the groups whose top leaves come before its own.
+    std::vector<std::uint32_t> order;
+    leaf_order(top, 0, order);
+    groups.prim_base.assign(group_count, 0);
+    std::uint32_t base = 0;
+    for (const std::uint32_t g : order) {
+        groups.prim_base[g] = base;
+        base += groups.first[g + 1] - groups.first[g];
+    }
 
     Bvh joined;
-    joined.nodes.reserve(2 * prim_boxes.size());
-    joined.prim_indices.reserve(prim_boxes.size());
+    joined.nodes.reserve(2 * std::size_t(n));
+    joined.prim_indices.resize(n);
     joined.nodes.resize(2);  // the root and the padding slot that puts pairs at even indices
     joined.nodes[1] = BvhNode{Aabb{}, 0, 0};
-    append_joined(top, 0, groups, members, joined, 0);
-    if (joined.depth() > kMaxBvhDepth) return build_bvh(prim_boxes, settings);
+    const int depth = join_groups(top, 0, prim_boxes, groups, settings, joined, 0, 0);
+    if (depth > kMaxBvhDepth) return build_bvh(prim_boxes, settings);
     return joined;
 }
 

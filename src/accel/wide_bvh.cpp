@@ -32,6 +32,11 @@ void WideBvh::collapse(const Bvh& binary, const std::vector<std::uint8_t>& node_
         std::uint32_t wide;
     };
     std::vector<Job> jobs{{0u, 0u}};
+    // Every wide node but a lone leaf root opens at least one binary inner node, and a binary tree of
+    // m nodes has at most (m − 1) / 2 of them: room for all, so that the arrays never move while growing.
+    const std::size_t most = (binary.node_count() - 1) / 2 + 1;
+    nodes_.reserve(most);
+    source_.reserve(most * kWideBvhWidth);
     nodes_.emplace_back();
     source_.resize(kWideBvhWidth, kUnused);
     while (!jobs.empty()) {

@@ -64,6 +64,29 @@ RayOutcome optical_depth_outcome(const AccelScene& scene, const Ray& ray, const 
     return {DepthStatus::ok, static_cast<std::uint32_t>(hits.size())};
 }
 
+// Hits per block of a thread's kept hits: 1 MiB, so that the slack of a thread's last block is small
+// next to the hits of a large pass, and a block holds tens of thousands of rays.
+constexpr std::size_t kHitBlock = std::size_t{1} << 17;
+
+SurfaceHit* OpticalDepthPass::Scratch::keep(std::span<const SurfaceHit> hits) {
+    if (blocks.empty() || blocks[block].capacity() - blocks[block].size() < hits.size()) {
+        if (!blocks.empty()) ++block;
+        if (block == blocks.size()) blocks.emplace_back();
+        blocks[block].reserve(std::max(kHitBlock, hits.size()));  // empty here: nothing moves
+    }
+    std::vector<SurfaceHit>& b = blocks[block];
+    SurfaceHit* at = b.data() + b.size();
+    b.insert(b.end(), hits.begin(), hits.end());  // within the capacity: earlier rays' hits stay put
+    kept += hits.size();
+    return at;
+}
+
+void OpticalDepthPass::Scratch::clear() {
+    for (std::vector<SurfaceHit>& b : blocks) b.clear();
+    block = 0;
+    kept = 0;
+}
+
 struct OpticalDepthPass::ThreadScratch {
     tbb::enumerable_thread_specific<Scratch> threads;
 };
@@ -117,7 +140,7 @@ void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> 
 
     if (!scratch_) scratch_ = std::make_unique<ThreadScratch>();  // a moved-from pass starts over
     tbb::enumerable_thread_specific<Scratch>& threads = scratch_->threads;
-    for (Scratch& sc : threads) sc.kept.clear();
+    for (Scratch& sc : threads) sc.clear();
     const std::uint64_t trace_id = ++traces_;
 
     tbb::parallel_for(
@@ -131,7 +154,7 @@ void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> 
                 sc.warmed_in_trace = trace_id;
                 scene.prefetch_top_level();
             }
-            std::size_t kept_before = sc.kept.size();
+            std::uint64_t kept_before = sc.kept;
             for (std::size_t c = r.begin(); c < r.end(); ++c) {
                 const std::size_t end = std::min(n, (c + 1) * kParticlesPerChunk);
                 for (std::size_t k = c * kParticlesPerChunk; k < end; k += kBundleWidth) {
@@ -149,13 +172,12 @@ void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> 
                     for (unsigned lane = 0; lane < bundle.count; ++lane) {
                         const std::vector<SurfaceHit>& hits = sc.lane_hits[lane];
                         const RayOutcome o = optical_depth_outcome(scene, bundle.ray(lane), results[lane], hits, settings.cutoff);
-                        rays_[k + lane] = {&sc, static_cast<std::uint32_t>(sc.kept.size()), o.hits, o.status};
-                        if (o.status == DepthStatus::ok) sc.kept.insert(sc.kept.end(), hits.begin(), hits.end());
+                        rays_[k + lane] = {o.status == DepthStatus::ok ? sc.keep(hits) : nullptr, o.hits, o.status};
                     }
                 }
                 // The budget, checked once per task: the hits over it are at most one task's.
-                const std::uint64_t task_hits = sc.kept.size() - kept_before;
-                kept_before = sc.kept.size();
+                const std::uint64_t task_hits = sc.kept - kept_before;
+                kept_before = sc.kept;
                 if (kept.fetch_add(task_hits, std::memory_order_relaxed) + task_hits > budget)
                     over_budget(budget);  // TBB cancels the other tasks and rethrows in trace()'s caller
             }
@@ -169,7 +191,7 @@ void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> 
     for (std::size_t k = 0; k < n; ++k) {
         const std::size_t i = ray_order_[k];
         status_[i] = rays_[k].status;
-        hit_counts_[i] = rays_[k].hits;
+        hit_counts_[i] = rays_[k].count;
     }
 }
 
@@ -191,8 +213,7 @@ void OpticalDepthPass::gather(OpticalDepthHits& out) const {
         for (std::size_t k = c * kParticlesPerChunk; k < std::min(n, (c + 1) * kParticlesPerChunk); ++k) {
             const RayRecord& r = rays_[k];
             if (r.status != DepthStatus::ok) continue;
-            const SurfaceHit* from = r.scratch->kept.data() + r.offset;
-            std::copy(from, from + r.hits, lists.hits.begin() + lists.offsets[ray_order_[k]]);
+            std::copy(r.hits, r.hits + r.count, lists.hits.begin() + lists.offsets[ray_order_[k]]);
         }
     });
 }
@@ -212,8 +233,7 @@ void OpticalDepthPass::resolve(HitSort method, std::span<float> lengths) {
         for (std::size_t k = r.begin() * kParticlesPerChunk; k < std::min(n, r.end() * kParticlesPerChunk); ++k) {
             const RayRecord& ray = rays_[k];
             // The kept hits are the pass's own scratch: sorting them in place leaves nothing else stale.
-            SurfaceHit* hits = ray.scratch->kept.data() + ray.offset;
-            lengths[ray_order_[k]] = ray.status == DepthStatus::ok ? resolve_list({hits, ray.hits}, method)
+            lengths[ray_order_[k]] = ray.status == DepthStatus::ok ? resolve_list({ray.hits, ray.count}, method)
                                                                    : kFullyDarkPathLength;
         }
     });

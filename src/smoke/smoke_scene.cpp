@@ -2,7 +2,9 @@
 #include <smoketrace/smoke/smoke_scene.hpp>
 
 #include <glm/geometric.hpp>
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 namespace smoketrace {
 
@@ -13,6 +15,8 @@ glm::vec3 GroundQuad::normal() const {
 }
 
 namespace {
+constexpr std::size_t kInstanceBatch = 1 << 16;
+
 bool same(const AffineTransform& a, const AffineTransform& b) {
     return a.linear == b.linear && a.translation == b.translation;
 }
@@ -61,15 +65,21 @@ AffineTransform SmokeScene::billboard_transform(const Particle& p, const glm::ve
 SmokeScene::SmokeScene(std::span<const Particle> particles, StandInShape shape, const std::optional<GroundQuad>& ground,
                        bool billboards)
     : count_(particles.size()), shape_(shape), billboards_(billboards) {
-    const std::uint32_t stand_in = scene_.add_bottom_level(stand_in_blas(shape));
-    for (std::size_t i = 0; i < particles.size(); ++i)
-        scene_.add_instance(Instance{stand_in, stand_in_transform(particles[i]), kStandInMask, std::uint32_t(i)});
-    if (billboards) {
-        const std::uint32_t quad = scene_.add_bottom_level(billboard_blas());
-        for (std::size_t i = 0; i < particles.size(); ++i)
-            // Identity until update() turns it toward the eye.
-            scene_.add_instance(Instance{quad, stand_in_transform(particles[i]), kBillboardMask, std::uint32_t(i)});
-    }
+    scene_.reserve_instances((billboards ? 2 : 1) * particles.size() + (ground ? 1 : 0));
+    // Added a batch at a time: the scene sets a batch up in parallel, and the batch's instances are a
+    // small buffer next to the scene's own arrays.
+    std::vector<Instance> batch;
+    auto add_all = [&](std::uint32_t blas, std::uint8_t mask) {
+        for (std::size_t first = 0; first < particles.size(); first += kInstanceBatch) {
+            batch.clear();
+            for (std::size_t i = first; i < std::min(particles.size(), first + kInstanceBatch); ++i)
+                batch.push_back(Instance{blas, stand_in_transform(particles[i]), mask, std::uint32_t(i)});
+            scene_.add_instances(batch);
+        }
+    };
+    add_all(scene_.add_bottom_level(stand_in_blas(shape)), kStandInMask);
+    // The billboards' transforms are the stand-ins' until update() turns them toward the eye.
+    if (billboards) add_all(scene_.add_bottom_level(billboard_blas()), kBillboardMask);
     if (ground) {
         TriangleMesh quad;
         quad.vertices.assign(ground->corners.begin(), ground->corners.end());

@@ -105,6 +105,12 @@ public:
 
     std::uint32_t add_bottom_level(BottomLevel blas);
     std::uint32_t add_instance(const Instance& instance);  // returns its index
+    // add_instance() of each, in order, with each instance's set-up (world box, record) in parallel: the
+    // same scene as the calls one by one. Returns the first one's index. Throws, adding none, when one
+    // names no bottom level or has a singular or non-finite transform.
+    std::uint32_t add_instances(std::span<const Instance> instances);
+    // Room for this many instances in all, so that adding them (a million particles) moves nothing.
+    void reserve_instances(std::size_t count);
     void remove_instance(std::uint32_t index);              // later indices move down by one
     void set_transform(std::uint32_t index, const AffineTransform& object_to_world);
     void set_mask(std::uint32_t index, std::uint8_t mask);

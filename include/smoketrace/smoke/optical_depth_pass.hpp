@@ -125,16 +125,24 @@ private:
     // thread's cache and a steady state allocates nothing.
     struct Scratch {
         std::array<std::vector<SurfaceHit>, kBundleWidth> lane_hits;  // the bundle in flight's, per ray
-        std::vector<SurfaceHit> kept;  // the hits of this thread's ok rays, ray after ray
+        // The hits of this thread's ok rays, ray after ray, in blocks of fixed capacity (a ray with more
+        // hits than a block gets a block of its own size): a ray's hits stay contiguous and never move, and
+        // the memory is what the hits need, where one growing vector held up to twice that and copied it
+        // at every doubling. The blocks are kept, emptied, for the next trace().
+        std::vector<std::vector<SurfaceHit>> blocks;
+        std::size_t block = 0;  // the block being filled
+        std::uint64_t kept = 0;  // hits kept in this trace()
         std::uint64_t warmed_in_trace = 0;  // the last trace() in which this thread prefetched the top level
+
+        SurfaceHit* keep(std::span<const SurfaceHit> hits);
+        void clear();
     };
     // A ray's outcome, stored in trace order (index k of ray_order_) so that each task writes a
     // contiguous stretch: in particle order the rays of a task land all over the output arrays, and two
     // threads' writes share cache lines. Scattered to particle order after the parallel part.
     struct RayRecord {
-        Scratch* scratch;  // where the ray's hits are kept (ok rays), until the next trace()
-        std::uint32_t offset;
-        std::uint32_t hits;
+        SurfaceHit* hits;  // where the ray's hits are kept (ok rays), until the next trace()
+        std::uint32_t count;
         DepthStatus status;
     };
     // Every thread's Scratch: a tbb::enumerable_thread_specific, defined in the .cpp so that no public header

@@ -1,0 +1,157 @@
+// Bench section "depths_1m": the compute side of `smoketrace depths` at a million particles (issue 12), in
+// process and stage by stage, at one thread and at two (each inside a TBB arena of that size):
+//  * scene: SmokeScene construction (instances, their world boxes and records),
+//  * tlas: its first update, the TLAS build (binned SAH grouped by mask, then the 4-wide collapse),
+//  * build alone: build_grouped_bvh() over the same world boxes, and WideBvh::collapse() of its tree,
+//  * pass and resolve: the optical-depth pass and the hit resolver, from above and with no cutoff.
+// The scene is the thesis's two tubes with radius 0.35·√(750/N) (bench_particle_radius), 10⁶ particles
+// (10⁵ with --quick), so that a light ray crosses about 18 surfaces. Also the TLAS's SAH cost, the
+// surfaces per ray and the peak resident memory of the stages (VmHWM, reset before each run where the
+// kernel allows it): what `smoketrace depths` adds to the scene file's reading and the CSV's writing.
+#include "bench_registry.hpp"
+#include "bench_util.hpp"
+#include "timing.hpp"
+
+#include <smoketrace/accel/bvh_builder.hpp>
+#include <smoketrace/smoke/optical_path_lengths.hpp>
+#include <smoketrace/smoke/particle_groups.hpp>
+#include <smoketrace/smoke/smoke_scene.hpp>
+#include <smoketrace/smoke/tube_generator.hpp>
+
+#include <tbb/task_arena.h>
+
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace smoketrace::bench {
+namespace {
+
+// Peak resident memory of the process so far, in MiB (VmHWM), or 0 where /proc is missing.
+double peak_rss_mib() {
+    std::ifstream status("/proc/self/status");
+    std::string line;
+    while (std::getline(status, line))
+        if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
+    return 0.0;
+}
+
+// Resets VmHWM to the current resident size (Linux: "5" to /proc/self/clear_refs); false where not allowed.
+bool reset_peak_rss() {
+    std::ofstream clear("/proc/self/clear_refs");
+    clear << "5";
+    clear.flush();
+    return bool(clear);
+}
+
+struct StageTimes {
+    double scene = 0, tlas = 0, build = 0, collapse = 0, pass = 0, resolve = 0, peak_mib = 0;
+    [[nodiscard]] double compute() const { return scene + tlas + pass + resolve; }
+};
+
+// One run of the pipeline as `smoketrace depths` runs it (plus the build alone, timed on the side).
+StageTimes run_once(std::span<const Particle> particles, const glm::vec3& eye, double& sah, double& surfaces) {
+    StageTimes t;
+    const bool peak_reset = reset_peak_rss();
+    std::optional<GroundQuad> ground = GroundQuad{{glm::vec3(-5, -3, -5), glm::vec3(-5, -3, 5), glm::vec3(5, -3, 5),
+                                                   glm::vec3(5, -3, -5)}};
+    std::unique_ptr<SmokeScene> smoke;
+    t.scene = time_once_ms([&] { smoke = std::make_unique<SmokeScene>(particles, StandInShape{}, ground, false); });
+    t.tlas = time_once_ms([&] { smoke->update(particles, eye); });
+    sah = smoke->scene().tlas_sah_cost();
+
+    auto depths = std::make_unique<OpticalPathLengths>(particles.size());
+    const std::vector<std::uint32_t> all = particle_group(particles.size(), 1, 0);
+    FrameTimings ft;
+    depths->update(*smoke, particles, all, glm::vec3(0, 1, 0), OpticalDepthSettings{}, HitSort::adaptive, ft);
+    t.pass = ft.od_pass;
+    t.resolve = ft.resolve;
+    double hits = 0;
+    for (const std::uint32_t h : depths->hit_counts()) hits += h;
+    surfaces = hits / double(particles.size());
+    t.peak_mib = peak_reset ? peak_rss_mib() : 0.0;
+    depths.reset();
+
+    // The build alone, over the scene's own world boxes and masks.
+    const AccelScene& scene = smoke->scene();
+    std::vector<Aabb> boxes(scene.instance_count());
+    std::vector<std::uint32_t> masks(scene.instance_count());
+    for (std::uint32_t i = 0; i < scene.instance_count(); ++i) {
+        boxes[i] = scene.instance_bounds(i);
+        masks[i] = scene.instance(i).mask;
+    }
+    smoke.reset();
+    Bvh bvh;
+    t.build = time_once_ms([&] { bvh = build_grouped_bvh(boxes, masks, BvhBuildSettings{.max_leaf_size = 1}); });
+    const std::vector<std::uint8_t> node_masks(bvh.nodes.size(), 0xFF);
+    WideBvh wide;
+    t.collapse = time_once_ms([&] { wide.collapse(bvh, node_masks); });
+    return t;
+}
+
+void run(const BenchOptions& o) {
+    const std::uint32_t count = o.quick ? 100'000 : 1'000'000;
+    TubeSettings tubes;
+    tubes.particles = count;
+    tubes.particle_radius = bench_particle_radius(count, tubes.particle_radius);
+    const std::vector<Particle> particles = generate_tubes(tubes);
+    const glm::vec3 eye(0, 6, 15);
+    const int repeats = std::max(1, std::min(o.repeats, o.quick ? 3 : 5));
+
+    CsvFile csv("particles,threads,repeat,scene_ms,tlas_ms,build_ms,collapse_ms,pass_ms,resolve_ms,compute_ms,"
+                "peak_mib,tlas_sah,surfaces_per_ray");
+    std::cout << "particles " << count << ", radius " << tubes.particle_radius << ", light from above, no cutoff\n";
+    std::cout << "threads  scene   tlas  (build collapse)   pass  resolve  compute   peak MiB\n";
+    tbb::task_arena arena_1(1), arena_2(2);
+    std::vector<StageTimes> runs[3];
+    double sah = 0, surfaces = 0;
+    for (int r = 0; r < repeats; ++r)
+        for (const int threads : {1, 2}) {
+            StageTimes t;
+            (threads == 1 ? arena_1 : arena_2).execute([&] { t = run_once(particles, eye, sah, surfaces); });
+            runs[threads].push_back(t);
+            csv.row(count, threads, r, t.scene, t.tlas, t.build, t.collapse, t.pass, t.resolve, t.compute(), t.peak_mib,
+                    sah, surfaces);
+        }
+    StageTimes med[3];
+    for (const int threads : {1, 2}) {
+        auto median_of = [&](double StageTimes::*field) {
+            std::vector<double> v;
+            for (const StageTimes& t : runs[threads]) v.push_back(t.*field);
+            return stats_of(v).median;
+        };
+        StageTimes& m = med[threads];
+        m.scene = median_of(&StageTimes::scene);
+        m.tlas = median_of(&StageTimes::tlas);
+        m.build = median_of(&StageTimes::build);
+        m.collapse = median_of(&StageTimes::collapse);
+        m.pass = median_of(&StageTimes::pass);
+        m.resolve = median_of(&StageTimes::resolve);
+        m.peak_mib = median_of(&StageTimes::peak_mib);
+        std::cout << std::fixed << std::setprecision(1) << std::setw(7) << threads << std::setw(7) << m.scene
+                  << std::setw(7) << m.tlas << "  (" << std::setw(5) << m.build << std::setw(9) << m.collapse << ")"
+                  << std::setw(7) << m.pass << std::setw(9) << m.resolve << std::setw(9) << m.compute()
+                  << std::setw(11) << m.peak_mib << '\n';
+    }
+    std::cout << std::setprecision(6) << "TLAS SAH cost " << sah << ", surfaces per ray " << surfaces << '\n';
+    csv.write(o.results_dir + "/depths_1m.csv");
+    report("depths_1m_tlas_build_ms_1t", med[1].build);
+    report("depths_1m_tlas_build_ms_2t", med[2].build);
+    report("depths_1m_compute_ms_1t", med[1].compute());
+    report("depths_1m_compute_ms_2t", med[2].compute());
+    report("depths_1m_peak_mib_2t", med[2].peak_mib);
+    report("depths_1m_tlas_sah", sah);
+}
+
+const RegisterSection kRegister{{"depths_1m",
+                                 "smoketrace depths' compute at 10^6 particles: scene, TLAS build and collapse, pass, "
+                                 "resolve, peak memory, 1 and 2 threads",
+                                 &run}};
+
+}  // namespace
+}  // namespace smoketrace::bench
