@@ -788,17 +788,22 @@ struct ListValueSite {
 // #2093, fixed in 3.6.3), and 18 characters cannot hold more than 18 digits.
 constexpr std::size_t kLongestTokenForSimdjson = 18;
 
+constexpr bool json_whitespace(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n'; }
+
 // A JSON number as the reference reader reads it (nlohmann: strtod, correctly rounded). nlohmann reads "-0" as
 // the integer 0, which is +0 as a double; simdjson's get_double() gives -0.
 double list_number(ondemand::value& value, std::string_view& token) {
     token = value.raw_json_token();
     double v;
     if (value.get_double().get(v)) throw FastReaderDeclined{"not a number"};  // also checks the JSON syntax
-    std::string_view digits = token.substr(0, token.find_first_of(" \t\r\n"));
-    if (digits.size() > kLongestTokenForSimdjson &&
-        std::from_chars(digits.data(), digits.data() + digits.size(), v).ec != std::errc())
-        throw FastReaderDeclined{"a number from_chars does not read"};
-    if (v == 0.0 && std::signbit(v) && digits.find_first_of(".eE") == std::string_view::npos) v = 0.0;
+    if (token.size() > kLongestTokenForSimdjson) {  // (the token runs on over the whitespace after the number)
+        const char* end = token.data();
+        while (end != token.data() + token.size() && !json_whitespace(*end)) ++end;
+        if (std::size_t(end - token.data()) > kLongestTokenForSimdjson &&
+            std::from_chars(token.data(), end, v).ec != std::errc())
+            throw FastReaderDeclined{"a number from_chars does not read"};
+    }
+    if (v == 0.0 && std::signbit(v) && token.find_first_of(".eE") == std::string_view::npos) v = 0.0;
     return v;
 }
 
