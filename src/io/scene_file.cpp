@@ -206,6 +206,16 @@ public:
     // 1e-50 would fail with "must be > 0 (got 1e-50)", which reads as a contradiction).
     template <class Site>
     [[nodiscard]] float real(double v, const Bounds& bounds, const Site& site) const {
+        // A value that passes every check below at once, tested inline (a list of millions goes through here);
+        // the checks themselves, which word the messages, only for the others.
+        const auto f = static_cast<float>(v);
+        if (std::abs(v) <= static_cast<double>(std::numeric_limits<float>::max()) && bounds.contains(v) &&
+            (f != 0.0f || v == 0.0) && bounds.contains(f)) [[likely]]
+            return f;
+        return checked_real(v, bounds, site);
+    }
+    template <class Site>
+    [[nodiscard, gnu::noinline]] float checked_real(double v, const Bounds& bounds, const Site& site) const {
         (void)finite(v, site);
         if (std::abs(v) > static_cast<double>(std::numeric_limits<float>::max()))
             fail(site.path(), "too large for single precision (got " + site.shown() + ")");
@@ -245,6 +255,11 @@ public:
     // One component of a position in world coordinates: within ±kMaxSceneCoordinate, kept in double.
     template <class Site>
     [[nodiscard]] double coordinate(double v, const Site& site) const {
+        if (kCoordinate.contains(v)) [[likely]] return v;  // (within the float range; NaN fails it)
+        return checked_coordinate(v, site);
+    }
+    template <class Site>
+    [[nodiscard, gnu::noinline]] double checked_coordinate(double v, const Site& site) const {
         (void)finite(v, site);
         if (std::abs(v) > static_cast<double>(std::numeric_limits<float>::max()))
             fail(site.path(), "too large for single precision (got " + site.shown() + ")");
