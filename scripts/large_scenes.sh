@@ -32,7 +32,8 @@ measure() {
   echo "== $name ($size)"
   awk -F': ' '/Elapsed \(wall clock\)/ { print "wall            " $2 }
               /Maximum resident set size/ { printf "peak RSS        %.0f MB\n", $2 / 1024 }' "$log"
-  grep -E '^(read_scene|tlas_update|od_pass|resolve|write_csv)=' "$log" | awk -F= '{ printf "%-15s %8.0f ms\n", $1, $2 }'
+  grep -E '^(read_scene|tlas_update|od_pass|resolve|write_csv)=' "$log" |
+    awk -F= '{ printf "%-15s %8.0f ms\n", $1, $2 }'
   rm -f "$log"
 }
 measure "json_${json_count}" "$scenes/tubes_${json_count}.json"

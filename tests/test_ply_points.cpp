@@ -153,7 +153,8 @@ TEST_CASE("PLY particles: both byte orders, float and double, ascii, extra prope
                     INFO(format << (doubles ? " double" : " float") << (extra ? " extra" : "")
                                 << (velocity ? " velocity" : ""));
                     dir.write("cloud.ply", ply_file(particles, {format, doubles, extra, velocity}));
-                    const auto ply_scene = dir.write("ply.json", kSceneHead + std::string("\"cloud.ply\"") + kSceneTail);
+                    const auto ply_scene =
+                        dir.write("ply.json", kSceneHead + std::string("\"cloud.ply\"") + kSceneTail);
                     const auto json_scene =
                         dir.write("list.json", kSceneHead + json_list(particles, velocity) + kSceneTail);
                     require_same_particles(load_scene_file(ply_scene), load_scene_file(json_scene), velocity);

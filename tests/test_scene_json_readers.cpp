@@ -125,7 +125,8 @@ std::string generated_list(std::size_t count, std::uint64_t seed) {
         for (std::size_t m = members.size(); m > 1; --m) std::swap(members[m - 1], members[rng.next_u32() % m]);
         if (i) out += ',';
         out.append(space()).append("{").append(space());
-        for (std::size_t m = 0; m < members.size(); ++m) out.append(m ? "," : "").append(m ? space() : "").append(members[m]);
+        for (std::size_t m = 0; m < members.size(); ++m)
+            out.append(m ? "," : "").append(m ? space() : "").append(members[m]);
         out.append(space()).append("}");
     }
     return out + space() + "]";
