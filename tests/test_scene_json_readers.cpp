@@ -86,7 +86,8 @@ const char* const kNumbers[] = {"0", "-0", "-0.0", "0e5", "-0e-3", "1", "-1", "1
                                 "1e-40", "1.4e-45", "-1.4e-45", "1e-50", "-1e-50", "7.006e-46", "1.1754944e-38",
                                 "123456789012345678901", "9007199254740993", "-9223372036854775808",
                                 "18446744073709551615", "3.4028234e38", "0.1000000000000000055511151231257827",
-                                "1e15", "-1E15", "0.30000000000000004", "2.5e-3", "1.7976931348623157e-300"};
+                                "1e15", "-1E15", "0.30000000000000004", "2.5e-3", "1.7976931348623157e-300",
+                                "1e-999999", "-1e-999999", "0.000000000000000000000000000000000000000000001"};
 
 const char* const kHead = R"({ "light": { "direction": [0, 1, 0] }, "smoke": { "particles": )";
 const char* const kTail = R"( }, "ground": { "corners": [[-5,-3,-5], [-5,-3,5], [5,-3,5], [5,-3,-5]] } })";
@@ -201,6 +202,22 @@ TEST_CASE("scene JSON readers: bad input reads as the reference reader words it"
         "[" + ok + R"(, 7])",                                                     // not an object
         "[" + ok + R"(, {"center": [0, 0, 0], "radius": 1} {"center": [0, 0, 0], "radius": 1}])",
         "[" + ok + R"(, {"center": [0, 0, 0], "radius": 1})",                     // unclosed
+        "[" + ok + R"(, {"center": [0, 0, 0], "radius": 1,}])",                   // a trailing comma in an object
+        "[" + ok + R"(, {"center": [0, 0, 0,], "radius": 1}])",                   // ... in a centre
+        "[" + ok + R"(, {"center": [0 0, 0], "radius": 1}])",                     // no comma between numbers
+        "[" + ok + R"(, {"center" [0, 0, 0], "radius": 1}])",                     // no colon
+        "[" + ok + R"(, {center: [0, 0, 0], "radius": 1}])",                      // a bare key
+        "[" + ok + R"(, {"center": [0, 0, 0], "radius": 1}}])",                   // a brace too many
+        "[" + ok + R"(, {"center": [0, 0, 0], "radius": +1}])",                   // a plus sign
+        "[" + ok + R"(, {"center": [0, 0, 0], "radius": .5}])",                   // no leading digit
+        "[" + ok + R"(, {"center": [0, 0, 0], "radius": 1e}])",                   // no exponent digits
+        "[" + ok + R"(, {"center": [0, 0, 0], "radius": -}])",                    // a sign alone
+        "[" + ok + R"(, {"center": [0, 0, 0], "radius": 0x10}])",                 // hexadecimal
+        "[" + ok + R"(, {"center": [0, 0, 0], "radius": NaN}])",                  // NaN
+        "[" + ok + R"(, {"center": [0, 0, Infinity], "radius": 1}])",             // Infinity
+        "[" + ok + R"(, {"center": [0, 0, 0], "radius": "1"}])",                  // a string
+        "[" + ok + R"(, {"center": [0, 0, 0], "radius": true}])",                 // a boolean
+        "[" + ok + "\n, {\"center\": [0, 0, 0], \"radius\": 1, \"sp\tin\": 1}]",  // a control character in a key
     };
     for (const std::string& list : bad_lists) {
         const std::string text = kHead + list + kTail;
