@@ -11,6 +11,7 @@ packages=(
   libtbb-dev          # oneTBB: parallel passes and builds
   libembree-dev       # Embree 3: reference for tests and benchmarks only
   nlohmann-json3-dev  # scene files
+  libsimdjson-dev     # scene files: the fast reader of large particle lists (src/io/scene_file.cpp)
   gnuplot-nox         # benchmark plots (scripts/plot.sh)
   clang               # scripts/fuzz.sh: libFuzzer needs clang
   libclang-rt-dev     # libFuzzer and the sanitizer runtimes for clang

@@ -23,7 +23,9 @@
 #include <smoketrace/render/sixway_baker.hpp>
 
 // Files: scene files in, PNG and CSV out, never destroying what an output path names.
+#include <smoketrace/io/depths_csv.hpp>
 #include <smoketrace/io/output_path.hpp>
+#include <smoketrace/io/ply_points.hpp>
 #include <smoketrace/io/png_io.hpp>
 #include <smoketrace/io/scene_file.hpp>
 #include <smoketrace/io/sixway_files.hpp>

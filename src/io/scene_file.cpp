@@ -1,14 +1,19 @@
 // Scene files (see scene_file.hpp for the format and the defaults).
 //
 // Validation is one pass over the JSON tree with a Node (value + JSON pointer) per visited value; each
-// reader checks type, range and single-precision representability and fails with the node's path.
+// reader checks type, range and single-precision representability and fails with the node's path. A long
+// particle list is the exception: the fast reader (below) reads /smoke/particles with simdjson's On-Demand
+// API straight from the text, and a PLY file's points come through ply_points.hpp; both go through the same
+// value checks (Reader's, on a number and a lazily described site) and local_particle().
 #include <smoketrace/io/scene_file.hpp>
 
+#include <smoketrace/io/ply_points.hpp>
 #include <smoketrace/render/camera.hpp>
 #include <smoketrace/render/pixel_samples.hpp>
 #include <smoketrace/core/memory_budget.hpp>
 
 #include <nlohmann/json.hpp>
+#include <simdjson.h>
 
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
@@ -22,6 +27,7 @@
 #include <initializer_list>
 #include <limits>
 #include <set>
+#include <span>
 #include <sstream>
 
 namespace smoketrace {
@@ -134,9 +140,21 @@ constexpr Bounds kCoordinate{-kMaxSceneCoordinate, false, kMaxSceneCoordinate, f
 constexpr Bounds kRadius{0.0, true, kMaxSceneCoordinate, false, true};
 constexpr Bounds kColor{0.0, false, kMaxSceneColor, false, true};
 
+// Where a value sits and how the file wrote it, for messages only: a site builds its path and its shown value
+// when a check fails, never on the good path, so that a list of a million particles builds no path string.
+// The value checks below take a number and a site, one implementation whatever the value came from (a JSON
+// tree, the fast particle reader, a PLY file).
+struct NodeSite {
+    const Node& node;
+    [[nodiscard]] std::string path() const { return node.path; }
+    [[nodiscard]] std::string shown() const { return shown_value(*node.value); }
+};
+
 class Reader {
 public:
     explicit Reader(std::string source) : source_(std::move(source)) {}
+
+    [[nodiscard]] const std::string& source() const { return source_; }
 
     [[noreturn]] void fail(const std::string& path, const std::string& problem) const {
         throw SceneFileError(source_ + ": " + shown_path(path) + ": " + problem);
@@ -145,15 +163,17 @@ public:
     [[noreturn]] void wrong_type(const Node& n, std::string_view expected) const {
         fail(n, "must be " + std::string(expected) + " (got " + n.value->type_name() + " " + shown_value(*n.value) + ")");
     }
+    [[noreturn]] void unknown_key(const std::string& parent_path, std::string_view key,
+                                  std::initializer_list<std::string_view> allowed) const {
+        std::string list;
+        for (std::string_view a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
+        fail(parent_path + "/" + pointer_token(key), "unknown key (allowed here: " + list + ")");
+    }
 
     void require_object(const Node& n, std::initializer_list<std::string_view> allowed) const {
         if (!n.value->is_object()) wrong_type(n, "an object");
-        for (const auto& [key, value] : n.value->items()) {
-            if (std::find(allowed.begin(), allowed.end(), key) != allowed.end()) continue;
-            std::string list;
-            for (std::string_view a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
-            fail(n.path + "/" + pointer_token(key), "unknown key (allowed here: " + list + ")");
-        }
+        for (const auto& [key, value] : n.value->items())
+            if (std::find(allowed.begin(), allowed.end(), key) == allowed.end()) unknown_key(n.path, key, allowed);
     }
 
     [[nodiscard]] static std::optional<Node> optional(const Node& n, std::string_view key) {
@@ -167,8 +187,14 @@ public:
 
     [[nodiscard]] double number(const Node& n) const {
         if (!n.value->is_number()) wrong_type(n, "a number");
-        const double v = n.value->get<double>();
-        if (!std::isfinite(v)) fail(n, "must be finite (got " + shown_value(*n.value) + ")");
+        return finite(n.value->get<double>(), NodeSite{n});
+    }
+
+    // ---- The value checks, on a number and its site ----
+
+    template <class Site>
+    [[nodiscard]] double finite(double v, const Site& site) const {
+        if (!std::isfinite(v)) fail(site.path(), "must be finite (got " + site.shown() + ")");
         return v;
     }
 
@@ -178,33 +204,67 @@ public:
     // allowed (a coordinate, a speed, a colour: 0 is that value to any precision a float scene holds), and
     // is an error saying so where it is not (sizes, radii and the field of view must be > 0; read as 0,
     // 1e-50 would fail with "must be > 0 (got 1e-50)", which reads as a contradiction).
-    [[nodiscard]] float real(const Node& n, const Bounds& bounds = kAny) const {
-        const double v = number(n);
+    template <class Site>
+    [[nodiscard]] float real(double v, const Bounds& bounds, const Site& site) const {
+        // A value that passes every check below at once, tested inline (a list of millions goes through here);
+        // the checks themselves, which word the messages, only for the others.
+        const auto f = static_cast<float>(v);
+        if (std::abs(v) <= static_cast<double>(std::numeric_limits<float>::max()) && bounds.contains(v) &&
+            (f != 0.0f || v == 0.0) && bounds.contains(f)) [[likely]]
+            return f;
+        return checked_real(v, bounds, site);
+    }
+    template <class Site>
+    [[nodiscard, gnu::noinline]] float checked_real(double v, const Bounds& bounds, const Site& site) const {
+        (void)finite(v, site);
         if (std::abs(v) > static_cast<double>(std::numeric_limits<float>::max()))
-            fail(n, "too large for single precision (got " + shown_value(*n.value) + ")");
-        if (!bounds.contains(v)) fail(n, bounds.describe(v) + " (got " + shown_value(*n.value) + ")");
+            fail(site.path(), "too large for single precision (got " + site.shown() + ")");
+        if (!bounds.contains(v)) fail(site.path(), bounds.describe(v) + " (got " + site.shown() + ")");
         const auto f = static_cast<float>(v);
         if (f == 0.0f && v != 0.0) {
             if (!bounds.contains(0.0))
-                fail(n, "too close to 0 for single precision (got " + shown_value(*n.value) + ", which rounds to 0; " +
-                            bounds.describe(0.0) + ")");
+                fail(site.path(), "too close to 0 for single precision (got " + site.shown() + ", which rounds to 0; " +
+                                      bounds.describe(0.0) + ")");
             return 0.0f;  // +0 for -1e-50 too
         }
         if (!bounds.contains(f))
-            fail(n, bounds.describe(f) + " (got " + shown_value(*n.value) + ", which rounds to " + shown_number(f) +
-                        " in single precision)");
+            fail(site.path(), bounds.describe(f) + " (got " + site.shown() + ", which rounds to " + shown_number(f) +
+                                  " in single precision)");
         return f;
+    }
+    [[nodiscard]] float real(const Node& n, const Bounds& bounds = kAny) const {
+        return real(number(n), bounds, NodeSite{n});
     }
 
     // A particle radius: a float in `bounds` and at least kMinParticleRadius, the smallest normal float.
     // Below it a particle's object space (scaled by 1/radius) overflows single precision, and the particle
     // system keeps every radius there anyway (particle_system.hpp).
-    [[nodiscard]] float radius(const Node& n, const Bounds& bounds) const {
-        const float r = real(n, bounds);
+    template <class Site>
+    [[nodiscard]] float radius(double v, const Bounds& bounds, const Site& site) const {
+        const float r = real(v, bounds, site);
         if (!(r >= kMinParticleRadius))
-            fail(n, "must be at least " + shown_number(kMinParticleRadius) + ", the smallest normal float (got " +
-                        shown_value(*n.value) + "): the particle is scaled by 1/radius, which would overflow");
+            fail(site.path(), "must be at least " + shown_number(kMinParticleRadius) +
+                                  ", the smallest normal float (got " + site.shown() +
+                                  "): the particle is scaled by 1/radius, which would overflow");
         return r;
+    }
+    [[nodiscard]] float radius(const Node& n, const Bounds& bounds) const {
+        return radius(number(n), bounds, NodeSite{n});
+    }
+
+    // One component of a position in world coordinates: within ±kMaxSceneCoordinate, kept in double.
+    template <class Site>
+    [[nodiscard]] double coordinate(double v, const Site& site) const {
+        if (kCoordinate.contains(v)) [[likely]] return v;  // (within the float range; NaN fails it)
+        return checked_coordinate(v, site);
+    }
+    template <class Site>
+    [[nodiscard, gnu::noinline]] double checked_coordinate(double v, const Site& site) const {
+        (void)finite(v, site);
+        if (std::abs(v) > static_cast<double>(std::numeric_limits<float>::max()))
+            fail(site.path(), "too large for single precision (got " + site.shown() + ")");
+        if (!kCoordinate.contains(v)) fail(site.path(), kCoordinate.describe(v) + " (got " + site.shown() + ")");
+        return v;
     }
 
     // A direction: 3 numbers within the float range, not all 0, normalised in double from the values as
@@ -232,11 +292,7 @@ public:
         glm::dvec3 p(0.0);
         for (std::size_t a = 0; a < 3; ++a) {
             const Node c = n.element(a);
-            const double v = number(c);
-            if (std::abs(v) > static_cast<double>(std::numeric_limits<float>::max()))
-                fail(c, "too large for single precision (got " + shown_value(*c.value) + ")");
-            if (!kCoordinate.contains(v)) fail(c, kCoordinate.describe(v) + " (got " + shown_value(*c.value) + ")");
-            p[int(a)] = v;
+            p[int(a)] = coordinate(number(c), NodeSite{c});
         }
         return p;
     }
@@ -633,8 +689,238 @@ TubeSettings read_tubes(const Reader& r, const Node& n, std::optional<glm::dvec3
     return t;
 }
 
+// ---- Particles from a PLY point cloud -----------------------------------------------------------------
+
+// A PLY vertex's property, for messages: "/smoke/particles: FILE: vertex 17, property radius".
+struct PlyValueSite {
+    const std::string& file;
+    std::uint64_t vertex;
+    std::string_view property;
+    double value;
+
+    [[nodiscard]] std::string path() const {
+        return "/smoke/particles: " + file + ": vertex " + std::to_string(vertex) + ", property " +
+               std::string(property);
+    }
+    [[nodiscard]] std::string shown() const {
+        if (std::isnan(value)) return "nan";
+        if (std::isinf(value)) return value > 0 ? "inf" : "-inf";
+        return shown_number(value);
+    }
+};
+
+// Vertices decoded per call of PlyPointReader::read().
+constexpr std::size_t kPlyBatch = 4096;
+
+// "particles": "cloud.ply": the file's vertices, a path relative to the scene file's folder (`base_dir`).
+template <class Add>
+void read_ply_particles(const Reader& r, const Node& list, const std::filesystem::path& base_dir,
+                        std::vector<Particle>& particles, Add&& add) {
+    const std::filesystem::path path = base_dir / r.string(list);
+    const std::string name = path.string();
+    try {
+        PlyPointReader ply(path, name);
+        if (const std::string problem = particle_count_problem(ply.vertex_count(), false); !problem.empty())
+            r.fail(list.path + ": " + name + ": element vertex", problem);
+        particles.reserve(std::size_t(ply.vertex_count()));
+        std::vector<PlyPoint> batch(kPlyBatch);
+        std::uint64_t index = 0;
+        while (const std::size_t count = ply.read(batch)) {
+            for (const PlyPoint& p : std::span(batch).first(count)) {
+                ParticleValues v;
+                v.center = {r.coordinate(p.x, PlyValueSite{name, index, "x", p.x}),
+                            r.coordinate(p.y, PlyValueSite{name, index, "y", p.y}),
+                            r.coordinate(p.z, PlyValueSite{name, index, "z", p.z})};
+                v.radius = r.radius(p.radius, kRadius, PlyValueSite{name, index, "radius", p.radius});
+                if (ply.has_velocity())
+                    v.velocity = {r.real(p.vx, kAny, PlyValueSite{name, index, "vx", p.vx}),
+                                  r.real(p.vy, kAny, PlyValueSite{name, index, "vy", p.vy}),
+                                  r.real(p.vz, kAny, PlyValueSite{name, index, "vz", p.vz})};
+                add(v);
+                ++index;
+            }
+        }
+    } catch (const PlyError& e) {
+        r.fail(list.path, e.what());
+    }
+}
+
+// ---- The fast reader of a particle list ---------------------------------------------------------------
+
+namespace ondemand = simdjson::ondemand;
+
+// The fast reader gives up on a list it does not read exactly as the reference reader would (bad syntax, a
+// value of the wrong type, an unknown, escaped or repeated key): parse_scene() then reads the whole document
+// with the reference reader, which finds the problem and words it as it always has.
+struct FastReaderDeclined {
+    const char* reason;
+};
+
+// /smoke/particles when it is an array; false when it is not there, not an array, or the document is broken
+// on the way to it (the reference reader then reads the document).
+bool find_particle_list(ondemand::document& document, ondemand::array& list) {
+    ondemand::object root;
+    if (document.get_object().get(root)) return false;
+    for (auto member : root) {
+        ondemand::field field;
+        if (std::move(member).get(field)) return false;
+        if (!(field.key() == "smoke")) continue;
+        ondemand::object smoke;
+        if (field.value().get_object().get(smoke)) return false;
+        for (auto smoke_member : smoke) {
+            ondemand::field smoke_field;
+            if (std::move(smoke_member).get(smoke_field)) return false;
+            if (smoke_field.key() == "particles") return !smoke_field.value().get_array().get(list);
+        }
+        return false;
+    }
+    return false;
+}
+
+// A number of a particle in the list, for messages: its path, and its text as the file wrote it.
+struct ListValueSite {
+    std::size_t particle;
+    std::string_view key;
+    int component;  // -1: the key's value itself
+    std::string_view token;
+
+    [[nodiscard]] std::string path() const {
+        std::string p = "/smoke/particles/" + std::to_string(particle) + "/" + std::string(key);
+        if (component >= 0) p += "/" + std::to_string(component);
+        return p;
+    }
+    [[nodiscard]] std::string shown() const {
+        try {
+            return shown_value(json::parse(token));
+        } catch (const json::exception&) {
+            return std::string(token);
+        }
+    }
+};
+
+// Number tokens longer than this are converted by std::from_chars: simdjson 3.0's get_double() misreads a
+// number of more than 19 significant digits (0.1000000000000000055511151231257827 as 4e-16; simdjson issue
+// #2093, fixed in 3.6.3), and 18 characters cannot hold more than 18 digits.
+constexpr std::size_t kLongestTokenForSimdjson = 18;
+
+constexpr bool json_whitespace(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n'; }
+
+// A JSON number as the reference reader reads it (nlohmann: strtod, correctly rounded). nlohmann reads "-0" as
+// the integer 0, which is +0 as a double; simdjson's get_double() gives -0.
+double list_number(ondemand::value& value, std::string_view& token) {
+    token = value.raw_json_token();
+    double v;
+    if (value.get_double().get(v)) throw FastReaderDeclined{"not a number"};  // also checks the JSON syntax
+    if (token.size() > kLongestTokenForSimdjson) {  // (the token runs on over the whitespace after the number)
+        const char* end = token.data();
+        while (end != token.data() + token.size() && !json_whitespace(*end)) ++end;
+        if (std::size_t(end - token.data()) > kLongestTokenForSimdjson &&
+            std::from_chars(token.data(), end, v).ec != std::errc())
+            throw FastReaderDeclined{"a number from_chars does not read"};
+    }
+    if (v == 0.0 && std::signbit(v) && token.find_first_of(".eE") == std::string_view::npos) v = 0.0;
+    return v;
+}
+
+// Three numbers, each through `check` (a value check of Reader's, on the number and its site).
+template <class Check>
+auto list_triple(ondemand::value& value, std::size_t particle, std::string_view key, Check&& check) {
+    ondemand::array array;
+    if (value.get_array().get(array)) throw FastReaderDeclined{"not an array"};
+    std::array<decltype(check(0.0, ListValueSite{})), 3> out{};
+    int n = 0;
+    for (auto element : array) {
+        ondemand::value component;
+        if (element.get(component) || n == 3) throw FastReaderDeclined{"not an array of 3 numbers"};
+        std::string_view token;
+        const double v = list_number(component, token);
+        out[std::size_t(n)] = check(v, ListValueSite{particle, key, n, token});
+        ++n;
+    }
+    if (n != 3) throw FastReaderDeclined{"not an array of 3 numbers"};
+    return out;
+}
+
+// Reads /smoke/particles of a document that simdjson has indexed, straight from its text: no tree, no path
+// string per value. read_particle() is its reference: the same keys and the same checks in the same order.
+class FastParticleList {
+public:
+    explicit FastParticleList(ondemand::document& document) : document_(document) {}
+
+    template <class Add>
+    void read(const Reader& r, std::vector<Particle>& particles, Add&& add) {
+        document_.rewind();
+        ondemand::array list;
+        std::size_t count = 0;
+        if (!find_particle_list(document_, list) || list.count_elements().get(count))
+            throw FastReaderDeclined{"no particle list"};
+        if (const std::string problem = particle_count_problem(count, false); !problem.empty())
+            r.fail("/smoke/particles", problem);
+        particles.reserve(count);
+        std::size_t index = 0;
+        for (auto element : list) {
+            ondemand::object object;
+            if (element.get_object().get(object)) throw FastReaderDeclined{"a particle is not an object"};
+            add(read_particle(r, object, index++));
+        }
+    }
+
+private:
+    static ParticleValues read_particle(const Reader& r, ondemand::object& object, std::size_t index) {
+        enum Key : unsigned { center = 1, radius = 2, velocity = 4, spin = 8, growth = 16, rotation = 32 };
+        ParticleValues p;
+        unsigned seen = 0;
+        for (auto member : object) {
+            ondemand::field field;
+            if (std::move(member).get(field)) throw FastReaderDeclined{"broken object"};
+            const ondemand::raw_json_string key = field.key();
+            const Key k = key == "center" ? center : key == "radius" ? radius : key == "velocity" ? velocity
+                        : key == "spin" ? spin : key == "growth" ? growth : key == "rotation" ? rotation : Key(0);
+            if (k == 0 || (seen & k)) throw FastReaderDeclined{"an unknown or repeated key"};
+            seen |= k;
+            ondemand::value value = field.value();
+            std::string_view token;
+            switch (k) {
+                case center: {
+                    const auto c = list_triple(value, index, "center",
+                                               [&](double v, const ListValueSite& s) { return r.coordinate(v, s); });
+                    p.center = {c[0], c[1], c[2]};
+                    break;
+                }
+                case radius: {
+                    const double v = list_number(value, token);
+                    p.radius = r.radius(v, kRadius, ListValueSite{index, "radius", -1, token});
+                    break;
+                }
+                case velocity: {
+                    const auto c = list_triple(value, index, "velocity",
+                                               [&](double v, const ListValueSite& s) { return r.real(v, kAny, s); });
+                    p.velocity = {c[0], c[1], c[2]};
+                    break;
+                }
+                case spin:
+                case growth:
+                case rotation: {
+                    const double v = list_number(value, token);
+                    if (k == spin) p.spin = r.real(v, kAny, ListValueSite{index, "spin", -1, token});
+                    if (k == growth)
+                        p.growth = r.real(v, Bounds{-1.0, true}, ListValueSite{index, "growth", -1, token});
+                    if (k == rotation) p.rotation = r.real(v, kAny, ListValueSite{index, "rotation", -1, token});
+                    break;
+                }
+            }
+        }
+        if ((seen & (center | radius)) != (center | radius)) throw FastReaderDeclined{"a required key is missing"};
+        return p;
+    }
+
+    ondemand::document& document_;
+};
+
 // `origin`: the file's, or (when it gave none) set here from the first particle or the tubes; 0 if neither.
-SmokeDescription read_smoke(const Reader& r, const Node& n, std::optional<glm::dvec3>& origin) {
+// `fast`: reads /smoke/particles in place of the tree (whose list is then a placeholder).
+SmokeDescription read_smoke(const Reader& r, const Node& n, std::optional<glm::dvec3>& origin, FastParticleList* fast,
+                            const std::filesystem::path& base_dir) {
     r.require_object(n, {"particles", "tubes", "sigma_t", "alpha", "shape"});
     SmokeDescription smoke;
     const auto list = Reader::optional(n, "particles");
@@ -642,14 +928,21 @@ SmokeDescription read_smoke(const Reader& r, const Node& n, std::optional<glm::d
     if (list && tubes) r.fail(n, "has both \"particles\" and \"tubes\"; give exactly one");
     if (!list && !tubes) r.fail(n, "needs \"particles\" (a list) or \"tubes\" (the generator)");
     if (list) {
-        if (!list->value->is_array()) r.wrong_type(*list, "an array of particles");
-        if (const std::string problem = particle_count_problem(list->value->size(), false); !problem.empty())
-            r.fail(*list, problem);  // (the scan already stopped longer lists)
-        smoke.particles.reserve(list->value->size());
-        for (std::size_t i = 0; i < list->value->size(); ++i) {
-            const ParticleValues values = read_particle(r, list->element(i));
+        // Every reader of a list hands each particle's checked values here, in order.
+        const auto add = [&](const ParticleValues& values) {
             if (!origin) origin = origin_near(values.center, values.radius);
             smoke.particles.push_back(local_particle(values, *origin));
+        };
+        if (list->value->is_string()) {
+            read_ply_particles(r, *list, base_dir, smoke.particles, add);
+        } else if (fast) {
+            fast->read(r, smoke.particles, add);
+        } else {
+            if (!list->value->is_array()) r.wrong_type(*list, "an array of particles");
+            if (const std::string problem = particle_count_problem(list->value->size(), false); !problem.empty())
+                r.fail(*list, problem);  // (the scan already stopped longer lists)
+            smoke.particles.reserve(list->value->size());
+            for (std::size_t i = 0; i < list->value->size(); ++i) add(read_particle(r, list->element(i)));
         }
         if (!origin) origin = glm::dvec3(0.0);  // no particles
     } else {
@@ -789,6 +1082,79 @@ RenderSettings read_render(const Reader& r, const Node& n) {
     return s;
 }
 
+// ---- The whole document ------------------------------------------------------------------------------
+
+// The scene from its JSON tree. `fast`: reads /smoke/particles (the tree holds a placeholder there).
+// `base_dir`: the scene file's folder, where a PLY particle file is found.
+SceneDescription read_scene(const json& document, const Reader& r, FastParticleList* fast,
+                            const std::filesystem::path& base_dir) {
+    const Node root{&document, ""};
+    r.require_object(root, {"origin", "light", "ambient", "background", "smoke", "ground", "camera", "render"});
+
+    SceneDescription scene;
+    scene.source = r.source();
+    scene.light = read_light(r, r.required(root, "light"));
+    if (auto v = Reader::optional(root, "ambient")) scene.ambient = r.vec3(*v, kColor);
+    if (auto v = Reader::optional(root, "background")) scene.background = r.vec3(*v, kColor);
+    std::optional<glm::dvec3> origin;
+    if (auto v = Reader::optional(root, "origin")) origin = r.point(*v);
+    scene.smoke = read_smoke(r, r.required(root, "smoke"), origin, fast, base_dir);
+    scene.origin = *origin;
+    if (auto v = Reader::optional(root, "ground")) scene.ground = read_ground(r, *v, scene.origin);
+    if (auto v = Reader::optional(root, "render")) scene.render = read_render(r, *v);
+    check_scene_motion(scene, scene.render.frames);
+    if (auto v = Reader::optional(root, "camera")) {
+        scene.camera = read_camera(r, *v, scene);
+    } else {
+        const CameraDescription d;
+        scene.camera = default_camera(scene.smoke.particles, scene.ground, d.fov_deg, d.width, d.height);
+        check_default_position(r, default_view(scene.smoke.particles, scene.ground, d.fov_deg, d.width, d.height),
+                               "/camera", false, scene.origin);
+        check_renderer_accepts(r, scene.camera, "/camera");
+    }
+    return scene;
+}
+
+// The fast path, for a document with a particle list: simdjson indexes the text once; the list's text is cut
+// out and the rest (small) goes through the reference reader's scan and tree, with [] in the list's place;
+// the list is read from simdjson's index. Empty when there is no list (nothing to gain). Throws
+// FastReaderDeclined, or SceneFileError for any problem; parse_scene_text() then asks the reference reader.
+std::optional<SceneDescription> parse_fast(simdjson::padded_string_view text, const Reader& r,
+                                           const std::filesystem::path& base_dir) {
+    ondemand::parser parser;
+    ondemand::document document;
+    if (parser.iterate(text).get(document)) throw FastReaderDeclined{"not JSON simdjson can index"};
+    ondemand::array list;
+    std::string_view list_text;
+    if (!find_particle_list(document, list) || list.raw_json().get(list_text)) return std::nullopt;
+    const std::size_t begin = std::size_t(list_text.data() - text.data());
+    std::string rest;
+    rest.reserve(text.length() - list_text.size() + 2);
+    rest.append(text.data(), begin).append("[]");
+    rest.append(text.data() + begin + list_text.size(), text.data() + text.length());
+    const json tree = parse_json(rest, r, r.source());
+    FastParticleList fast(document);
+    return read_scene(tree, r, &fast, base_dir);
+}
+
+SceneDescription parse_scene_text(simdjson::padded_string_view text, std::string_view source_name,
+                                   SceneJsonReader reader) {
+    const Reader r{std::string(source_name)};
+    const std::filesystem::path base_dir = std::filesystem::path(source_name).parent_path();
+    if (reader != SceneJsonReader::reference) {
+        try {
+            if (auto scene = parse_fast(text, r, base_dir)) return std::move(*scene);
+        } catch (const FastReaderDeclined& declined) {
+            if (reader == SceneJsonReader::fast)
+                r.fail("", std::string("the fast reader declined: ") + declined.reason);
+        } catch (const SceneFileError&) {
+            if (reader == SceneJsonReader::fast) throw;
+        }
+    }
+    const json document = parse_json(std::string_view(text.data(), text.length()), r, r.source());
+    return read_scene(document, r, nullptr, base_dir);
+}
+
 }  // namespace
 
 // ---- Public API --------------------------------------------------------------------------------------
@@ -821,35 +1187,9 @@ CameraDescription default_camera(const std::vector<Particle>& particles, const s
     return camera;
 }
 
-SceneDescription parse_scene(std::string_view json_text, std::string_view source_name) {
-    const std::string source(source_name);
-    const Reader r(source);
-    const json document = parse_json(json_text, r, source);
-    const Node root{&document, ""};
-    r.require_object(root, {"origin", "light", "ambient", "background", "smoke", "ground", "camera", "render"});
-
-    SceneDescription scene;
-    scene.source = source;
-    scene.light = read_light(r, r.required(root, "light"));
-    if (auto v = Reader::optional(root, "ambient")) scene.ambient = r.vec3(*v, kColor);
-    if (auto v = Reader::optional(root, "background")) scene.background = r.vec3(*v, kColor);
-    std::optional<glm::dvec3> origin;
-    if (auto v = Reader::optional(root, "origin")) origin = r.point(*v);
-    scene.smoke = read_smoke(r, r.required(root, "smoke"), origin);
-    scene.origin = *origin;
-    if (auto v = Reader::optional(root, "ground")) scene.ground = read_ground(r, *v, scene.origin);
-    if (auto v = Reader::optional(root, "render")) scene.render = read_render(r, *v);
-    check_scene_motion(scene, scene.render.frames);
-    if (auto v = Reader::optional(root, "camera")) {
-        scene.camera = read_camera(r, *v, scene);
-    } else {
-        const CameraDescription d;
-        scene.camera = default_camera(scene.smoke.particles, scene.ground, d.fov_deg, d.width, d.height);
-        check_default_position(r, default_view(scene.smoke.particles, scene.ground, d.fov_deg, d.width, d.height),
-                               "/camera", false, scene.origin);
-        check_renderer_accepts(r, scene.camera, "/camera");
-    }
-    return scene;
+SceneDescription parse_scene(std::string_view json_text, std::string_view source_name, SceneJsonReader reader) {
+    const simdjson::padded_string text(json_text.data(), json_text.size());
+    return parse_scene_text(text, source_name, reader);
 }
 
 SceneDescription load_scene_file(const std::filesystem::path& path) {
@@ -858,7 +1198,17 @@ SceneDescription load_scene_file(const std::filesystem::path& path) {
     if (std::filesystem::is_directory(path, ec)) throw SceneFileError(name + ": is a directory, not a scene file");
     std::ifstream in(path, std::ios::binary);
     if (!in) throw SceneFileError(name + ": cannot open the file for reading");
-    std::ostringstream text;
+    if (std::filesystem::is_regular_file(path, ec)) {
+        // Straight into simdjson's padded buffer: the text is held once, however large the file.
+        const auto size = std::filesystem::file_size(path, ec);
+        if (!ec) {
+            simdjson::padded_string text{std::size_t(size)};
+            in.read(text.data(), std::streamsize(size));
+            if (in.bad() || std::size_t(in.gcount()) != size) throw SceneFileError(name + ": read error");
+            return parse_scene_text(text, name, SceneJsonReader::automatic);
+        }
+    }
+    std::ostringstream text;  // a FIFO or a device: read to its end
     text << in.rdbuf();
     if (in.bad()) throw SceneFileError(name + ": read error");
     return parse_scene(text.str(), name);

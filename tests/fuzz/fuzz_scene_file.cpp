@@ -7,6 +7,10 @@
 //  * a scene it accepts honours the documented format: every number finite and within its documented
 //    range (subnormals included; radii normal floats), a unit light direction, a camera the renderer
 //    accepts with a field of view it can resolve, a particle count within the limit;
+//  * the scene file's two JSON readers agree (scene_file.hpp, SceneJsonReader): the automatic reader accepts
+//    exactly what the reference reader accepts, with the same scene bit for bit, and otherwise fails with the
+//    reference's message word for word; the fast reader alone, where it does not decline, accepts only what
+//    the reference accepts, with the same scene;
 //  * a small accepted scene (<= kMaxPipelineParticles) also goes through the pipeline: the optical-depth
 //    pass, and one 4x4 frame in basic and full mode; its lengths are finite or the documented +inf and its
 //    pixels finite. Any exception there is a crash too: the reader accepted something the renderer cannot use.
@@ -22,7 +26,9 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <string_view>
 
@@ -125,21 +131,64 @@ void check_pipeline(const SceneDescription& s) {
     }
 }
 
+template <class T>
+bool same_bits(const T& a, const T& b) {
+    return std::memcmp(&a, &b, sizeof(T)) == 0;
+}
+
+bool same_scene(const SceneDescription& a, const SceneDescription& b) {
+    if (a.smoke.particles.size() != b.smoke.particles.size()) return false;
+    if (!a.smoke.particles.empty() &&
+        std::memcmp(a.smoke.particles.data(), b.smoke.particles.data(),
+                    a.smoke.particles.size() * sizeof(Particle)) != 0)
+        return false;
+    return same_bits(a.origin, b.origin) && same_bits(a.light.direction, b.light.direction) &&
+           same_bits(a.camera.position, b.camera.position) && same_bits(a.camera.look_at, b.camera.look_at) &&
+           same_bits(a.smoke.sigma_t, b.smoke.sigma_t) && a.ground.has_value() == b.ground.has_value() &&
+           a.render.frames == b.render.frames;
+}
+
+// The scene, or the message of the SceneFileError.
+struct Outcome {
+    std::optional<SceneDescription> scene;
+    std::string message;
+};
+Outcome read_with(std::string_view text, SceneJsonReader reader) {
+    try {
+        return {parse_scene(text, kSource, reader), {}};
+    } catch (const SceneFileError& e) {
+        return {std::nullopt, e.what()};
+    }
+}
+
+void check_readers_agree(std::string_view text, const Outcome& automatic) {
+    const Outcome reference = read_with(text, SceneJsonReader::reference);
+    require(automatic.scene.has_value() == reference.scene.has_value(), "automatic and reference readers disagree");
+    if (!reference.scene) require(automatic.message == reference.message, "automatic reader's message differs");
+    else require(same_scene(*automatic.scene, *reference.scene), "automatic reader's scene differs");
+    const Outcome fast = read_with(text, SceneJsonReader::fast);
+    if (fast.scene)
+        require(reference.scene && same_scene(*fast.scene, *reference.scene), "fast reader accepts otherwise");
+    else if (fast.message.find("the fast reader declined") == std::string::npos)
+        require(!reference.scene, "fast reader refuses a scene the reference reader accepts");
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
     const std::string_view text(reinterpret_cast<const char*>(data), size);
-    SceneDescription scene;
-    try {
-        scene = parse_scene(text, kSource);
-    } catch (const SceneFileError& e) {
-        const std::string_view message = e.what();
+    const Outcome automatic = read_with(text, SceneJsonReader::automatic);
+    check_readers_agree(text, automatic);
+    if (!automatic.scene) {
+        const std::string_view message = automatic.message;
         if (message.rfind(std::string(kSource) + ": ", 0) != 0 || message.size() <= kSource.size() + 2) {
-            std::fprintf(stderr, "fuzz_scene_file: error message without the file name: %s\n", e.what());
+            std::fprintf(stderr, "fuzz_scene_file: error message without the file name: %s\n",
+                         automatic.message.c_str());
             std::abort();
         }
         return 0;
     }
+    const SceneDescription& scene = *automatic.scene;
     check_format(scene);
     if (scene.smoke.particles.size() <= kMaxPipelineParticles) check_pipeline(scene);
     return 0;

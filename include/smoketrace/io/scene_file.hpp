@@ -5,7 +5,9 @@
 // values (finite, within kMaxSceneCoordinate / kMaxSceneColor, at most scene_particle_limit() particles);
 // every problem is a SceneFileError reading "FILE: /json/path: problem". The file's positions are world
 // coordinates, read in double; the SceneDescription holds them relative to its `origin` (the file's
-// "origin", else one near the first particle or the tubes' centre: docs/scene-format.md).
+// "origin", else one near the first particle or the tubes' centre: docs/scene-format.md). The particles may
+// also come from a PLY point cloud the file names ("particles": "cloud.ply", ply_points.hpp), read through
+// the same checks; its problems name the PLY file, the vertex and the property.
 #include <smoketrace/render/scene_description.hpp>
 #include <smoketrace/smoke/particle_system.hpp>
 
@@ -72,8 +74,19 @@ inline constexpr double kMaxSceneColor = 1e6;
 // checks the file's render.frames; a caller that renders more frames (--frames) checks again.
 void check_scene_motion(const SceneDescription& scene, std::uint32_t frames);
 
-// Parses and validates; throws SceneFileError. `source_name` is used in messages only.
-[[nodiscard]] SceneDescription parse_scene(std::string_view json_text, std::string_view source_name);
+// How parse_scene() reads the JSON. `automatic`: a particle list (/smoke/particles) is read by the fast reader
+// (simdjson's On-Demand API, straight from the text: no tree, no path string per value) and the rest of the
+// document by the reference reader (nlohmann: a scan for duplicate keys, overflowing numbers, nesting and the
+// particle limit, then a tree). Any problem at all sends the whole document back to the reference reader, so
+// that every message is the reference's, word for word. `fast` and `reference` take one path only (`fast`
+// reports "the fast reader declined" where it would hand over): tests and the fuzzer hold the two to the
+// same results with them.
+enum class SceneJsonReader { automatic, fast, reference };
+
+// Parses and validates; throws SceneFileError. `source_name` names the file in messages, and its folder is
+// where a particle file ("particles": "cloud.ply") is found.
+[[nodiscard]] SceneDescription parse_scene(std::string_view json_text, std::string_view source_name,
+                                           SceneJsonReader reader = SceneJsonReader::automatic);
 
 // Reads the file and parse_scene()s it, naming the file as given in messages; throws SceneFileError also
 // when the file cannot be read.

@@ -1,0 +1,69 @@
+// The optical depths as CSV (see depths_csv.hpp).
+#include <smoketrace/io/depths_csv.hpp>
+
+#include <tbb/parallel_for.h>
+
+#include <charconv>
+#include <cmath>
+#include <cstring>
+
+namespace smoketrace {
+
+namespace {
+
+// Rows per piece: enough that a task's overhead vanishes, few enough that two threads share the work evenly.
+constexpr std::size_t kRowsPerPiece = 16384;
+// The longest row: a 20-digit index, "-1.17549435e-38", a 10-digit count, "occluded", 3 commas and '\n'.
+constexpr std::size_t kMaxRowChars = 64;
+// A row of a million-particle run ("123456,0.0543839894,10,ok\n"), to reserve each piece.
+constexpr std::size_t kTypicalRowChars = 28;
+
+std::string_view status_name(DepthStatus s) {
+    switch (s) {
+        case DepthStatus::ok: return "ok";
+        case DepthStatus::occluded: return "occluded";
+        case DepthStatus::cutoff: return "cutoff";
+    }
+    return "?";
+}
+
+char* append(char* out, std::string_view text) {
+    std::memcpy(out, text.data(), text.size());
+    return out + text.size();
+}
+
+// std::to_chars in the general format with precision 9 writes what printf's "%.9g" writes (both are defined
+// as C's %g), without the locale, the format parsing and the stream per row.
+char* format_row(char* out, std::size_t index, float length, std::uint32_t hits, DepthStatus status) {
+    char* const end = out + kMaxRowChars;
+    out = std::to_chars(out, end, index).ptr;
+    *out++ = ',';
+    if (std::isinf(length)) out = append(out, "inf");
+    else out = std::to_chars(out, end, double(length), std::chars_format::general, 9).ptr;
+    *out++ = ',';
+    out = std::to_chars(out, end, hits).ptr;
+    *out++ = ',';
+    out = append(out, status_name(status));
+    *out++ = '\n';
+    return out;
+}
+
+}  // namespace
+
+std::vector<std::string> format_depths_csv(std::span<const float> lengths, std::span<const std::uint32_t> hit_counts,
+                                           std::span<const DepthStatus> status) {
+    const std::size_t rows = lengths.size();
+    std::vector<std::string> pieces(1 + (rows + kRowsPerPiece - 1) / kRowsPerPiece);
+    pieces[0] = "particle,optical_path_length,hits,status\n";
+    tbb::parallel_for(std::size_t{1}, pieces.size(), [&](std::size_t p) {
+        const std::size_t begin = (p - 1) * kRowsPerPiece, end = std::min(rows, begin + kRowsPerPiece);
+        std::string& piece = pieces[p];
+        piece.reserve((end - begin) * kTypicalRowChars);  // not resized to the longest rows: no 64 MB to clear
+        char row[kMaxRowChars];
+        for (std::size_t i = begin; i < end; ++i)
+            piece.append(row, format_row(row, i, lengths[i], hit_counts[i], status[i]));
+    });
+    return pieces;
+}
+
+}  // namespace smoketrace

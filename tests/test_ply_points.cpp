@@ -1,0 +1,255 @@
+// Particles from a PLY point cloud (ply_points.hpp, "particles": "cloud.ply" in a scene file): both byte
+// orders, float and double, ascii, extra properties and elements, velocity; the same particles and the same
+// depths as the same values in a JSON list; every error names the PLY file and what is wrong.
+#include "support/cli_runner.hpp"
+
+#include <smoketrace/io/ply_points.hpp>
+#include <smoketrace/io/scene_file.hpp>
+#include <smoketrace/smoke/tube_generator.hpp>
+
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <bit>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <string>
+#include <vector>
+
+using namespace smoketrace;
+using test::TempDir;
+
+namespace {
+
+struct Layout {
+    std::string format = "binary_little_endian";
+    bool doubles = false;
+    bool extra = false;     // an extra property before x, one between, and an element before the vertices
+    bool velocity = false;
+};
+
+template <class T>
+void put(std::string& out, T v, bool big_endian) {
+    char bytes[sizeof(T)];
+    std::memcpy(bytes, &v, sizeof(T));
+    if (big_endian) std::reverse(bytes, bytes + sizeof(T));
+    out.append(bytes, sizeof(T));
+}
+
+std::string shortest(double v) {
+    char buffer[64];
+    return std::string(buffer, std::to_chars(buffer, buffer + sizeof buffer, v).ptr);
+}
+
+// A PLY file of `particles` (centre, radius, velocity) in `layout`.
+std::string ply_file(const std::vector<Particle>& particles, const Layout& layout) {
+    const std::string type = layout.doubles ? "double" : "float";
+    std::string out = "ply\r\nformat " + layout.format + " 1.0\ncomment written by test_ply_points\n";
+    if (layout.extra) out += "element camera 2\nproperty uchar view\nproperty int id\n";
+    out += "element vertex " + std::to_string(particles.size()) + "\n";
+    if (layout.extra) out += "property uchar red\n";
+    out += "property " + type + " x\nproperty " + type + " y\nproperty " + type + " z\n";
+    if (layout.extra) out += "property ushort age\n";
+    out += "property " + type + " radius\n";
+    if (layout.velocity) out += "property " + type + " vx\nproperty " + type + " vy\nproperty " + type + " vz\n";
+    if (layout.extra) out += "element face 0\nproperty list uchar int vertex_indices\n";
+    out += "end_header\n";
+    const bool ascii = layout.format == "ascii", big = layout.format == "binary_big_endian";
+    if (layout.extra) {
+        for (int c = 0; c < 2; ++c) {
+            if (ascii) out += std::to_string(c) + " " + std::to_string(1000 + c) + "\n";
+            else {
+                put<std::uint8_t>(out, std::uint8_t(c), big);
+                put<std::int32_t>(out, 1000 + c, big);
+            }
+        }
+    }
+    for (const Particle& p : particles) {
+        std::vector<float> values = {p.center.x, p.center.y, p.center.z, p.radius};
+        if (layout.velocity) values.insert(values.end(), {p.velocity.x, p.velocity.y, p.velocity.z});
+        if (ascii) {
+            if (layout.extra) out += "255 ";
+            for (std::size_t i = 0; i < values.size(); ++i) {
+                if (layout.extra && i == 3) out += "7 ";
+                out += shortest(double(values[i])) + " ";
+            }
+            out += "\n";
+            continue;
+        }
+        if (layout.extra) put<std::uint8_t>(out, 200, big);
+        for (std::size_t i = 0; i < values.size(); ++i) {
+            if (layout.extra && i == 3) put<std::uint16_t>(out, 9, big);
+            if (layout.doubles) put<double>(out, double(values[i]), big);
+            else put<float>(out, values[i], big);
+        }
+    }
+    return out;
+}
+
+const char* const kSceneHead = R"({ "light": { "direction": [0.3, 1, 0.2] }, "smoke": { "particles": )";
+const char* const kSceneTail = R"( }, "ground": { "corners": [[-5,-3,-5], [-5,-3,5], [5,-3,5], [5,-3,-5]] } })";
+
+// The same particles as a JSON list: each float as the shortest decimal of its double, which reads back as
+// exactly that float, so the default origin (near the first particle) keeps them as the PLY file does.
+std::string json_list(const std::vector<Particle>& particles, bool velocity) {
+    std::string out = "[";
+    for (std::size_t i = 0; i < particles.size(); ++i) {
+        const Particle& p = particles[i];
+        out += std::string(i ? "," : "") + "{\"center\": [" + shortest(double(p.center.x)) + "," +
+               shortest(double(p.center.y)) + "," + shortest(double(p.center.z)) + "], \"radius\": " +
+               shortest(double(p.radius));
+        if (velocity)
+            out += ", \"velocity\": [" + shortest(double(p.velocity.x)) + "," + shortest(double(p.velocity.y)) + "," +
+                   shortest(double(p.velocity.z)) + "]";
+        out += "}";
+    }
+    return out + "]";
+}
+
+std::vector<Particle> some_particles(std::uint32_t count) {
+    TubeSettings t;
+    t.particles = count;
+    t.particle_radius = 0.2f;
+    t.center = {3.0f, 2.5f, -1.0f};  // not at 0: the default origin moves
+    t.jitter_speed = 0.01f;
+    return generate_tubes(t);
+}
+
+void require_same_particles(const SceneDescription& a, const SceneDescription& b, bool velocity) {
+    REQUIRE(a.smoke.particles.size() == b.smoke.particles.size());
+    CHECK(std::memcmp(&a.origin, &b.origin, sizeof a.origin) == 0);
+    for (std::size_t i = 0; i < a.smoke.particles.size(); ++i) {
+        const Particle &p = a.smoke.particles[i], &q = b.smoke.particles[i];
+        INFO("particle " << i);
+        REQUIRE(std::memcmp(&p.center, &q.center, sizeof p.center) == 0);
+        REQUIRE(std::bit_cast<std::uint32_t>(p.radius) == std::bit_cast<std::uint32_t>(q.radius));
+        if (velocity) REQUIRE(std::memcmp(&p.velocity, &q.velocity, sizeof p.velocity) == 0);
+        else REQUIRE(p.velocity == glm::vec3(0.0f));
+    }
+}
+
+std::string scene_error(const TempDir& dir, const std::string& ply_text, const std::string& ply_name = "c.ply") {
+    dir.write(ply_name, ply_text);
+    const auto scene = dir.write("s.json", kSceneHead + ("\"" + ply_name + "\"") + kSceneTail);
+    try {
+        (void)load_scene_file(scene);
+    } catch (const SceneFileError& e) {
+        return e.what();
+    }
+    return "(no error)";
+}
+
+}  // namespace
+
+TEST_CASE("PLY particles: both byte orders, float and double, ascii, extra properties, velocity", "[ply]") {
+    const std::vector<Particle> particles = some_particles(301);
+    TempDir dir;
+    for (const char* format : {"binary_little_endian", "binary_big_endian", "ascii"}) {
+        for (bool doubles : {false, true}) {
+            for (bool extra : {false, true}) {
+                for (bool velocity : {false, true}) {
+                    INFO(format << (doubles ? " double" : " float") << (extra ? " extra" : "")
+                                << (velocity ? " velocity" : ""));
+                    dir.write("cloud.ply", ply_file(particles, {format, doubles, extra, velocity}));
+                    const auto ply_scene =
+                        dir.write("ply.json", kSceneHead + std::string("\"cloud.ply\"") + kSceneTail);
+                    const auto json_scene =
+                        dir.write("list.json", kSceneHead + json_list(particles, velocity) + kSceneTail);
+                    require_same_particles(load_scene_file(ply_scene), load_scene_file(json_scene), velocity);
+                }
+            }
+        }
+    }
+}
+
+TEST_CASE("PLY particles: the path is relative to the scene file's folder", "[ply]") {
+    TempDir dir;
+    std::filesystem::create_directories(dir.path / "frames" / "clouds");
+    std::ofstream(dir.path / "frames" / "clouds" / "f1.ply", std::ios::binary) << ply_file(some_particles(5), {});
+    const auto scene = dir.write("frames/s.json", kSceneHead + std::string("\"clouds/f1.ply\"") + kSceneTail);
+    CHECK(load_scene_file(scene).smoke.particles.size() == 5);
+    // From another working directory, and with a relative scene path.
+    const auto cwd = std::filesystem::current_path();
+    std::filesystem::current_path(dir.path);
+    CHECK(load_scene_file("frames/s.json").smoke.particles.size() == 5);
+    std::filesystem::current_path(cwd);
+}
+
+TEST_CASE("PLY particles: every problem names the file and what is wrong", "[ply]") {
+    TempDir dir;
+    const std::vector<Particle> three = some_particles(3);
+    const std::string good = ply_file(three, {});
+    const std::string ply = (dir.path / "c.ply").string();
+    auto with_header_line = [&](const std::string& from, const std::string& to) {
+        std::string text = good;
+        return text.replace(text.find(from), from.size(), to);
+    };
+    struct Case {
+        std::string text, expected;
+    };
+    std::vector<Case> cases = {
+        {"PLY\n", ply + ": not a PLY file"},
+        {with_header_line("binary_little_endian", "binary_middle_endian"),
+         ply + ": unsupported format \"binary_middle_endian\""},
+        {with_header_line("property float radius\n", ""), ply + ": element vertex has no property radius"},
+        {with_header_line("property float radius\n", "property float radius\nproperty float vx\n"),
+         ply + ": element vertex has only part of a velocity"},
+        {with_header_line("element vertex 3", "element points 3"), ply + ": no element vertex"},
+        {with_header_line("property float radius\n", "property float radius\nproperty list uchar int n\n"),
+         ply + ": element vertex: list properties are not supported"},
+        {with_header_line("property float radius\n", "property quad radius\n"),
+         ply + ": element vertex, property radius: unknown type \"quad\""},
+        {good.substr(0, good.size() - 5),
+         ply + ": truncated: the header declares 3 vertices, the data ends in vertex 2"},
+        {good.substr(0, good.find("end_header")), ply + ": truncated header"},
+        {with_header_line("element vertex 3", "element vertex 60000000"),
+         "/smoke/particles: " + ply + ": element vertex: too many particles"},
+    };
+    // Values: through the scene file's checks, naming the vertex and the property.
+    std::vector<Particle> bad = three;
+    bad[1].radius = -1.0f;
+    cases.push_back(
+        {ply_file(bad, {}), "/smoke/particles: " + ply + ": vertex 1, property radius: must be > 0 (got -1)"});
+    bad = three;
+    bad[2].center.y = std::numeric_limits<float>::quiet_NaN();
+    cases.push_back({ply_file(bad, {}), ": vertex 2, property y: must be finite (got nan)"});
+    bad = three;
+    bad[0].velocity.z = -std::numeric_limits<float>::infinity();
+    cases.push_back({ply_file(bad, {"binary_big_endian", false, false, true}),
+                     ": vertex 0, property vz: must be finite (got -inf)"});
+    bad = three;
+    bad[1].radius = 1e-40f;
+    cases.push_back({ply_file(bad, {}), ": vertex 1, property radius: must be at least 1.1754944e-38"});
+    bad = three;
+    bad[0].center.x = 3e15f;
+    cases.push_back({ply_file(bad, {"ascii"}), ": vertex 0, property x: must be in [-1e+15, 1e+15]"});
+    cases.push_back(
+        {with_header_line("format binary_little_endian", "format ascii"), ": vertex 0, property x: not a number"});
+    for (const Case& c : cases) {
+        const std::string message = scene_error(dir, c.text);
+        INFO("message: " << message);
+        CHECK(message.rfind((dir.path / "s.json").string() + ": /smoke/particles: ", 0) == 0);
+        CHECK(message.find(c.expected) != std::string::npos);
+    }
+    // A file that is not there, and one that is not a regular file.
+    const auto scene = dir.write("s.json", kSceneHead + std::string("\"missing.ply\"") + kSceneTail);
+    CHECK_THROWS_WITH(load_scene_file(scene), Catch::Contains("missing.ply: cannot open the file for reading"));
+    const auto folder = dir.write("f.json", kSceneHead + std::string("\".\"") + kSceneTail);
+    CHECK_THROWS_WITH(load_scene_file(folder), Catch::Contains(": is not a regular file"));
+}
+
+TEST_CASE("PLY particles: the same depths as the same particles in JSON (smoketrace depths)", "[ply][cli]") {
+    const std::vector<Particle> particles = some_particles(400);
+    TempDir dir;
+    dir.write("cloud.ply", ply_file(particles, {"binary_big_endian", true, true, false}));
+    const auto ply_scene = dir.write("ply.json", kSceneHead + std::string("\"cloud.ply\"") + kSceneTail);
+    const auto json_scene = dir.write("list.json", kSceneHead + json_list(particles, false) + kSceneTail);
+    REQUIRE(test::run_cli("depths " + ply_scene.string() + " -o " + (dir.path / "ply.csv").string()).exit_code == 0);
+    REQUIRE(test::run_cli("depths " + json_scene.string() + " -o " + (dir.path / "list.csv").string()).exit_code == 0);
+    const std::string csv = test::file_bytes(dir.path / "ply.csv");
+    CHECK(std::count(csv.begin(), csv.end(), '\n') == 401);
+    CHECK(csv.find(",ok\n") != std::string::npos);
+    CHECK(csv == test::file_bytes(dir.path / "list.csv"));
+}
