@@ -233,6 +233,16 @@ TEST_CASE("PLY particles: every problem names the file and what is wrong", "[ply
         CHECK(message.rfind((dir.path / "s.json").string() + ": /smoke/particles: ", 0) == 0);
         CHECK(message.find(c.expected) != std::string::npos);
     }
+    // Motion beyond the coordinate range within render.frames: the vertex, not a JSON index it never had.
+    bad = three;
+    bad[1].center.x = 9e14f;
+    bad[1].velocity.x = 1e14f;
+    dir.write("c.ply", ply_file(bad, {"binary_little_endian", false, false, true}));
+    const auto moving = dir.write("m.json", R"({ "light": { "direction": [0.3, 1, 0.2] }, "render": { "frames": 3 },
+        "smoke": { "particles": "c.ply" } })");
+    CHECK_THROWS_WITH(load_scene_file(moving),
+                      Catch::StartsWith(moving.string() + ": /smoke/particles: " + ply +
+                                        ": vertex 1: moves beyond the coordinate range +-1e+15 within 3 frames"));
     // A file that is not there, and one that is not a regular file.
     const auto scene = dir.write("s.json", kSceneHead + std::string("\"missing.ply\"") + kSceneTail);
     CHECK_THROWS_WITH(load_scene_file(scene), Catch::Contains("missing.ply: cannot open the file for reading"));

@@ -713,8 +713,9 @@ struct PlyValueSite {
 constexpr std::size_t kPlyBatch = 4096;
 
 // "particles": "cloud.ply": the file's vertices, a path relative to the scene file's folder (`base_dir`).
+// Returns the file's name as messages give it.
 template <class Add>
-void read_ply_particles(const Reader& r, const Node& list, const std::filesystem::path& base_dir,
+std::string read_ply_particles(const Reader& r, const Node& list, const std::filesystem::path& base_dir,
                         std::vector<Particle>& particles, Add&& add) {
     const std::filesystem::path path = base_dir / r.string(list);
     const std::string name = path.string();
@@ -743,6 +744,7 @@ void read_ply_particles(const Reader& r, const Node& list, const std::filesystem
     } catch (const PlyError& e) {
         r.fail(list.path, e.what());
     }
+    return name;
 }
 
 // ---- The fast reader of a particle list ---------------------------------------------------------------
@@ -934,7 +936,7 @@ SmokeDescription read_smoke(const Reader& r, const Node& n, std::optional<glm::d
             smoke.particles.push_back(local_particle(values, *origin));
         };
         if (list->value->is_string()) {
-            read_ply_particles(r, *list, base_dir, smoke.particles, add);
+            smoke.particle_file = read_ply_particles(r, *list, base_dir, smoke.particles, add);
         } else if (fast) {
             fast->read(r, smoke.particles, add);
         } else {
@@ -1166,6 +1168,8 @@ void check_scene_motion(const SceneDescription& scene, std::uint32_t frames) {
         const std::string problem = particle_extent_problem(scene.smoke.particles[i], frames - 1, scene.origin);
         if (problem.empty()) continue;
         if (scene.smoke.tubes) r.fail("/smoke/tubes", "generated particle " + std::to_string(i) + " " + problem);
+        if (!scene.smoke.particle_file.empty())
+            r.fail("/smoke/particles: " + scene.smoke.particle_file + ": vertex " + std::to_string(i), problem);
         r.fail("/smoke/particles/" + std::to_string(i), problem);
     }
 }

@@ -29,6 +29,7 @@ struct LightDescription {
 struct SmokeDescription {
     std::vector<Particle> particles;   // tubes already expanded; file order
     std::optional<TubeSettings> tubes; // set when the particles came from "tubes"
+    std::string particle_file;         // the PLY file they came from, as messages name it; else empty
     float sigma_t = 1.0f;
     float alpha = 0.5f;
     StandInShape shape{};              // sphere
