@@ -575,7 +575,9 @@ void run_bvh(const BenchOptions& options) {
     std::vector<Row> rows;
 
     // ---- build: ours and every Embree configuration at two threads, ours, medium and high at one ----
-    er::Device device;  // the default thread count: the arenas below set each build's
+    // The default thread count: the arenas below set each build's. SMOKETRACE_EMBREE_CONFIG (unset: Embree's
+    // defaults) passes a device string, e.g. "hugepages=1", for a side experiment.
+    er::Device device(std::getenv("SMOKETRACE_EMBREE_CONFIG"));
     tbb::task_arena arena_1(1), arena_2(2);
     std::unique_ptr<MeshBlas> blas;  // the two-thread build's, traversed below
     std::vector<std::unique_ptr<er::Scene>> scenes(std::size(kEmbreeConfigs));  // the two-thread builds'
