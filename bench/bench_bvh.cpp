@@ -63,6 +63,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <filesystem>
 #include <functional>
 #include <iomanip>
@@ -78,6 +79,19 @@ namespace smoketrace::bench {
 namespace {
 
 namespace er = smoketrace::embree_reference;
+
+// SMOKETRACE_BVH_ONLY=measure[,measure...] (e.g. "all_hits,closest_coherent"): for iterating on one walk.
+// Only those traversal measures run, at one thread, without the 4-wide and binary rows; the builds and the
+// refit are made once untimed. Unset (the normal run), every row is timed as documented above.
+std::vector<std::string> only_measures() {
+    std::vector<std::string> out;
+    const char* env = std::getenv("SMOKETRACE_BVH_ONLY");
+    if (env == nullptr) return out;
+    std::stringstream list(env);
+    for (std::string m; std::getline(list, m, ',');)
+        if (!m.empty()) out.push_back(m);
+    return out;
+}
 
 struct EmbreeConfig {
     const char* name;
@@ -451,12 +465,14 @@ Ratios run_traversal(const TraversalContext& ctx, const std::string& suffix, con
         traverse_blas_wide<BlasWalkOrder::any_order>(wide4, br, tmax, leaf, st);
     };
     const std::size_t n = rays.size();
+    const std::vector<std::string> only = only_measures();
     Ratios ratios;
     for (int threads : {1, ctx.all_threads}) {
-        if (threads == ctx.all_threads && ctx.all_threads == 1) break;
+        if (threads == ctx.all_threads && (ctx.all_threads == 1 || !only.empty())) break;
         const bool parallel = threads > 1;
         for (const bool closest : {true, false}) {
             const std::string measure = (closest ? "closest" : "all_hits") + suffix;
+            if (!only.empty() && std::find(only.begin(), only.end(), measure) == only.end()) continue;
             std::vector<Contender> passes;
             auto ours = [&](const char* name, auto closest_pass, auto all_pass) {
                 passes.push_back({name, threads, [=, &rays] {
@@ -472,7 +488,8 @@ Ratios run_traversal(const TraversalContext& ctx, const std::string& suffix, con
             ours("smoketrace",
                  [&](const std::vector<Ray>& r, std::size_t b, std::size_t e) { return ours_closest(blas, r, b, e); },
                  [&](const std::vector<Ray>& r, std::size_t b, std::size_t e) { return ours_all_hits(blas, r, b, e); });
-            ours(
+            const bool extra_walks = only.empty();
+            if (extra_walks) ours(
                 "smoketrace_wide4",
                 [&](const std::vector<Ray>& r, std::size_t b, std::size_t e) {
                     return ours_closest_walk(blas, r, b, e, wide4_nearest);
@@ -480,7 +497,7 @@ Ratios run_traversal(const TraversalContext& ctx, const std::string& suffix, con
                 [&](const std::vector<Ray>& r, std::size_t b, std::size_t e) {
                     return ours_all_hits_walk(blas, r, b, e, wide4_any);
                 });
-            ours(
+            if (extra_walks) ours(
                 "smoketrace_binary",
                 [&](const std::vector<Ray>& r, std::size_t b, std::size_t e) {
                     return ours_closest_walk(blas, r, b, e, binary);
@@ -489,6 +506,7 @@ Ratios run_traversal(const TraversalContext& ctx, const std::string& suffix, con
                     return ours_all_hits_walk(blas, r, b, e, binary);
                 });
             const bool tiled = closest && tiles != nullptr;
+            const std::size_t tile_index = passes.size(), binary_index = extra_walks ? 2 : 0;
             if (tiled)
                 passes.push_back({"smoketrace_tile", threads, [&, parallel] {
                                       return run_pass(parallel, tiles->size(), [&](std::size_t b, std::size_t e) {
@@ -517,7 +535,7 @@ Ratios run_traversal(const TraversalContext& ctx, const std::string& suffix, con
             }
             time_round_robin(passes, ctx.repeats);
             // "ours/this" is the headline API's: the tile query's where there is one.
-            const double ours_rps = n / (stats_of(passes[tiled ? 3 : 0].ms).median * 1e-3);
+            const double ours_rps = n / (stats_of(passes[tiled ? tile_index : 0].ms).median * 1e-3);
             double best = 0, best_single = 0;
             for (const Contender& c : passes) {
                 const Stats st = stats_of(c.ms);
@@ -530,7 +548,7 @@ Ratios run_traversal(const TraversalContext& ctx, const std::string& suffix, con
             }
             if (threads == 1) {
                 const double single_rps = n / (stats_of(passes[0].ms).median * 1e-3);
-                const double binary_rps = n / (stats_of(passes[2].ms).median * 1e-3);
+                const double binary_rps = n / (stats_of(passes[binary_index].ms).median * 1e-3);
                 (closest ? ratios.closest : ratios.all) = ours_rps / best;
                 (closest ? ratios.closest_binary : ratios.all_binary) = binary_rps / best;
                 if (closest) ratios.closest_single = single_rps / best_single;
@@ -557,7 +575,9 @@ void run_bvh(const BenchOptions& options) {
     std::vector<Row> rows;
 
     // ---- build: ours and every Embree configuration at two threads, ours, medium and high at one ----
-    er::Device device;  // the default thread count: the arenas below set each build's
+    // The default thread count: the arenas below set each build's. SMOKETRACE_EMBREE_CONFIG (unset: Embree's
+    // defaults) passes a device string, e.g. "hugepages=1", for a side experiment.
+    er::Device device(std::getenv("SMOKETRACE_EMBREE_CONFIG"));
     tbb::task_arena arena_1(1), arena_2(2);
     std::unique_ptr<MeshBlas> blas;  // the two-thread build's, traversed below
     std::vector<std::unique_ptr<er::Scene>> scenes(std::size(kEmbreeConfigs));  // the two-thread builds'
@@ -592,7 +612,8 @@ void run_bvh(const BenchOptions& options) {
                               scene_1 = std::make_unique<er::Scene>(device, c->options);
                               scene_1->attach_mesh(mesh);
                           }});
-    time_round_robin(builds, options.repeats);
+    const int build_repeats = only_measures().empty() ? options.repeats : 1;
+    time_round_robin(builds, build_repeats);
     scene_1.reset();
     const double ours_build_2 = stats_of(builds[0].ms).median, ours_build_1 = stats_of(builds[1].ms).median;
     double embree_medium_ms[3] = {0, 0, 0}, embree_high_ms[3] = {0, 0, 0};  // [threads]
@@ -632,7 +653,7 @@ void run_bvh(const BenchOptions& options) {
                               return PassResult{};
                           }});
     }
-    time_round_robin(refits, options.repeats);
+    time_round_robin(refits, build_repeats);
     const double refit_sah = refit_blas->sah_cost(), refit_sah_at_build = refit_blas->sah_cost_at_build();
     const double fresh_sah = MeshBlas(deformed).sah_cost();
     double refit_ms[3] = {0, 0, 0}, rebuild_ms[3] = {0, 0, 0};  // [threads]

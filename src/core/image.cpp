@@ -1,10 +1,6 @@
 // Image storage and the sRGB transfer function (see image.hpp).
 #include <smoketrace/core/image.hpp>
 
-#if defined(__linux__)
-#include <sys/mman.h>
-#endif
-
 #include <tbb/parallel_for.h>
 
 #include <array>
@@ -89,13 +85,6 @@ ImageRgba::ImageRgba(int w, int h, glm::vec4 fill) : width(w), height(h) {
 ImageRgba::ImageRgba(int w, int h, Uninitialized) : width(w), height(h) {
     check_size("ImageRgba", w, h);
     pixels.resize(std::size_t(w) * std::size_t(h));
-}
-
-void advise_huge_pages([[maybe_unused]] void* p, [[maybe_unused]] std::size_t bytes) {
-#if defined(__linux__) && defined(MADV_HUGEPAGE)
-    // Only whole 2 MB pages inside the buffer; advice is a hint, so a failure changes nothing.
-    if (bytes >= PixelAllocator<char>::kAlignment) (void)::madvise(p, bytes, MADV_HUGEPAGE);
-#endif
 }
 
 Rgba8Image::Rgba8Image(int w, int h) : width(w), height(h) {

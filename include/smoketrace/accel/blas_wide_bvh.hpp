@@ -7,6 +7,7 @@
 // The binary tree stays the master copy, as for the TLAS (wide_bvh.hpp): it is what the builder makes and
 // what the SAH cost is read from; collapse() derives the wide tree from it. A leaf slot keeps its binary
 // leaf's primitive count and names where the leaf's primitives are (a mesh BLAS: its first triangle block).
+#include <smoketrace/core/huge_page_allocator.hpp>
 #include <smoketrace/accel/bvh.hpp>
 
 #include <cstdint>
@@ -51,7 +52,7 @@ public:
     [[nodiscard]] std::size_t node_count() const { return nodes_.size(); }
 
 private:
-    std::vector<Node, AlignedAllocator<Node, 64>> nodes_;
+    std::vector<Node, HugePageAllocator<Node, 64>> nodes_;  // in huge pages: a walk reads it at random
 };
 
 extern template class BlasWideBvh<4>;

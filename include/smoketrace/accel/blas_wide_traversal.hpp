@@ -28,7 +28,7 @@ enum class BlasWalkOrder : std::uint8_t { nearest_first, any_order };
 
 // The default leaf prefetch: none.
 struct NoLeafPrefetch {
-    void operator()(std::uint32_t) const {}
+    void operator()(std::uint32_t, std::uint32_t) const {}
 };
 
 namespace detail {
@@ -76,8 +76,8 @@ inline constexpr std::uint32_t kLeafRef = 0x80000000u;
 // Calls leaf(ref, count) for every leaf whose box the ray enters before tmax (ref: what the leaf slot holds,
 // see BlasWideBvh::collapse()); `tmax` is read through the reference at every step, so a leaf callback that
 // commits a hit narrows the search. leaf returns true to end the traversal; the function then returns true.
-// The root's own box is not tested: its children's are. prefetch_leaf(ref) is called for each leaf whose
-// box the ray enters, when it is entered: a hint to start loading the leaf's primitives.
+// The root's own box is not tested: its children's are. prefetch_leaf(ref, count) is called for each leaf whose
+// box the ray enters, when it is entered, with its count: a hint to start loading the leaf's primitives.
 template <BlasWalkOrder Order, unsigned W, class LeafFn, class PrefetchLeaf = NoLeafPrefetch>
 inline bool traverse_blas_wide(const BlasWideBvh<W>& bvh, const BoxRay& ray, const float& tmax, LeafFn&& leaf,
                                TraversalStats& stats, PrefetchLeaf&& prefetch_leaf = {}) {
@@ -112,7 +112,7 @@ inline bool traverse_blas_wide(const BlasWideBvh<W>& bvh, const BoxRay& ray, con
             // following one another (an incoherent ray's walk waits on memory more than it computes).
             for (unsigned m = hits; m != 0; m &= m - 1) {
                 const unsigned i = unsigned(std::countr_zero(m));
-                if ((n.leaves >> i) & 1u) prefetch_leaf(n.child[i]);
+                if ((n.leaves >> i) & 1u) prefetch_leaf(n.child[i], n.count[i]);
                 else detail::prefetch_bytes<sizeof(BlasWideNode<W>)>(nodes + n.child[i]);
             }
             // Without a branch: whether a hit child is a leaf is as unpredictable as which children are hit.

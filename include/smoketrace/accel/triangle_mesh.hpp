@@ -3,6 +3,7 @@
 #include <smoketrace/accel/blas_wide_bvh.hpp>
 #include <smoketrace/accel/bvh.hpp>
 #include <smoketrace/accel/bvh_builder.hpp>
+#include <smoketrace/core/huge_page_allocator.hpp>
 #include <smoketrace/geometry/ray_triangle_block.hpp>
 
 #include <glm/vec3.hpp>
@@ -106,7 +107,8 @@ private:
     Bvh bvh_;
     BlasWideBvh<kMeshBlasWidth> wide_;
     std::vector<Triangle> triangles_;
-    std::vector<TriangleBlock, AlignedAllocator<TriangleBlock, alignof(TriangleBlock)>> blocks_;
+    // In huge pages, as the wide nodes: a walk reads both at random (huge_page_allocator.hpp).
+    std::vector<TriangleBlock, HugePageAllocator<TriangleBlock, alignof(TriangleBlock)>> blocks_;
     std::vector<std::uint32_t> leaf_blocks_;  // per binary node: a leaf's first block (inner nodes: unused)
     // The binary leaves' (first slot, first block), in slot order: leaf_block()'s table.
     std::vector<std::pair<std::uint32_t, std::uint32_t>> leaf_starts_;

@@ -1,6 +1,8 @@
 #pragma once
 // Images in memory: linear-light float RGBA (what the renderer computes) and 8-bit RGBA (what PNG files
 // and textures hold), with the conversions between them. Rows are stored top row first, the order PNG uses.
+#include <smoketrace/core/huge_page_allocator.hpp>
+
 #include <glm/vec4.hpp>
 
 #include <cassert>
@@ -41,14 +43,12 @@ struct PixelAllocator {
     template <class U>
     bool operator==(const PixelAllocator<U>&) const { return true; }
 
-    static constexpr std::size_t kAlignment = std::size_t{2} << 20;  // one huge page
+    static constexpr std::size_t kAlignment = kHugePageBytes;
     // Small images (tests, textures' neighbours) keep a cache-line alignment and waste nothing.
     static std::align_val_t alignment_for(std::size_t bytes) {
         return std::align_val_t{bytes >= kAlignment ? kAlignment : std::size_t{64}};
     }
 };
-
-void advise_huge_pages(void* p, std::size_t bytes);
 
 template <class T>
 T* PixelAllocator<T>::allocate(std::size_t n) {

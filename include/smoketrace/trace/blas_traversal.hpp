@@ -79,12 +79,14 @@ inline bool mesh_leaf_hits(const MeshBlas& blas, const BlasRay& r, const float& 
     }
 }
 
-// The wide walk's leaf prefetch for a mesh: a leaf's first block (its first eight triangles, all of a
-// typical leaf).
+// The wide walk's leaf prefetch for a mesh: all of a leaf's blocks (up to three), so that a leaf of more than
+// eight triangles does not wait on its second block after the first.
 struct MeshLeafPrefetch {
     const MeshBlas& blas;
-    [[gnu::always_inline]] void operator()(std::uint32_t first_block) const {
-        detail::prefetch_bytes<sizeof(TriangleBlock)>(blas.blocks() + first_block);
+    [[gnu::always_inline]] void operator()(std::uint32_t first_block, std::uint32_t count) const {
+        const TriangleBlock* b = blas.blocks() + first_block;
+        for (std::uint32_t k = 0; k < count; k += kTriangleBlockLanes, ++b)
+            detail::prefetch_bytes<sizeof(TriangleBlock)>(b);
     }
 };
 
