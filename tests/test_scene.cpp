@@ -307,6 +307,68 @@ TEST_CASE("scene: removing a world-triangles instance keeps the others' triangle
     CHECK(hits[1] == std::pair<float, std::uint32_t>(17.0f, 21));
 }
 
+TEST_CASE("scene: detail() is each instance's own bottom level and inverse through adds, removals and transforms",
+          "[scene]") {
+    // A mesh, a quad (world triangles), a two-sphere set and a single sphere, interleaved. All but the
+    // single sphere keep their detail in a side array, in instance order, so removing one moves the later
+    // ones' slots; the single sphere's is derived (a world sphere, or the general path when stretched).
+    Pcg32 rng(91);
+    AccelScene s;
+    TriangleMesh quad;
+    quad.vertices = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
+    quad.triangles = {{0, 1, 2}, {0, 2, 3}};
+    std::vector<BottomLevel> levels;
+    levels.push_back(BottomLevel::from_mesh(make_icosphere(1, 1.0f), false));
+    levels.push_back(BottomLevel::from_mesh(quad, false));
+    levels.push_back(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 0.8f}, Sphere{{0.5f, 0, 0}, 0.6f}}, false));
+    levels.push_back(BottomLevel::from_spheres({Sphere{{0.1f, 0, 0}, 0.7f}}, false));
+    for (BottomLevel& b : levels) s.add_bottom_level(std::move(b));
+    auto make = [&](int i) {
+        const std::uint32_t blas = std::uint32_t(std::min(i % 5, 3));
+        const AffineTransform m = blas == 3 && i % 2 == 0
+                                      ? AffineTransform::translate_scale(random_transform(rng, 30).translation, 1.5)
+                                      : random_transform(rng, 30);  // per-axis scales: stretched spheres
+        return Instance{blas, m, 0xFF, std::uint32_t(500 + i), instance_flag_none};
+    };
+    std::vector<Instance> batch;
+    for (int i = 0; i < 100; ++i) s.add_instance(make(i));
+    for (int i = 100; i < 200; ++i) batch.push_back(make(i));
+    s.add_instances(batch);
+    for (const std::uint32_t gone : {0u, 7u, 50u, 51u, 120u, 3u}) s.remove_instance(gone);
+    for (std::uint32_t i = 0; i < s.instance_count(); i += 4) s.set_transform(i, make(int(i) + 3).object_to_world);
+    s.commit();
+
+    int paths[3] = {}, stretched_spheres = 0;
+    for (std::uint32_t i = 0; i < s.instance_count(); ++i) {
+        INFO("instance " << i);
+        const Instance& in = s.instance(i);
+        REQUIRE(s.detail(i).blas == &s.bottom_level(in.blas));
+        REQUIRE(s.detail(i).world_to_object_linear == in.object_to_world.inverse().linear);
+        ++paths[int(s.record(i).path)];
+        stretched_spheres += in.blas == 3 && s.record(i).path == InstancePath::object_space ? 1 : 0;
+    }
+    REQUIRE(paths[int(InstancePath::world_sphere)] > 10);
+    REQUIRE(paths[int(InstancePath::world_triangles)] > 10);
+    REQUIRE(stretched_spheres > 10);
+
+    // The same instances added afresh, one by one: the same hits.
+    AccelScene fresh;
+    fresh.add_bottom_level(BottomLevel::from_mesh(make_icosphere(1, 1.0f), false));
+    fresh.add_bottom_level(BottomLevel::from_mesh(quad, false));
+    fresh.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 0.8f}, Sphere{{0.5f, 0, 0}, 0.6f}}, false));
+    fresh.add_bottom_level(BottomLevel::from_spheres({Sphere{{0.1f, 0, 0}, 0.7f}}, false));
+    for (std::uint32_t i = 0; i < s.instance_count(); ++i) fresh.add_instance(s.instance(i));
+    fresh.commit();
+    int hits = 0;
+    for (int k = 0; k < 400; ++k) {
+        const Ray r = random_ray(rng, 30);
+        const std::vector<HitKey> a = all_hits(s, r, 0xFF), b = all_hits(fresh, r, 0xFF);
+        REQUIRE(a == b);
+        hits += int(a.size());
+    }
+    CHECK(hits > 400);
+}
+
 TEST_CASE("scene: a scene with every instance removed traces as empty", "[scene]") {
     AccelScene s;
     const auto b = s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 1.0f}}, true));
@@ -375,11 +437,17 @@ TEST_CASE("scene: add_instances() gives the scene of add_instance() one by one, 
         REQUIRE(a.mask == b.mask);
         REQUIRE(a.opaque == b.opaque);
         REQUIRE(a.user_id == b.user_id);
-        REQUIRE(a.first_world_triangle == b.first_world_triangle);
-        REQUIRE(a.world_triangle_count == b.world_triangle_count);
-        REQUIRE(a.world_facing_flipped == b.world_facing_flipped);
-        REQUIRE(a.sphere_radius == b.sphere_radius);
-        REQUIRE(a.world_to_object_linear == b.world_to_object_linear);
+        if (a.path == InstancePath::world_sphere) {
+            REQUIRE(a.sphere.offset == b.sphere.offset);
+            REQUIRE(a.sphere.radius == b.sphere.radius);
+        } else {
+            REQUIRE(a.other.detail == b.other.detail);
+            REQUIRE(a.other.first_world_triangle == b.other.first_world_triangle);
+            REQUIRE(a.other.world_triangle_count == b.other.world_triangle_count);
+            REQUIRE(a.other.world_facing_flipped == b.other.world_facing_flipped);
+        }
+        REQUIRE(bulk.detail(i).blas == &bulk.bottom_level(bulk.instance(i).blas));
+        REQUIRE(bulk.detail(i).world_to_object_linear == one_by_one.detail(i).world_to_object_linear);
     }
     const std::size_t triangles = 2 * ((instances.size() + 1) / 3);  // every quad instance's two
     CHECK(std::memcmp(bulk.world_triangles(), one_by_one.world_triangles(), triangles * sizeof(MeshBlas::Triangle)) ==
