@@ -307,11 +307,12 @@ TEST_CASE("scene: removing a world-triangles instance keeps the others' triangle
     CHECK(hits[1] == std::pair<float, std::uint32_t>(17.0f, 21));
 }
 
-TEST_CASE("scene: detail() is each instance's own bottom level and inverse through adds, removals and transforms",
+TEST_CASE("scene: records and details stay each instance's own through adds, removals, masks and transforms",
           "[scene]") {
     // A mesh, a quad (world triangles), a two-sphere set and a single sphere, interleaved. All but the
     // single sphere keep their detail in a side array, in instance order, so removing one moves the later
     // ones' slots; the single sphere's is derived (a world sphere, or the general path when stretched).
+    // Each commit lays the records out in leaf order; the changes in between find them through their slots.
     Pcg32 rng(91);
     AccelScene s;
     TriangleMesh quad;
@@ -334,8 +335,13 @@ TEST_CASE("scene: detail() is each instance's own bottom level and inverse throu
     for (int i = 0; i < 100; ++i) s.add_instance(make(i));
     for (int i = 100; i < 200; ++i) batch.push_back(make(i));
     s.add_instances(batch);
+    REQUIRE(s.commit() == TlasUpdate::rebuild);
     for (const std::uint32_t gone : {0u, 7u, 50u, 51u, 120u, 3u}) s.remove_instance(gone);
+    s.add_instance(make(200));
     for (std::uint32_t i = 0; i < s.instance_count(); i += 4) s.set_transform(i, make(int(i) + 3).object_to_world);
+    REQUIRE(s.commit() == TlasUpdate::rebuild);
+    for (std::uint32_t i = 1; i < s.instance_count(); i += 4) s.set_transform(i, make(int(i) + 3).object_to_world);
+    for (std::uint32_t i = 2; i < s.instance_count(); i += 5) s.set_mask(i, std::uint8_t(1u << (i % 3)));
     s.commit();
 
     int paths[3] = {}, stretched_spheres = 0;
@@ -359,12 +365,29 @@ TEST_CASE("scene: detail() is each instance's own bottom level and inverse throu
     fresh.add_bottom_level(BottomLevel::from_spheres({Sphere{{0.1f, 0, 0}, 0.7f}}, false));
     for (std::uint32_t i = 0; i < s.instance_count(); ++i) fresh.add_instance(s.instance(i));
     fresh.commit();
+    for (std::uint32_t i = 0; i < s.instance_count(); ++i) {
+        INFO("instance " << i);
+        const InstanceRecord &a = s.record(i), &b = fresh.record(i);
+        REQUIRE((a.mask == b.mask && a.opaque == b.opaque && a.path == b.path && a.flags == b.flags));
+        REQUIRE((a.user_id == b.user_id && a.object_to_world_translation == b.object_to_world_translation));
+        if (a.path == InstancePath::world_sphere) {
+            REQUIRE((a.sphere.offset == b.sphere.offset && a.sphere.radius == b.sphere.radius));
+        } else {
+            REQUIRE((a.other.detail == b.other.detail && a.other.first_world_triangle == b.other.first_world_triangle));
+            REQUIRE(a.other.world_triangle_count == b.other.world_triangle_count);
+            REQUIRE(a.other.world_facing_flipped == b.other.world_facing_flipped);
+        }
+    }
+    for (std::uint32_t k = 0; k < s.instance_count(); ++k)
+        REQUIRE(&s.leaf_record(k) == &s.record(s.tlas().prim_indices[k]));
     int hits = 0;
     for (int k = 0; k < 400; ++k) {
         const Ray r = random_ray(rng, 30);
-        const std::vector<HitKey> a = all_hits(s, r, 0xFF), b = all_hits(fresh, r, 0xFF);
-        REQUIRE(a == b);
-        hits += int(a.size());
+        for (const std::uint8_t mask : {std::uint8_t(0xFF), std::uint8_t(2)}) {
+            const std::vector<HitKey> a = all_hits(s, r, mask), b = all_hits(fresh, r, mask);
+            REQUIRE(a == b);
+            hits += int(a.size());
+        }
     }
     CHECK(hits > 400);
 }

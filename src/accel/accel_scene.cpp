@@ -47,6 +47,7 @@ std::uint32_t AccelScene::add_instance(const Instance& instance) {
     if (instance.blas >= blases_.size())
         throw std::out_of_range("AccelScene::add_instance: no bottom level " + std::to_string(instance.blas));
     instances_.push_back(instance);
+    record_slot_.push_back(static_cast<std::uint32_t>(records_.size()));
     records_.emplace_back();
     // Whether an instance keeps a detail and takes the world_triangles path depends on the BLAS alone, so
     // its slots are fixed here.
@@ -74,7 +75,8 @@ std::uint32_t AccelScene::add_instances(std::span<const Instance> added) {
     const std::size_t first = instances_.size(), first_triangle = world_triangles_.size();
     const std::size_t first_detail = details_.size();
     instances_.insert(instances_.end(), added.begin(), added.end());
-    records_.resize(instances_.size());
+    records_.resize(instances_.size());  // added at the end: instance i's slot is i
+    for (std::size_t i = first; i < instances_.size(); ++i) record_slot_.push_back(static_cast<std::uint32_t>(i));
     world_boxes_.resize(instances_.size());
     for (const Instance& in : added) instance_masks_.push_back(in.mask);
     // Detail and world-triangle slots in instance order, as add_instance() lays them out one by one.
@@ -98,6 +100,7 @@ std::uint32_t AccelScene::add_instances(std::span<const Instance> added) {
     } catch (...) {
         instances_.resize(first);
         records_.resize(first);
+        record_slot_.resize(first);
         world_boxes_.resize(first);
         instance_masks_.resize(first);
         world_triangles_.resize(first_triangle);
@@ -111,13 +114,15 @@ std::uint32_t AccelScene::add_instances(std::span<const Instance> added) {
 void AccelScene::reserve_instances(std::size_t count) {
     instances_.reserve(count);
     records_.reserve(count);
+    record_slot_.reserve(count);
     world_boxes_.reserve(count);
     instance_masks_.reserve(count);
 }
 
 void AccelScene::remove_instance(std::uint32_t index) {
     if (index >= instances_.size()) throw std::out_of_range("AccelScene::remove_instance");
-    const InstanceRecord& gone = records_[index];
+    const std::uint32_t slot = record_slot_[index];
+    const InstanceRecord& gone = records_[slot];
     if (gone.path == InstancePath::world_triangles) {
         const std::uint32_t first = gone.other.first_world_triangle, n = gone.other.world_triangle_count;
         world_triangles_.erase(world_triangles_.begin() + first, world_triangles_.begin() + first + n);
@@ -133,7 +138,10 @@ void AccelScene::remove_instance(std::uint32_t index) {
                 --r.other.detail;
     }
     instances_.erase(instances_.begin() + index);
-    records_.erase(records_.begin() + index);
+    records_.erase(records_.begin() + slot);
+    record_slot_.erase(record_slot_.begin() + index);
+    for (std::uint32_t& s : record_slot_)
+        if (s > slot) --s;
     world_boxes_.erase(world_boxes_.begin() + index);
     instance_masks_.erase(instance_masks_.begin() + index);
     structure_dirty_ = true;
@@ -149,7 +157,7 @@ void AccelScene::set_transform(std::uint32_t index, const AffineTransform& m) {
 void AccelScene::set_mask(std::uint32_t index, std::uint8_t mask) {
     if (instances_.at(index).mask == mask) return;
     instances_[index].mask = mask;
-    records_[index].mask = mask;
+    records_[record_slot_[index]].mask = mask;
     instance_masks_[index] = mask;
     transforms_dirty_ = true;  // node masks are refreshed by the refit sweep
 }
@@ -184,7 +192,7 @@ void AccelScene::assign_world_triangle_slots() {
     world_triangles_.clear();
     for (std::uint32_t i = 0; i < instances_.size(); ++i) {
         if (const BottomLevel& b = *blases_[instances_[i].blas]; takes_world_triangles(b)) {
-            records_[i].other.first_world_triangle = static_cast<std::uint32_t>(world_triangles_.size());
+            records_[record_slot_[i]].other.first_world_triangle = static_cast<std::uint32_t>(world_triangles_.size());
             world_triangles_.resize(world_triangles_.size() + b.mesh.leaf_triangles().size());
         }
     }
@@ -231,7 +239,7 @@ void AccelScene::update_instance(std::uint32_t i) {
     const Instance& in = instances_[i];
     const BottomLevel& b = *blases_[in.blas];
     const AffineTransform inv = in.object_to_world.inverse();
-    InstanceRecord& r = records_[i];
+    InstanceRecord& r = records_[record_slot_[i]];
     // Both fixed by add_instance (and by assign_world_triangle_slots()).
     const std::uint32_t detail = keeps_detail(b) ? r.other.detail : kNoInstanceDetail;
     const std::uint32_t first_world_triangle = takes_world_triangles(b) ? r.other.first_world_triangle : 0;
@@ -300,6 +308,18 @@ void AccelScene::rebuild() {
     refit_binary();  // fills the node masks (boxes are already exact)
     wide_tlas_.collapse(tlas_, node_masks_);
     sah_at_build_ = sah_current_;
+    // The records to leaf order (one instance per leaf: prim_indices is a permutation). Each k writes its
+    // own record and its instance's slot.
+    std::vector<InstanceRecord> in_leaf_order(records_.size());
+    const std::vector<std::uint32_t>& leaf = tlas_.prim_indices;
+    using Range = tbb::blocked_range<std::size_t>;
+    tbb::parallel_for(Range(0, leaf.size(), 4096), [&](const Range& r) {
+        for (std::size_t k = r.begin(); k < r.end(); ++k) {
+            in_leaf_order[k] = records_[record_slot_[leaf[k]]];
+            record_slot_[leaf[k]] = static_cast<std::uint32_t>(k);
+        }
+    });
+    records_.swap(in_leaf_order);
 }
 
 // One backward sweep (children before parents) refits the boxes, ORs the instance masks and sums the

@@ -60,9 +60,9 @@ enum class InstancePaths : std::uint8_t { fastest, object_space_only };
 // ray the object-space ray and its triangle set-up, about as much work as the two triangle tests.
 inline constexpr std::uint32_t kMaxWorldTriangles = 4;
 
-// What trace() reads per instance, kept together in instance order, one cache line per instance. A bundle's
-// walk meets the records in leaf order, scattered over memory, so each record is likely a cache miss: a visit
-// must need no second line. What only the general path (and a world triangle's hit) reads beyond it, the
+// What trace() reads per instance, one cache line per instance, kept in TLAS leaf order (AccelScene::
+// leaf_record()). A walk that reaches a record has mostly not read its neighbours yet, so each record is
+// likely a cache miss: a visit must need no second line. What only the general path (and a world triangle's hit) reads beyond it, the
 // bottom level and the inverse transform, is an InstanceDetail (AccelScene::detail()), kept apart and only
 // for instances that may take that path, so that a million world spheres carry no inverse they never read.
 struct alignas(64) InstanceRecord {
@@ -152,14 +152,17 @@ public:
     [[nodiscard]] const std::vector<std::uint8_t>& tlas_node_masks() const { return node_masks_; }
     // The same tree collapsed to 4-wide nodes, with the masks: what trace() walks.
     [[nodiscard]] const WideBvh& wide_tlas() const { return wide_tlas_; }
-    [[nodiscard]] const InstanceRecord& record(std::uint32_t i) const { return records_[i]; }
+    [[nodiscard]] const InstanceRecord& record(std::uint32_t i) const { return records_[record_slot_[i]]; }
+    // The record of the instance at TLAS leaf position k (tlas().prim_indices[k]), for a walk: the records
+    // lie in leaf order, so the walk reads them in the order of the tree. Valid after commit().
+    [[nodiscard]] const InstanceRecord& leaf_record(std::uint32_t k) const { return records_[k]; }
     // Instance i's bottom level and world-to-object linear map. Stored for the instances whose bottom level
     // is not a single sphere; derived for the others (a world sphere needs it only for a hit's
     // object_point; a sphere under a transform that is no similarity takes the general path), with the
     // inverse update_instance() takes, so the same bits either way. Inline and free of side effects, so
     // that a caller that never reads the result pays nothing.
     [[nodiscard]] InstanceDetail detail(std::uint32_t i) const {
-        const InstanceRecord& r = records_[i];
+        const InstanceRecord& r = records_[record_slot_[i]];
         if (r.path != InstancePath::world_sphere && r.other.detail != kNoInstanceDetail)
             return details_[r.other.detail];
         const Instance& in = instances_[i];
@@ -191,7 +194,12 @@ private:
 
     std::vector<std::unique_ptr<BottomLevel>> blases_;  // stable addresses for InstanceRecord::blas
     std::vector<Instance> instances_;
+    // records_[record_slot_[i]] is instance i's record. Each rebuild lays the records out in TLAS leaf order
+    // (and instances added since sit at the end, in instance order): a walk meets the instances of a region
+    // together, and instance order is often random in space (a particle system's), so records in instance
+    // order cost a cache miss per visit.
     std::vector<InstanceRecord> records_;
+    std::vector<std::uint32_t> record_slot_;
     std::vector<InstanceDetail> details_;  // of the instances that keeps_detail(), in instance order
     std::vector<MeshBlas::Triangle> world_triangles_;  // in instance order; slots fixed when added
     std::vector<Aabb> world_boxes_;

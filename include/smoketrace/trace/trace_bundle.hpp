@@ -64,7 +64,7 @@ BundleResults trace_bundle(const AccelScene& scene, const RayBundle& bundle, std
         const unsigned entered = lanes;  // a lane leaves `lanes` when its search ends
         for (std::uint32_t k = first; k < first + count && lanes != 0; ++k) {
             const std::uint32_t index = tlas.prim_indices[k];
-            const InstanceRecord& inst = scene.record(index);
+            const InstanceRecord& inst = scene.leaf_record(k);
             bool opaque;
             if (!filter.admits(inst, opaque)) continue;  // rules 1-3, once for the bundle
             if (inst.path == InstancePath::world_sphere) {

@@ -192,7 +192,7 @@ void trace_tile(const AccelScene& scene, RayTile& tile, std::uint32_t flags, std
             for (std::uint32_t k = first; k < first + count; ++k) {
                 const std::uint32_t index = tlas.prim_indices[k];
                 bool opaque;
-                if (!filter.admits(scene.record(index), opaque)) continue;  // rules 1-3, once for the tile
+                if (!filter.admits(scene.leaf_record(k), opaque)) continue;  // rules 1-3, once for the tile
                 candidates.push_back({index, opaque, distance_to_box(tile.origin(), scene.instance_bounds(index))});
             }
         },
