@@ -255,10 +255,10 @@ void OpticalDepthPass::resolve(HitSort method, std::span<float> lengths) {
                 lengths[ray_order_[k]] = kFullyDarkPathLength;
                 continue;
             }
-            list.resize(ray.count);
-            std::transform(ray.hits, ray.hits + ray.count, list.begin(),
-                           [](const PackedHit& h) { return unpack_hit(h.bits); });
-            lengths[ray_order_[k]] = resolve_list(list, method);
+            if (list.size() < ray.count) list.resize(ray.count);  // only grows: no refill per ray
+            SurfaceHit* hits = list.data();
+            for (std::uint32_t j = 0; j < ray.count; ++j) hits[j] = unpack_hit(ray.hits[j].bits);
+            lengths[ray_order_[k]] = resolve_list({hits, ray.count}, method);
         }
     });
 }
