@@ -468,6 +468,8 @@ TEST_CASE("scene: add_instances() gives the scene of add_instance() one by one, 
             REQUIRE(a.other.first_world_triangle == b.other.first_world_triangle);
             REQUIRE(a.other.world_triangle_count == b.other.world_triangle_count);
             REQUIRE(a.other.world_facing_flipped == b.other.world_facing_flipped);
+            if (a.path == InstancePath::world_triangles)
+                REQUIRE(a.other.blas == &bulk.bottom_level(bulk.instance(i).blas));
         }
         REQUIRE(bulk.detail(i).blas == &bulk.bottom_level(bulk.instance(i).blas));
         REQUIRE(bulk.detail(i).world_to_object_linear == one_by_one.detail(i).world_to_object_linear);

@@ -269,6 +269,7 @@ void AccelScene::update_instance(std::uint32_t i) {
         r.path = InstancePath::world_triangles;
         r.other.first_world_triangle = first_world_triangle;
         r.other.world_triangle_count = static_cast<std::uint8_t>(b.mesh.leaf_triangles().size());
+        r.other.blas = &b;
         const bool mirrored = glm::determinant(in.object_to_world.linear) < 0.0;
         r.other.world_facing_flipped = mirrored != ((in.flags & instance_flag_triangle_front_clockwise) != 0);
         auto to_world = [&](const glm::vec3& v) { return glm::vec3(in.object_to_world.point(glm::dvec3(v))); };

@@ -94,6 +94,8 @@ struct alignas(64) InstanceRecord {
             std::uint32_t first_world_triangle;
             std::uint8_t world_triangle_count;
             bool world_facing_flipped;
+            // world_triangles only: for a hit's primitive index, on this line rather than behind detail().
+            const BottomLevel* blas;
         } other;
     };
 };

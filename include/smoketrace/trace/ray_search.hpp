@@ -223,7 +223,7 @@ public:
             h.barycentrics = th.barycentrics;  // an affine map keeps them
             h.instance_index = index;
             h.instance_id = inst.user_id;
-            h.primitive_index = scene_.detail(index).blas->mesh.primitive_id(k);
+            h.primitive_index = inst.other.blas->mesh.primitive_id(k);
             h.kind = front ? HitKind::front_face : HitKind::back_face;
             h.geometry = GeometryKind::triangles;
             return h;
