@@ -62,7 +62,7 @@ inline constexpr std::uint32_t kMaxWorldTriangles = 4;
 
 // What trace() reads per instance, one cache line per instance, kept in TLAS leaf order (AccelScene::
 // leaf_record()). A walk that reaches a record has mostly not read its neighbours yet, so each record is
-// likely a cache miss: a visit must need no second line. What only the general path (and a world triangle's hit) reads beyond it, the
+// likely a cache miss: a visit must need no second line. What only the general path reads beyond it, the
 // bottom level and the inverse transform, is an InstanceDetail (AccelScene::detail()), kept apart and only
 // for instances that may take that path, so that a million world spheres carry no inverse they never read.
 struct alignas(64) InstanceRecord {
