@@ -144,6 +144,9 @@ void run(const BenchOptions& o) {
     report("depths_1m_tlas_build_ms_2t", med[2].build);
     report("depths_1m_compute_ms_1t", med[1].compute());
     report("depths_1m_compute_ms_2t", med[2].compute());
+    report("depths_1m_pass_ms_1t", med[1].pass);
+    report("depths_1m_pass_ms_2t", med[2].pass);
+    report("depths_1m_peak_mib_1t", med[1].peak_mib);
     report("depths_1m_peak_mib_2t", med[2].peak_mib);
     report("depths_1m_tlas_sah", sah);
 }

@@ -494,7 +494,7 @@ TEST_CASE("optical depth: resolving the kept hits in place gives the bits of gat
                     OpticalDepthPass pass;
                     OpticalDepthHits gathered;
                     pass.trace(scene, ps, *which, {0.25f, 1.0f, 0.1f}, OpticalDepthSettings{cutoff});
-                    pass.gather(gathered);  // before resolve(), which sorts the kept hits in place
+                    pass.gather(gathered);
                     std::vector<float> in_place(which->size()), from_gathered(which->size());
                     pass.resolve(sort, in_place);
                     resolve_optical_path_lengths(gathered.lists, gathered.status, from_gathered, sort);

@@ -307,6 +307,92 @@ TEST_CASE("scene: removing a world-triangles instance keeps the others' triangle
     CHECK(hits[1] == std::pair<float, std::uint32_t>(17.0f, 21));
 }
 
+TEST_CASE("scene: records and details stay each instance's own through adds, removals, masks and transforms",
+          "[scene]") {
+    // A mesh, a quad (world triangles), a two-sphere set and a single sphere, interleaved. All but the
+    // single sphere keep their detail in a side array, in instance order, so removing one moves the later
+    // ones' slots; the single sphere's is derived (a world sphere, or the general path when stretched).
+    // Each commit lays the records out in leaf order; the changes in between find them through their slots.
+    Pcg32 rng(91);
+    AccelScene s;
+    TriangleMesh quad;
+    quad.vertices = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
+    quad.triangles = {{0, 1, 2}, {0, 2, 3}};
+    std::vector<BottomLevel> levels;
+    levels.push_back(BottomLevel::from_mesh(make_icosphere(1, 1.0f), false));
+    levels.push_back(BottomLevel::from_mesh(quad, false));
+    levels.push_back(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 0.8f}, Sphere{{0.5f, 0, 0}, 0.6f}}, false));
+    levels.push_back(BottomLevel::from_spheres({Sphere{{0.1f, 0, 0}, 0.7f}}, false));
+    for (BottomLevel& b : levels) s.add_bottom_level(std::move(b));
+    auto make = [&](int i) {
+        const std::uint32_t blas = std::uint32_t(std::min(i % 5, 3));
+        const AffineTransform m = blas == 3 && i % 2 == 0
+                                      ? AffineTransform::translate_scale(random_transform(rng, 30).translation, 1.5)
+                                      : random_transform(rng, 30);  // per-axis scales: stretched spheres
+        return Instance{blas, m, 0xFF, std::uint32_t(500 + i), instance_flag_none};
+    };
+    std::vector<Instance> batch;
+    for (int i = 0; i < 100; ++i) s.add_instance(make(i));
+    for (int i = 100; i < 200; ++i) batch.push_back(make(i));
+    s.add_instances(batch);
+    REQUIRE(s.commit() == TlasUpdate::rebuild);
+    for (const std::uint32_t gone : {0u, 7u, 50u, 51u, 120u, 3u}) s.remove_instance(gone);
+    s.add_instance(make(200));
+    for (std::uint32_t i = 0; i < s.instance_count(); i += 4) s.set_transform(i, make(int(i) + 3).object_to_world);
+    REQUIRE(s.commit() == TlasUpdate::rebuild);
+    for (std::uint32_t i = 1; i < s.instance_count(); i += 4) s.set_transform(i, make(int(i) + 3).object_to_world);
+    for (std::uint32_t i = 2; i < s.instance_count(); i += 5) s.set_mask(i, std::uint8_t(1u << (i % 3)));
+    s.commit();
+
+    int paths[3] = {}, stretched_spheres = 0;
+    for (std::uint32_t i = 0; i < s.instance_count(); ++i) {
+        INFO("instance " << i);
+        const Instance& in = s.instance(i);
+        REQUIRE(s.detail(i).blas == &s.bottom_level(in.blas));
+        REQUIRE(s.detail(i).world_to_object_linear == in.object_to_world.inverse().linear);
+        ++paths[int(s.record(i).path)];
+        stretched_spheres += in.blas == 3 && s.record(i).path == InstancePath::object_space ? 1 : 0;
+    }
+    REQUIRE(paths[int(InstancePath::world_sphere)] > 10);
+    REQUIRE(paths[int(InstancePath::world_triangles)] > 10);
+    REQUIRE(stretched_spheres > 10);
+
+    // The same instances added afresh, one by one: the same hits.
+    AccelScene fresh;
+    fresh.add_bottom_level(BottomLevel::from_mesh(make_icosphere(1, 1.0f), false));
+    fresh.add_bottom_level(BottomLevel::from_mesh(quad, false));
+    fresh.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 0.8f}, Sphere{{0.5f, 0, 0}, 0.6f}}, false));
+    fresh.add_bottom_level(BottomLevel::from_spheres({Sphere{{0.1f, 0, 0}, 0.7f}}, false));
+    for (std::uint32_t i = 0; i < s.instance_count(); ++i) fresh.add_instance(s.instance(i));
+    fresh.commit();
+    for (std::uint32_t i = 0; i < s.instance_count(); ++i) {
+        INFO("instance " << i);
+        const InstanceRecord &a = s.record(i), &b = fresh.record(i);
+        REQUIRE((a.mask == b.mask && a.opaque == b.opaque && a.path == b.path && a.flags == b.flags));
+        REQUIRE((a.user_id == b.user_id && a.object_to_world_translation == b.object_to_world_translation));
+        if (a.path == InstancePath::world_sphere) {
+            REQUIRE((a.sphere.offset == b.sphere.offset && a.sphere.radius == b.sphere.radius));
+        } else {
+            // other.detail is where the detail lies, which each rebuild chooses: detail() is checked above.
+            REQUIRE(a.other.first_world_triangle == b.other.first_world_triangle);
+            REQUIRE(a.other.world_triangle_count == b.other.world_triangle_count);
+            REQUIRE(a.other.world_facing_flipped == b.other.world_facing_flipped);
+        }
+    }
+    for (std::uint32_t k = 0; k < s.instance_count(); ++k)
+        REQUIRE(&s.leaf_record(k) == &s.record(s.tlas().prim_indices[k]));
+    int hits = 0;
+    for (int k = 0; k < 400; ++k) {
+        const Ray r = random_ray(rng, 30);
+        for (const std::uint8_t mask : {std::uint8_t(0xFF), std::uint8_t(2)}) {
+            const std::vector<HitKey> a = all_hits(s, r, mask), b = all_hits(fresh, r, mask);
+            REQUIRE(a == b);
+            hits += int(a.size());
+        }
+    }
+    CHECK(hits > 400);
+}
+
 TEST_CASE("scene: a scene with every instance removed traces as empty", "[scene]") {
     AccelScene s;
     const auto b = s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 1.0f}}, true));
@@ -375,11 +461,19 @@ TEST_CASE("scene: add_instances() gives the scene of add_instance() one by one, 
         REQUIRE(a.mask == b.mask);
         REQUIRE(a.opaque == b.opaque);
         REQUIRE(a.user_id == b.user_id);
-        REQUIRE(a.first_world_triangle == b.first_world_triangle);
-        REQUIRE(a.world_triangle_count == b.world_triangle_count);
-        REQUIRE(a.world_facing_flipped == b.world_facing_flipped);
-        REQUIRE(a.sphere_radius == b.sphere_radius);
-        REQUIRE(a.world_to_object_linear == b.world_to_object_linear);
+        if (a.path == InstancePath::world_sphere) {
+            REQUIRE(a.sphere.offset == b.sphere.offset);
+            REQUIRE(a.sphere.radius == b.sphere.radius);
+        } else {
+            REQUIRE(a.other.detail == b.other.detail);
+            REQUIRE(a.other.first_world_triangle == b.other.first_world_triangle);
+            REQUIRE(a.other.world_triangle_count == b.other.world_triangle_count);
+            REQUIRE(a.other.world_facing_flipped == b.other.world_facing_flipped);
+            if (a.path == InstancePath::world_triangles)
+                REQUIRE(a.other.blas == &bulk.bottom_level(bulk.instance(i).blas));
+        }
+        REQUIRE(bulk.detail(i).blas == &bulk.bottom_level(bulk.instance(i).blas));
+        REQUIRE(bulk.detail(i).world_to_object_linear == one_by_one.detail(i).world_to_object_linear);
     }
     const std::size_t triangles = 2 * ((instances.size() + 1) / 3);  // every quad instance's two
     CHECK(std::memcmp(bulk.world_triangles(), one_by_one.world_triangles(), triangles * sizeof(MeshBlas::Triangle)) ==

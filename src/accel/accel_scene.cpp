@@ -47,10 +47,18 @@ std::uint32_t AccelScene::add_instance(const Instance& instance) {
     if (instance.blas >= blases_.size())
         throw std::out_of_range("AccelScene::add_instance: no bottom level " + std::to_string(instance.blas));
     instances_.push_back(instance);
+    record_slot_.push_back(static_cast<std::uint32_t>(records_.size()));
     records_.emplace_back();
-    // The world_triangles path depends on the BLAS alone, so an instance's slots are fixed here.
-    if (const BottomLevel& b = *blases_[instance.blas]; takes_world_triangles(b)) {
-        records_.back().first_world_triangle = static_cast<std::uint32_t>(world_triangles_.size());
+    // Whether an instance keeps a detail and takes the world_triangles path depends on the BLAS alone, so
+    // its slots are fixed here.
+    const BottomLevel& b = *blases_[instance.blas];
+    records_.back().other.detail = kNoInstanceDetail;
+    if (keeps_detail(b)) {
+        records_.back().other.detail = static_cast<std::uint32_t>(details_.size());
+        details_.emplace_back();
+    }
+    if (takes_world_triangles(b)) {
+        records_.back().other.first_world_triangle = static_cast<std::uint32_t>(world_triangles_.size());
         world_triangles_.resize(world_triangles_.size() + b.mesh.leaf_triangles().size());
     }
     world_boxes_.emplace_back();
@@ -65,19 +73,24 @@ std::uint32_t AccelScene::add_instances(std::span<const Instance> added) {
         if (in.blas >= blases_.size())
             throw std::out_of_range("AccelScene::add_instances: no bottom level " + std::to_string(in.blas));
     const std::size_t first = instances_.size(), first_triangle = world_triangles_.size();
+    const std::size_t first_detail = details_.size();
     instances_.insert(instances_.end(), added.begin(), added.end());
-    records_.resize(instances_.size());
+    records_.resize(instances_.size());  // added at the end: instance i's slot is i
+    for (std::size_t i = first; i < instances_.size(); ++i) record_slot_.push_back(static_cast<std::uint32_t>(i));
     world_boxes_.resize(instances_.size());
     for (const Instance& in : added) instance_masks_.push_back(in.mask);
-    // World-triangle slots in instance order, as add_instance() lays them out one by one.
-    std::size_t triangles = first_triangle;
+    // Detail and world-triangle slots in instance order, as add_instance() lays them out one by one.
+    std::size_t triangles = first_triangle, details = first_detail;
     for (std::size_t i = first; i < instances_.size(); ++i) {
-        if (const BottomLevel& b = *blases_[instances_[i].blas]; takes_world_triangles(b)) {
-            records_[i].first_world_triangle = static_cast<std::uint32_t>(triangles);
+        const BottomLevel& b = *blases_[instances_[i].blas];
+        records_[i].other.detail = keeps_detail(b) ? static_cast<std::uint32_t>(details++) : kNoInstanceDetail;
+        if (takes_world_triangles(b)) {
+            records_[i].other.first_world_triangle = static_cast<std::uint32_t>(triangles);
             triangles += b.mesh.leaf_triangles().size();
         }
     }
     world_triangles_.resize(triangles);
+    details_.resize(details);
     // Each instance's set-up reads only its own instance and bottom level and writes only its own slots.
     try {
         using Range = tbb::blocked_range<std::size_t>;
@@ -87,9 +100,11 @@ std::uint32_t AccelScene::add_instances(std::span<const Instance> added) {
     } catch (...) {
         instances_.resize(first);
         records_.resize(first);
+        record_slot_.resize(first);
         world_boxes_.resize(first);
         instance_masks_.resize(first);
         world_triangles_.resize(first_triangle);
+        details_.resize(first_detail);
         throw;
     }
     if (!added.empty()) structure_dirty_ = true;
@@ -99,21 +114,34 @@ std::uint32_t AccelScene::add_instances(std::span<const Instance> added) {
 void AccelScene::reserve_instances(std::size_t count) {
     instances_.reserve(count);
     records_.reserve(count);
+    record_slot_.reserve(count);
     world_boxes_.reserve(count);
     instance_masks_.reserve(count);
 }
 
 void AccelScene::remove_instance(std::uint32_t index) {
     if (index >= instances_.size()) throw std::out_of_range("AccelScene::remove_instance");
-    const InstanceRecord& gone = records_[index];
+    const std::uint32_t slot = record_slot_[index];
+    const InstanceRecord& gone = records_[slot];
     if (gone.path == InstancePath::world_triangles) {
-        const std::uint32_t first = gone.first_world_triangle, n = gone.world_triangle_count;
+        const std::uint32_t first = gone.other.first_world_triangle, n = gone.other.world_triangle_count;
         world_triangles_.erase(world_triangles_.begin() + first, world_triangles_.begin() + first + n);
         for (InstanceRecord& r : records_)
-            if (r.path == InstancePath::world_triangles && r.first_world_triangle > first) r.first_world_triangle -= n;
+            if (r.path == InstancePath::world_triangles && r.other.first_world_triangle > first)
+                r.other.first_world_triangle -= n;
+    }
+    if (gone.path != InstancePath::world_sphere && gone.other.detail != kNoInstanceDetail) {
+        const std::uint32_t d = gone.other.detail;
+        details_.erase(details_.begin() + d);
+        for (InstanceRecord& r : records_)
+            if (r.path != InstancePath::world_sphere && r.other.detail != kNoInstanceDetail && r.other.detail > d)
+                --r.other.detail;
     }
     instances_.erase(instances_.begin() + index);
-    records_.erase(records_.begin() + index);
+    records_.erase(records_.begin() + slot);
+    record_slot_.erase(record_slot_.begin() + index);
+    for (std::uint32_t& s : record_slot_)
+        if (s > slot) --s;
     world_boxes_.erase(world_boxes_.begin() + index);
     instance_masks_.erase(instance_masks_.begin() + index);
     structure_dirty_ = true;
@@ -129,7 +157,7 @@ void AccelScene::set_transform(std::uint32_t index, const AffineTransform& m) {
 void AccelScene::set_mask(std::uint32_t index, std::uint8_t mask) {
     if (instances_.at(index).mask == mask) return;
     instances_[index].mask = mask;
-    records_[index].mask = mask;
+    records_[record_slot_[index]].mask = mask;
     instance_masks_[index] = mask;
     transforms_dirty_ = true;  // node masks are refreshed by the refit sweep
 }
@@ -163,9 +191,8 @@ BlasUpdate AccelScene::update_mesh_vertices(std::uint32_t blas, std::span<const 
 void AccelScene::assign_world_triangle_slots() {
     world_triangles_.clear();
     for (std::uint32_t i = 0; i < instances_.size(); ++i) {
-        records_[i].first_world_triangle = 0;
         if (const BottomLevel& b = *blases_[instances_[i].blas]; takes_world_triangles(b)) {
-            records_[i].first_world_triangle = static_cast<std::uint32_t>(world_triangles_.size());
+            records_[record_slot_[i]].other.first_world_triangle = static_cast<std::uint32_t>(world_triangles_.size());
             world_triangles_.resize(world_triangles_.size() + b.mesh.leaf_triangles().size());
         }
     }
@@ -200,13 +227,22 @@ bool AccelScene::takes_world_triangles(const BottomLevel& b) const {
            b.mesh.bvh().nodes[0].is_leaf() && b.mesh.leaf_triangles().size() <= kMaxWorldTriangles;
 }
 
+// Every instance but those of a single sphere under the world-space paths: those take world_sphere under a
+// similarity, and detail() derives the rest (rare: a sphere stretched into an ellipsoid).
+bool AccelScene::keeps_detail(const BottomLevel& b) const {
+    return !(paths_ == InstancePaths::fastest && b.kind == GeometryKind::spheres &&
+             b.spheres.leaf_spheres().size() == 1);
+}
+
 // World box: the 8 transformed corners of the object box, in double, rounded outward to float.
 void AccelScene::update_instance(std::uint32_t i) {
     const Instance& in = instances_[i];
     const BottomLevel& b = *blases_[in.blas];
     const AffineTransform inv = in.object_to_world.inverse();
-    InstanceRecord& r = records_[i];
-    const std::uint32_t first_world_triangle = r.first_world_triangle;  // fixed by add_instance
+    InstanceRecord& r = records_[record_slot_[i]];
+    // Both fixed by add_instance (and by assign_world_triangle_slots()).
+    const std::uint32_t detail = keeps_detail(b) ? r.other.detail : kNoInstanceDetail;
+    const std::uint32_t first_world_triangle = takes_world_triangles(b) ? r.other.first_world_triangle : 0;
     r = InstanceRecord{};
     r.path = InstancePath::object_space;
     r.mask = in.mask;
@@ -214,28 +250,30 @@ void AccelScene::update_instance(std::uint32_t i) {
     // Rule 2's instance part: FORCE_NON_OPAQUE over FORCE_OPAQUE over the geometry's opacity.
     r.opaque = !(in.flags & instance_flag_force_non_opaque) && ((in.flags & instance_flag_force_opaque) || b.opaque);
     r.user_id = in.user_id;
-    r.blas = &b;
     r.object_to_world_translation = in.object_to_world.translation;
-    r.world_to_object_linear = inv.linear;
+    if (detail != kNoInstanceDetail) details_[detail] = {&b, inv.linear};
     // The world-space paths of trace() (see InstancePath); anything else takes the general path.
     double scale = 0.0;
     if (paths_ == InstancePaths::fastest && b.kind == GeometryKind::spheres && b.spheres.leaf_spheres().size() == 1 &&
         is_similarity(in.object_to_world.linear, scale)) {
         const Sphere& sp = b.spheres.leaf_spheres()[0];
         r.path = InstancePath::world_sphere;
-        r.sphere_offset = in.object_to_world.linear * glm::dvec3(sp.center);
-        r.sphere_radius = scale * double(sp.radius);
+        r.sphere.offset = in.object_to_world.linear * glm::dvec3(sp.center);
+        r.sphere.radius = scale * double(sp.radius);
+    } else {
+        r.other.detail = detail;
     }
     if (takes_world_triangles(b)) {
         // Each vertex transformed in double and rounded once; a vertex shared by two triangles rounds to
         // the same float in both, so the world-space mesh stays watertight for the watertight test.
         r.path = InstancePath::world_triangles;
-        r.first_world_triangle = first_world_triangle;
-        r.world_triangle_count = static_cast<std::uint8_t>(b.mesh.leaf_triangles().size());
+        r.other.first_world_triangle = first_world_triangle;
+        r.other.world_triangle_count = static_cast<std::uint8_t>(b.mesh.leaf_triangles().size());
+        r.other.blas = &b;
         const bool mirrored = glm::determinant(in.object_to_world.linear) < 0.0;
-        r.world_facing_flipped = mirrored != ((in.flags & instance_flag_triangle_front_clockwise) != 0);
+        r.other.world_facing_flipped = mirrored != ((in.flags & instance_flag_triangle_front_clockwise) != 0);
         auto to_world = [&](const glm::vec3& v) { return glm::vec3(in.object_to_world.point(glm::dvec3(v))); };
-        for (std::uint32_t k = 0; k < r.world_triangle_count; ++k) {
+        for (std::uint32_t k = 0; k < r.other.world_triangle_count; ++k) {
             const MeshBlas::Triangle& t = b.mesh.leaf_triangles()[k];
             world_triangles_[first_world_triangle + k] = {to_world(t.v0), to_world(t.v1), to_world(t.v2)};
         }
@@ -271,6 +309,18 @@ void AccelScene::rebuild() {
     refit_binary();  // fills the node masks (boxes are already exact)
     wide_tlas_.collapse(tlas_, node_masks_);
     sah_at_build_ = sah_current_;
+    // The records to leaf order (one instance per leaf: prim_indices is a permutation). Each k writes its
+    // own record and its instance's slot.
+    std::vector<InstanceRecord> in_leaf_order(records_.size());
+    const std::vector<std::uint32_t>& leaf = tlas_.prim_indices;
+    using Range = tbb::blocked_range<std::size_t>;
+    tbb::parallel_for(Range(0, leaf.size(), 4096), [&](const Range& r) {
+        for (std::size_t k = r.begin(); k < r.end(); ++k) {
+            in_leaf_order[k] = records_[record_slot_[leaf[k]]];
+            record_slot_[leaf[k]] = static_cast<std::uint32_t>(k);
+        }
+    });
+    records_.swap(in_leaf_order);
 }
 
 // One backward sweep (children before parents) refits the boxes, ORs the instance masks and sums the

@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -66,23 +67,39 @@ RayOutcome optical_depth_outcome(const AccelScene& scene, const Ray& ray, const 
 
 // Hits per block of a thread's kept hits: 1 MiB, so that the slack of a thread's last block is small
 // next to the hits of a large pass, and a block holds tens of thousands of rays.
-constexpr std::size_t kHitBlock = std::size_t{1} << 17;
+constexpr std::size_t kHitBlock = (std::size_t{1} << 20) / sizeof(std::uint32_t);
 
-SurfaceHit* OpticalDepthPass::Scratch::keep(std::span<const SurfaceHit> hits) {
+namespace {
+
+constexpr std::uint32_t kLeavingBit = 0x80000000u;
+
+// See OpticalDepthPass::PackedHit. value is +1 or −1 (the any-hit shader's).
+std::uint32_t pack_hit(const SurfaceHit& h) {
+    return std::bit_cast<std::uint32_t>(h.t) | (h.value < 0 ? kLeavingBit : 0u);
+}
+SurfaceHit unpack_hit(std::uint32_t bits) {
+    return SurfaceHit{std::bit_cast<float>(bits & ~kLeavingBit), (bits & kLeavingBit) != 0 ? -1 : +1};
+}
+
+}  // namespace
+
+OpticalDepthPass::PackedHit* OpticalDepthPass::Scratch::keep(std::span<const SurfaceHit> hits) {
     if (blocks.empty() || blocks[block].capacity() - blocks[block].size() < hits.size()) {
         if (!blocks.empty()) ++block;
         if (block == blocks.size()) blocks.emplace_back();
         blocks[block].reserve(std::max(kHitBlock, hits.size()));  // empty here: nothing moves
     }
-    std::vector<SurfaceHit>& b = blocks[block];
-    SurfaceHit* at = b.data() + b.size();
-    b.insert(b.end(), hits.begin(), hits.end());  // within the capacity: earlier rays' hits stay put
+    std::vector<PackedHit>& b = blocks[block];
+    const std::size_t first = b.size();
+    b.resize(first + hits.size());  // within the capacity: earlier rays' hits stay put
+    PackedHit* at = b.data() + first;
+    for (std::size_t k = 0; k < hits.size(); ++k) at[k].bits = pack_hit(hits[k]);
     kept += hits.size();
     return at;
 }
 
 void OpticalDepthPass::Scratch::clear() {
-    for (std::vector<SurfaceHit>& b : blocks) b.clear();
+    for (std::vector<PackedHit>& b : blocks) b.clear();
     block = 0;
     kept = 0;
 }
@@ -213,7 +230,8 @@ void OpticalDepthPass::gather(OpticalDepthHits& out) const {
         for (std::size_t k = c * kParticlesPerChunk; k < std::min(n, (c + 1) * kParticlesPerChunk); ++k) {
             const RayRecord& r = rays_[k];
             if (r.status != DepthStatus::ok) continue;
-            std::copy(r.hits, r.hits + r.count, lists.hits.begin() + lists.offsets[ray_order_[k]]);
+            std::transform(r.hits, r.hits + r.count, lists.hits.begin() + lists.offsets[ray_order_[k]],
+                           [](const PackedHit& h) { return unpack_hit(h.bits); });
         }
     });
 }
@@ -230,11 +248,17 @@ void OpticalDepthPass::resolve(HitSort method, std::span<float> lengths) {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunk_count, 1),
                       [&](const tbb::blocked_range<std::size_t>& r) {
         ListResolver resolve_list;
+        std::vector<SurfaceHit>& list = scratch_->threads.local().unpacked;
         for (std::size_t k = r.begin() * kParticlesPerChunk; k < std::min(n, r.end() * kParticlesPerChunk); ++k) {
             const RayRecord& ray = rays_[k];
-            // The kept hits are the pass's own scratch: sorting them in place leaves nothing else stale.
-            lengths[ray_order_[k]] = ray.status == DepthStatus::ok ? resolve_list({ray.hits, ray.count}, method)
-                                                                   : kFullyDarkPathLength;
+            if (ray.status != DepthStatus::ok) {
+                lengths[ray_order_[k]] = kFullyDarkPathLength;
+                continue;
+            }
+            if (list.size() < ray.count) list.resize(ray.count);  // only grows: no refill per ray
+            SurfaceHit* hits = list.data();
+            for (std::uint32_t j = 0; j < ray.count; ++j) hits[j] = unpack_hit(ray.hits[j].bits);
+            lengths[ray_order_[k]] = resolve_list({hits, ray.count}, method);
         }
     });
 }

@@ -14,6 +14,8 @@
 #include <smoketrace/accel/triangle_mesh.hpp>
 #include <smoketrace/accel/wide_bvh.hpp>
 
+#include <glm/matrix.hpp>
+
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -58,36 +60,54 @@ enum class InstancePaths : std::uint8_t { fastest, object_space_only };
 // ray the object-space ray and its triangle set-up, about as much work as the two triangle tests.
 inline constexpr std::uint32_t kMaxWorldTriangles = 4;
 
-// What trace() reads per instance, kept together in instance order. A visit to a world sphere reads the
-// first cache line only (up to sphere_radius, kept on one line by alignas) until it reports a hit; a world-
-// triangles visit reads the first bytes and the triangle fields of the second line; world_to_object_linear
-// comes last, needed by the general path and for a sphere hit's object_point. A bundle's walk meets the
-// records in leaf order, scattered over memory, so each record's first line is likely a cache miss: a
-// world sphere must not need a second one.
+// What trace() reads per instance, one cache line per instance, kept in TLAS leaf order (AccelScene::
+// leaf_record()). A walk that reaches a record has mostly not read its neighbours yet, so each record is
+// likely a cache miss: a visit must need no second line. What only the general path reads beyond it, the
+// bottom level and the inverse transform, is an InstanceDetail (AccelScene::detail()), kept apart and only
+// for instances that may take that path, so that a million world spheres carry no inverse they never read.
 struct alignas(64) InstanceRecord {
     std::uint8_t mask;
     // Rule 2 as far as the instance decides it: the geometry's opacity after the instance's FORCE_OPAQUE /
-    // FORCE_NON_OPAQUE, so that trace() need not chase `blas` to decide it.
+    // FORCE_NON_OPAQUE, so that trace() need not chase the bottom level to decide it.
     bool opaque;
     InstancePath path;
     std::uint8_t flags;
     std::uint32_t user_id;
     glm::dvec3 object_to_world_translation;  // subtracted first, then the linear inverse applied
-    // world_sphere only. The centre relative to the translation (linear · centre), not the world centre:
-    // trace() subtracts the translation from the ray origin first, exactly as the general path does, so
-    // a small sphere far from the world origin is as precise as there.
-    glm::dvec3 sphere_offset;
-    double sphere_radius;  // scale · radius
-    // world_triangles only: how many (in the BLAS's leaf order, from AccelScene::world_triangles()[first_world_
-    // triangle]), and whether a world-space front face is an object-space back face (a mirroring transform)
-    // — XOR TRIANGLE_FRONT_CLOCKWISE, so that rule 4 sees the facing the general path would.
-    std::uint8_t world_triangle_count;
-    bool world_facing_flipped;
-    std::uint32_t first_world_triangle;
+    // The path's own fields, in the same bytes: `sphere` for world_sphere, `other` for the other paths.
+    union {
+        // The centre relative to the translation (linear · centre), not the world centre: trace()
+        // subtracts the translation from the ray origin first, exactly as the general path does, so a small
+        // sphere far from the world origin is as precise as there; and scale · radius.
+        struct {
+            glm::dvec3 offset;
+            double radius;
+        } sphere;
+        struct {
+            // Where AccelScene keeps this instance's InstanceDetail, or kNoInstanceDetail (then detail()
+            // derives it from the Instance).
+            std::uint32_t detail;
+            // world_triangles only: how many (in the BLAS's leaf order, from AccelScene::world_triangles()
+            // [first_world_triangle]), and whether a world-space front face is an object-space back face (a
+            // mirroring transform) — XOR TRIANGLE_FRONT_CLOCKWISE, so that rule 4 sees the facing the general
+            // path would.
+            std::uint32_t first_world_triangle;
+            std::uint8_t world_triangle_count;
+            bool world_facing_flipped;
+            // world_triangles only: for a hit's primitive index, on this line rather than behind detail().
+            const BottomLevel* blas;
+        } other;
+    };
+};
+static_assert(sizeof(InstanceRecord) == 64, "a record is one cache line");
+
+// What the general path reads beyond an instance's record: its bottom level, and the linear part of its
+// world-to-object transform (object_to_world.inverse().linear: a world sphere's object_point too).
+struct InstanceDetail {
     const BottomLevel* blas;
     glm::dmat3 world_to_object_linear;
 };
-static_assert(offsetof(InstanceRecord, sphere_radius) + sizeof(double) <= 64, "a world sphere's fields on one line");
+inline constexpr std::uint32_t kNoInstanceDetail = ~std::uint32_t{0};
 
 // The most prefetch_top_level() asks for: half of a 1 MiB L2 (the per-core L2 of AMD Zen 4/5, at
 // least as much on recent Intel cores), leaving the rest to the walk's own buffers.
@@ -134,7 +154,22 @@ public:
     [[nodiscard]] const std::vector<std::uint8_t>& tlas_node_masks() const { return node_masks_; }
     // The same tree collapsed to 4-wide nodes, with the masks: what trace() walks.
     [[nodiscard]] const WideBvh& wide_tlas() const { return wide_tlas_; }
-    [[nodiscard]] const InstanceRecord& record(std::uint32_t i) const { return records_[i]; }
+    [[nodiscard]] const InstanceRecord& record(std::uint32_t i) const { return records_[record_slot_[i]]; }
+    // The record of the instance at TLAS leaf position k (tlas().prim_indices[k]), for a walk: the records
+    // lie in leaf order, so the walk reads them in the order of the tree. Valid after commit().
+    [[nodiscard]] const InstanceRecord& leaf_record(std::uint32_t k) const { return records_[k]; }
+    // Instance i's bottom level and world-to-object linear map. Stored for the instances whose bottom level
+    // is not a single sphere; derived for the others (a world sphere needs it only for a hit's
+    // object_point; a sphere under a transform that is no similarity takes the general path), with the
+    // inverse update_instance() takes, so the same bits either way. Inline and free of side effects, so
+    // that a caller that never reads the result pays nothing.
+    [[nodiscard]] InstanceDetail detail(std::uint32_t i) const {
+        const InstanceRecord& r = records_[record_slot_[i]];
+        if (r.path != InstancePath::world_sphere && r.other.detail != kNoInstanceDetail)
+            return details_[r.other.detail];
+        const Instance& in = instances_[i];
+        return {blases_[in.blas].get(), glm::inverse(in.object_to_world.linear)};
+    }
     // Asks this core's caches for what a walk of the whole top level reads first: the wide nodes, the
     // leaves' index array and each instance record's first line (a world sphere's whole record), when
     // they fit in kPrefetchTopLevelMaxBytes (else it does nothing). For a caller about to send rays over
@@ -153,6 +188,7 @@ public:
 
 private:
     [[nodiscard]] bool takes_world_triangles(const BottomLevel& b) const;
+    [[nodiscard]] bool keeps_detail(const BottomLevel& b) const;
     void assign_world_triangle_slots();
     void update_instance(std::uint32_t i);
     void rebuild();
@@ -160,7 +196,13 @@ private:
 
     std::vector<std::unique_ptr<BottomLevel>> blases_;  // stable addresses for InstanceRecord::blas
     std::vector<Instance> instances_;
+    // records_[record_slot_[i]] is instance i's record. Each rebuild lays the records out in TLAS leaf order
+    // (and instances added since sit at the end, in instance order): a walk meets the instances of a region
+    // together, and instance order is often random in space (a particle system's), so records in instance
+    // order cost a cache miss per visit.
     std::vector<InstanceRecord> records_;
+    std::vector<std::uint32_t> record_slot_;
+    std::vector<InstanceDetail> details_;  // of the instances that keeps_detail(), in instance order
     std::vector<MeshBlas::Triangle> world_triangles_;  // in instance order; slots fixed when added
     std::vector<Aabb> world_boxes_;
     // Each instance's mask again, one byte apiece: the refit sweep reads it at random (TLAS leaf order),

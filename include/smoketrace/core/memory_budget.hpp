@@ -17,8 +17,8 @@ namespace smoketrace {
 // kPeakBytesPerStoredHit.
 inline constexpr std::uint64_t kPeakBytesPerParticle = 1280;
 
-// Peak memory per hit kept by the optical-depth pass: 8 B in its chunk buffer (up to 16 B while the
-// vector doubles) and 8 B in the flat HitLists buffer the chunks are gathered into.
+// Peak memory per hit kept by the optical-depth pass, with room to spare: 4 B in its blocks and 8 B in the
+// flat HitLists buffer gather() copies them into (kept at 24 so that the default budget stays where it was).
 inline constexpr std::uint64_t kPeakBytesPerStoredHit = 24;
 
 // Bytes of memory available to this process: the physical memory, or a cgroup limit (a container's

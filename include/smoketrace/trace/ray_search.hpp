@@ -79,8 +79,8 @@ public:
         // relative to the instance's translation first, as in object space.
         ++world_spheres_;
         SphereRoots roots;
-        if (!sphere_roots(world_origin_ - inst.object_to_world_translation, world_dir_, inst.sphere_offset,
-                          inst.sphere_radius, roots))
+        if (!sphere_roots(world_origin_ - inst.object_to_world_translation, world_dir_, inst.sphere.offset,
+                          inst.sphere.radius, roots))
             return false;
         return report_sphere_crossings(index, inst, opaque, static_cast<float>(roots.t_enter),
                                        static_cast<float>(roots.t_exit));
@@ -142,7 +142,7 @@ private:
             h.t = t;
             // In object space: W·(o − T + t·d), the general path's o + t·d.
             const glm::dvec3 rel_point = (world_origin_ - inst.object_to_world_translation) + double(t) * world_dir_;
-            h.object_point = glm::vec3(inst.world_to_object_linear * rel_point);
+            h.object_point = glm::vec3(scene_.detail(index).world_to_object_linear * rel_point);
             h.instance_index = index;
             h.instance_id = inst.user_id;
             h.primitive_index = 0;  // the BLAS's only sphere
@@ -188,14 +188,14 @@ private:
     // rule 4 on the object-space facing. Counted as the one-leaf BLAS it stands for.
     [[gnu::always_inline]] bool visit_world_triangles(std::uint32_t index, const InstanceRecord& inst, bool opaque) {
         count_world_triangles(inst);
-        const MeshBlas::Triangle* tris = scene_.world_triangles() + inst.first_world_triangle;
+        const MeshBlas::Triangle* tris = scene_.world_triangles() + inst.other.first_world_triangle;
         // The world ray's triangle set-up, shared by every world_triangles instance; made at the first
         // one, since most rays (a light ray rising from a particle) meet none.
         if (!world_tri_ready_) {
             world_tri_ = TriangleRay(ray_);
             world_tri_ready_ = true;
         }
-        for (std::uint32_t k = 0; k < inst.world_triangle_count; ++k) {
+        for (std::uint32_t k = 0; k < inst.other.world_triangle_count; ++k) {
             TriangleHit th;
             if (!intersect_triangle(world_tri_, tris[k].v0, tris[k].v1, tris[k].v2, tmax_, th)) continue;
             if (report_world_triangle(index, inst, opaque, k, th)) return true;
@@ -205,7 +205,7 @@ private:
 
     [[gnu::always_inline]] void count_world_triangles(const InstanceRecord& inst) {
         ++world_leaves_;
-        result_.counters.primitives_tested += inst.world_triangle_count;
+        result_.counters.primitives_tested += inst.other.world_triangle_count;
     }
 
 public:
@@ -214,7 +214,7 @@ public:
     // object-space facing, then rules 5-8. Returns true when the search has ended.
     [[gnu::always_inline]] bool report_world_triangle(std::uint32_t index, const InstanceRecord& inst, bool opaque,
                                                       std::uint32_t k, const TriangleHit& th) {
-        const bool front = th.front_face != inst.world_facing_flipped;
+        const bool front = th.front_face != inst.other.world_facing_flipped;
         const bool cull_enabled = !(inst.flags & instance_flag_triangle_cull_disable);
         if (cull_enabled && (front ? cull_front_facing_ : cull_back_facing_)) return false;  // rule 4
         return report(opaque, [&] {
@@ -223,7 +223,7 @@ public:
             h.barycentrics = th.barycentrics;  // an affine map keeps them
             h.instance_index = index;
             h.instance_id = inst.user_id;
-            h.primitive_index = inst.blas->mesh.primitive_id(k);
+            h.primitive_index = inst.other.blas->mesh.primitive_id(k);
             h.kind = front ? HitKind::front_face : HitKind::back_face;
             h.geometry = GeometryKind::triangles;
             return h;
@@ -238,7 +238,7 @@ private:
     // there (rule 4 applies to triangles only). Out of line, so that the instance visit, the TLAS walk's
     // leaf callback, stays small enough to be inlined into the walk.
     __attribute__((noinline)) bool visit_object_space(std::uint32_t index, const InstanceRecord& inst, bool opaque) {
-        return visit_in_object_space(index, inst, opaque, object_direction(inst, world_dir_));
+        return visit_in_object_space(index, inst, opaque, object_direction(scene_.detail(index), world_dir_));
     }
 
 public:
@@ -246,12 +246,14 @@ public:
     // every ray of a bundle, which makes it once per instance (trace_bundle.hpp). The object-space ray
     // keeps t: the direction is transformed without normalising.
     struct ObjectDirection {
+        InstanceDetail detail;  // the instance's (AccelScene::detail())
         glm::dvec3 d;
         TriangleRay tri;  // triangles: the watertight test's set-up for glm::vec3(d) (origin and tmin: the ray's)
     };
-    [[nodiscard]] static ObjectDirection object_direction(const InstanceRecord& inst, const glm::dvec3& world_dir) {
-        ObjectDirection od{inst.world_to_object_linear * world_dir, TriangleRay{}};
-        if (inst.blas->kind == GeometryKind::triangles)
+    [[nodiscard]] static ObjectDirection object_direction(const InstanceDetail& detail,
+                                                          const glm::dvec3& world_dir) {
+        ObjectDirection od{detail, detail.world_to_object_linear * world_dir, TriangleRay{}};
+        if (detail.blas->kind == GeometryKind::triangles)
             od.tri = TriangleRay(Ray{glm::vec3(0.0f), 0.0f, glm::vec3(od.d), 0.0f});
         return od;
     }
@@ -267,14 +269,14 @@ private:
     [[gnu::always_inline]] bool visit_in_object_space(std::uint32_t index, const InstanceRecord& inst, bool opaque,
                                                       const ObjectDirection& od) {
         ++result_.counters.instances_entered;
-        const BottomLevel& blas = *inst.blas;
+        const BottomLevel& blas = *od.detail.blas;
         const bool triangles = blas.kind == GeometryKind::triangles;
         const bool facing_cull = triangles && !(inst.flags & instance_flag_triangle_cull_disable);
         const bool cull_back = facing_cull && cull_back_facing_;
         const bool cull_front = facing_cull && cull_front_facing_;
         const bool flip_facing = triangles && (inst.flags & instance_flag_triangle_front_clockwise);
 
-        const glm::dvec3 o = inst.world_to_object_linear * (world_origin_ - inst.object_to_world_translation);
+        const glm::dvec3 o = od.detail.world_to_object_linear * (world_origin_ - inst.object_to_world_translation);
         const glm::dvec3& d = od.d;
         // Triangles are intersected in float (watertight for the rounded ray: every triangle of the
         // instance sees the same one); spheres take the double ray as it is.

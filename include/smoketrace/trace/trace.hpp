@@ -77,7 +77,7 @@ TraceResult trace(const AccelScene& scene, const Ray& ray, std::uint32_t flags, 
     auto visit_instances = [&](std::uint32_t first, std::uint32_t count) {
         for (std::uint32_t k = first; k < first + count; ++k) {
             const std::uint32_t index = tlas.prim_indices[k];
-            const InstanceRecord& inst = scene.record(index);
+            const InstanceRecord& inst = scene.leaf_record(k);
             bool opaque;
             if (!filter.admits(inst, opaque)) continue;  // rules 1-3
             if (search.visit(index, inst, opaque)) return true;

@@ -64,13 +64,13 @@ BundleResults trace_bundle(const AccelScene& scene, const RayBundle& bundle, std
         const unsigned entered = lanes;  // a lane leaves `lanes` when its search ends
         for (std::uint32_t k = first; k < first + count && lanes != 0; ++k) {
             const std::uint32_t index = tlas.prim_indices[k];
-            const InstanceRecord& inst = scene.record(index);
+            const InstanceRecord& inst = scene.leaf_record(k);
             bool opaque;
             if (!filter.admits(inst, opaque)) continue;  // rules 1-3, once for the bundle
             if (inst.path == InstancePath::world_sphere) {
                 BundleSphereCrossings x;
-                sphere_crossings_bundle(bundle, lanes, tmax, inst.object_to_world_translation, inst.sphere_offset,
-                                        inst.sphere_radius, x);
+                sphere_crossings_bundle(bundle, lanes, tmax, inst.object_to_world_translation, inst.sphere.offset,
+                                        inst.sphere.radius, x);
                 count_lanes(sphere_tests, lanes);
                 // Each ray's entry before its exit, as trace() reports them; rays are independent.
                 for (unsigned m = x.enter; m != 0; m &= m - 1) {
@@ -85,8 +85,8 @@ BundleResults trace_bundle(const AccelScene& scene, const RayBundle& bundle, std
                 }
             } else if (inst.path == InstancePath::object_space) {
                 // The direction's part of the object-space ray, once for the bundle.
-                const auto od =
-                    RaySearch<LaneAnyHit<Callback>>::object_direction(inst, glm::dvec3(bundle.direction));
+                const auto od = RaySearch<LaneAnyHit<Callback>>::object_direction(scene.detail(index),
+                                                                                  glm::dvec3(bundle.direction));
                 for (unsigned m = lanes; m != 0; m &= m - 1) {
                     const unsigned i = unsigned(std::countr_zero(m));
                     if (searches[i].visit_object_space(index, inst, opaque, od)) lanes &= ~(1u << i);

@@ -192,7 +192,7 @@ void trace_tile(const AccelScene& scene, RayTile& tile, std::uint32_t flags, std
             for (std::uint32_t k = first; k < first + count; ++k) {
                 const std::uint32_t index = tlas.prim_indices[k];
                 bool opaque;
-                if (!filter.admits(scene.record(index), opaque)) continue;  // rules 1-3, once for the tile
+                if (!filter.admits(scene.leaf_record(k), opaque)) continue;  // rules 1-3, once for the tile
                 candidates.push_back({index, opaque, distance_to_box(tile.origin(), scene.instance_bounds(index))});
             }
         },
@@ -220,7 +220,7 @@ void trace_tile(const AccelScene& scene, RayTile& tile, std::uint32_t flags, std
         auto end_lane = [&](unsigned lane) { alive[lane / kTileColumns] &= ~(1u << (lane % kTileColumns)); };
 
         if (inst.path == InstancePath::world_triangles && triangle_rays.shared_axes) {
-            const MeshBlas::Triangle* tris = scene.world_triangles() + inst.first_world_triangle;
+            const MeshBlas::Triangle* tris = scene.world_triangles() + inst.other.first_world_triangle;
             // The rays the instance is tested for, counted as trace() counts a visit.
             unsigned tested[kTileRows][kTileColumns / W] = {};
             for (TileLineSet rs = rows; rs != 0; rs &= rs - 1) {
@@ -229,10 +229,10 @@ void trace_tile(const AccelScene& scene, RayTile& tile, std::uint32_t flags, std
                     tested[r][b] = block_lanes(r, b);
                     if (tested[r][b] != 0)
                         results.count_world_triangles<W>(RayTile::lane(b * W, r), tested[r][b],
-                                                         inst.world_triangle_count);
+                                                         inst.other.world_triangle_count);
                 }
             }
-            for (std::uint32_t k = 0; k < inst.world_triangle_count; ++k) {
+            for (std::uint32_t k = 0; k < inst.other.world_triangle_count; ++k) {
                 const MeshBlas::Triangle& tri = tris[k];
                 triangle_tile_hits<W>(
                     tile, triangle_rays, rows, TriangleVertices{tri.v0, tri.v1, tri.v2},
