@@ -271,6 +271,9 @@ TEST_CASE("hostile cli: bad scene files of every kind, through depths and render
     const std::string bright = input("bright.json", std::string(R"({ "light": { "direction": [0, 1, 0] }, "ambient": [3e38, 0, 0],
         "smoke": { "particles": [] } })"));
     const std::string fast = input("fast.json", std::string("{") + kLight + R"(, "smoke": { "particles": [ { "center": [0, 0, 0], "radius": 1, "velocity": [1e14, 0, 0] } ] } })");
+    // A narrow camera, fine at the file's 512 rows (0.028° would do), too narrow at 16384 (0.9° needed).
+    const std::string narrow = input("narrow.json", std::string("{") + kLight + R"(, "smoke": { "particles": [] },
+        "camera": { "position": [0, 0, 10], "look_at": [0, 0, 0], "fov_deg": 0.05 } })");
     inputs.push_back("folder.json");
     fs::create_directories(dir.path / "folder.json");
     const fs::path csv = dir.path / "out.csv", png = dir.path / "out.png";
@@ -288,7 +291,12 @@ TEST_CASE("hostile cli: bad scene files of every kind, through depths and render
     }
     // --frames beyond the file's: the motion is checked again for the frames asked for.
     cases.push_back({"render " + fast + " -o " + png.string() + " --size 8x8 --frames 20", "fast.json: /smoke/particles/0: moves beyond"});
+    // --size taller than the file's image: the camera's pixel angle is checked again for the height asked for.
+    cases.push_back({"render " + narrow + " -o " + png.string() + " --size 16x16384",
+                     "--size: 16x16384: the scene's camera.fov_deg (0.05) is too small for this size: at 16384 pixels "
+                     "high, neighbouring pixels' rays would be less than 2^-20 radians apart"});
     require_clean_failures(cases, dir, inputs);
+    CHECK(run_cli("render " + narrow + " -o " + png.string() + " --size 16x512").exit_code == 0);
     // The same file is fine for as many frames as keep it in range.
     const CliRun ok = run_cli("render " + fast + " -o " + png.string() + " --size 8x8 --frames 3");
     CHECK(ok.exit_code == 0);

@@ -13,6 +13,7 @@
 #include <smoketrace/io/scene_file.hpp>
 #include <smoketrace/io/sixway_files.hpp>
 
+#include <charconv>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -108,6 +109,14 @@ int run_render(const Args& args) {
         if (std::uint64_t(options.width) * std::uint64_t(options.height) > kMaxImagePixels)
             throw CliError("--size: " + std::to_string(options.width) + "x" + std::to_string(options.height) +
                            " has more than " + std::to_string(kMaxImagePixels) + " pixels");
+        // The file's camera was checked at the file's height; a taller image narrows the angle between rows.
+        if (const std::string problem = pixel_angle_problem(scene.camera.fov_deg, options.height); !problem.empty()) {
+            char fov[32];
+            const auto shown = std::to_chars(fov, fov + sizeof fov, scene.camera.fov_deg).ptr;
+            throw CliError("--size: " + std::to_string(options.width) + "x" + std::to_string(options.height) +
+                           ": the scene's camera.fov_deg (" + std::string(fov, shown) + ") is too small for this size: " +
+                           problem);
+        }
     }
     if (frames.count) {
         options.render.frames = std::uint32_t(*frames.count);

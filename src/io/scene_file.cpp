@@ -612,13 +612,8 @@ std::string shown_3_digits(double v) {
 // fov_deg (n): the float camera would accept it and render blocks of equal pixels (1e-20 even failed there,
 // blamed on camera.up).
 void check_fov_resolution(const Reader& r, const Node& n, float fov_deg, std::uint32_t height) {
-    const double half = 0.5 * double(fov_deg) * kRadiansPerDegree;
-    if (2.0 * std::tan(half) / double(height) >= kMinPixelAngle) return;
-    const double smallest = 2.0 * std::atan(0.5 * kMinPixelAngle * double(height)) / kRadiansPerDegree;
-    r.fail(n, "too small for a usable camera (got " + shown_value(*n.value) + "): at " + std::to_string(height) +
-                  " pixels high, neighbouring pixels' rays would be less than 2^-20 radians apart, within a few "
-                  "roundings of their direction, and the image would fall apart into blocks; at this height "
-                  "fov_deg must be at least " + shown_rounded_up(smallest));
+    if (const std::string problem = pixel_angle_problem(fov_deg, height); !problem.empty())
+        r.fail(n, "too small for a usable camera (got " + shown_value(*n.value) + "): " + problem);
 }
 
 // The default camera must stand within ±kMaxDefaultCameraCoordinate of the world's 0. `path`:
@@ -1172,6 +1167,16 @@ void check_scene_motion(const SceneDescription& scene, std::uint32_t frames) {
             r.fail("/smoke/particles: " + scene.smoke.particle_file + ": vertex " + std::to_string(i), problem);
         r.fail("/smoke/particles/" + std::to_string(i), problem);
     }
+}
+
+std::string pixel_angle_problem(float fov_deg, std::uint32_t height) {
+    const double half = 0.5 * double(fov_deg) * kRadiansPerDegree;
+    if (2.0 * std::tan(half) / double(height) >= kMinPixelAngle) return {};
+    const double smallest = 2.0 * std::atan(0.5 * kMinPixelAngle * double(height)) / kRadiansPerDegree;
+    return "at " + std::to_string(height) +
+           " pixels high, neighbouring pixels' rays would be less than 2^-20 radians apart, within a few roundings "
+           "of their direction, and the image would fall apart into blocks; at this height fov_deg must be at least " +
+           shown_rounded_up(smallest);
 }
 
 std::uint64_t scene_particle_limit() {

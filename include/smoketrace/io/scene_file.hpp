@@ -74,6 +74,11 @@ inline constexpr double kMaxSceneColor = 1e6;
 // checks the file's render.frames; a caller that renders more frames (--frames) checks again.
 void check_scene_motion(const SceneDescription& scene, std::uint32_t frames);
 
+// Empty when a camera of vertical field of view `fov_deg` at `height` pixels puts neighbouring pixels' rays at
+// least kMinPixelAngle apart; else why not, with the smallest fov_deg that would do. parse_scene() checks the
+// file's camera; a caller that changes the image height (render --size) checks again.
+[[nodiscard]] std::string pixel_angle_problem(float fov_deg, std::uint32_t height);
+
 // How parse_scene() reads the JSON. `automatic`: a particle list (/smoke/particles) is read by the fast reader
 // (simdjson's On-Demand API, straight from the text: no tree, no path string per value) and the rest of the
 // document by the reference reader (nlohmann: a scan for duplicate keys, overflowing numbers, nesting and the
