@@ -257,3 +257,55 @@ TEST_CASE("scene JSON readers: what the fast reader leaves to the reference read
     CHECK(error_of(text, SceneJsonReader::fast).find("the fast reader declined") != std::string::npos);
     require_same_scene(parse_scene(text, "s.json"), parse_scene(text, "s.json", SceneJsonReader::reference));
 }
+
+// The fast reader cuts a long list into pieces of about 256 KiB, each cut before a '{' that follows a comma,
+// and reads them in parallel: what it reads must not depend on where the cuts fall.
+TEST_CASE("scene JSON readers: a list read in pieces, with problems in and across them", "[scene][json_readers]") {
+    const std::string ok = R"({"center": [0, 0, 0], "radius": 1})";
+    auto oks = [&](std::size_t count) {  // `count` particles, each followed by a comma
+        std::string out;
+        for (std::size_t i = 0; i < count; ++i) out.append(ok).append(", ");
+        return out;
+    };
+    const std::string many = oks(16000);  // ~600 KB: the list is cut at least once before what follows it
+    auto expect_reference_error = [&](const std::string& list) {
+        const std::string text = kHead + list + kTail;
+        const std::string reference = error_of(text, SceneJsonReader::reference);
+        CHECK(reference.rfind("bad.json: ", 0) == 0);
+        CHECK(error_of(text, SceneJsonReader::automatic) == reference);
+        CHECK(error_of(text, SceneJsonReader::fast) != "(no error)");
+        return reference;
+    };
+    SECTION("a valid list reads the same whatever the cuts") {
+        require_readers_agree(kHead + ("[" + many + ok + "]") + kTail);
+        require_readers_agree(kHead + ("[" + oks(7000) + "\n\n" + many + ok + " \n]") + kTail);
+    }
+    SECTION("the first problem in the list is the one reported, by the fast reader too") {
+        const std::string list = "[" + many + R"({"center": [0, 0, 0], "radius": -1}, )" + many +
+                                 R"({"center": [0, 0, 0], "radius": -2}, )" + many + ok + "]";
+        const std::string reference = expect_reference_error(list);
+        CHECK(reference.find("/smoke/particles/16000/radius") != std::string::npos);
+        CHECK(error_of(kHead + list + kTail, SceneJsonReader::fast) == reference);
+    }
+    SECTION("a problem after the last cut, and syntax broken across a cut") {
+        (void)expect_reference_error("[" + many + R"({"center": [0, 0, 0], "radius": 1} {"center": [0, 0, 0]}])");
+        (void)expect_reference_error("[" + many + R"({"center": [0, 0, 0], "radius": 1}, 7, )" + many + ok + "]");
+        (void)expect_reference_error("[" + many + many + ok + ",]");
+    }
+    SECTION("braces where a cut may fall that are not a particle's") {
+        // A key of '{'s longer than a piece: cuts fall inside the string.
+        (void)expect_reference_error("[" + ok + R"(, {"center": [0, 0, 0], "radius": 1, ")" + std::string(600000, '{') +
+                                     "\": 1}, " + many + ok + "]");
+        (void)expect_reference_error("[" + ok + R"(, {"center": [0, 0, 0], "radius": 1, ")" +
+                                     std::string(300000, ',') + ", {" + std::string(300000, ' ') + "\": 1}, " +
+                                     many + ok + "]");
+        // An object inside a particle at exactly the first cut: the first '{' at or after 256 KiB into the
+        // list (after its '['), following a comma.
+        const std::string nested = R"({"center": [0, 0, 0], "velocity": [1, 2, 3, {}], "radius": 1}, )";
+        const std::size_t cut = (std::size_t{256} << 10) + 1;
+        std::string list = "[" + oks(7000);
+        list.append(cut - nested.find("{}") - list.size(), ' ') += nested;
+        REQUIRE(list.find('{', cut) == list.find("{}"));
+        (void)expect_reference_error(list + many + ok + "]");
+    }
+}

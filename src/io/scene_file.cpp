@@ -14,6 +14,8 @@
 
 #include <nlohmann/json.hpp>
 #include <simdjson.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
 
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
@@ -838,31 +840,113 @@ auto list_triple(ondemand::value& value, std::size_t particle, std::string_view 
     return out;
 }
 
-// Reads /smoke/particles of a document that simdjson has indexed, straight from its text: no tree, no path
-// string per value. read_particle() is its reference: the same keys and the same checks in the same order.
+// Reads /smoke/particles from its text (the array, '[' to ']', as simdjson found it in the document) in
+// pieces of about kListPieceBytes read in parallel, each by its own On-Demand parser: no tree, no path string
+// per value. read_particle() is its reference: the same keys and the same checks in the same order.
+//
+// A piece starts at a '{' (a particle's: a valid list has no other, since particles hold no objects and the
+// keys it accepts hold no braces) and ends before the next piece's, so that "[" + piece, less its last comma,
+// + "]" is a JSON array of its particles. If every piece reads as one, the list does; a cut that fell inside a
+// string leaves an unterminated string in the piece before it, which then does not read, and the reference
+// reader takes over. Each piece's particles are counted first (its '{'s), so that every piece knows where in
+// the list its particles go; a piece with as many '}' as '{' that reads another number of particles declines.
 class FastParticleList {
 public:
-    explicit FastParticleList(ondemand::document& document) : document_(document) {}
+    explicit FastParticleList(std::string_view list_text) : text_(list_text) {}
 
-    template <class Add>
-    void read(const Reader& r, std::vector<Particle>& particles, Add&& add) {
-        document_.rewind();
-        ondemand::array list;
-        std::size_t count = 0;
-        if (!find_particle_list(document_, list) || list.count_elements().get(count))
-            throw FastReaderDeclined{"no particle list"};
-        if (const std::string problem = particle_count_problem(count, false); !problem.empty())
+    // The particles, as local_particle() makes them; `origin`, when the file gave none, from the first.
+    void read(const Reader& r, std::vector<Particle>& particles, std::optional<glm::dvec3>& origin) const {
+        const std::vector<std::string_view> pieces = cut_into_pieces();
+        std::vector<std::size_t> first(pieces.size() + 1, 0);  // each piece's first particle in the list
+        std::vector<char> balanced(pieces.size());
+        tbb::parallel_for(std::size_t{0}, pieces.size(), [&](std::size_t i) {
+            first[i + 1] = std::size_t(std::count(pieces[i].begin(), pieces[i].end(), '{'));
+            balanced[i] = first[i + 1] == std::size_t(std::count(pieces[i].begin(), pieces[i].end(), '}'));
+        });
+        // A cut inside a particle (at a brace it should not hold) leaves a piece with a brace unclosed.
+        if (std::find(balanced.begin(), balanced.end(), 0) != balanced.end())
+            throw FastReaderDeclined{"a brace outside a particle"};
+        for (std::size_t i = 0; i < pieces.size(); ++i) first[i + 1] += first[i];
+        if (const std::string problem = particle_count_problem(first.back(), false); !problem.empty())
             r.fail("/smoke/particles", problem);
-        particles.reserve(count);
-        std::size_t index = 0;
-        for (auto element : list) {
-            ondemand::object object;
-            if (element.get_object().get(object)) throw FastReaderDeclined{"a particle is not an object"};
-            add(read_particle(r, object, index++));
-        }
+        particles.resize(first.back());
+
+        // The first piece alone, so that its first particle sets the origin before any other is placed.
+        tbb::enumerable_thread_specific<PieceReader> readers;
+        if (!pieces.empty()) readers.local().read(r, pieces[0], first[0], first[1], particles, origin);
+        // Every piece keeps its own problem, and the first piece's in list order is raised: the problem a
+        // reader from the list's start would have met first, whatever the thread count.
+        std::vector<std::exception_ptr> problems(pieces.size());
+        tbb::parallel_for(std::size_t{1}, pieces.size(), [&](std::size_t i) {
+            try {
+                readers.local().read(r, pieces[i], first[i], first[i + 1], particles, origin);
+            } catch (...) {
+                problems[i] = std::current_exception();
+            }
+        });
+        for (const std::exception_ptr& problem : problems)
+            if (problem) std::rethrow_exception(problem);
     }
 
 private:
+    // Large enough that a piece's parser set-up is lost in its reading, small enough to share work evenly.
+    static constexpr std::size_t kListPieceBytes = std::size_t{256} << 10;
+
+    // One thread's parser and padded buffer, reused for every piece it reads.
+    struct PieceReader {
+        ondemand::parser parser;
+        std::string buffer;
+
+        // The piece's particles, which are particles[index, end) of the list.
+        void read(const Reader& r, std::string_view piece, std::size_t index, std::size_t end,
+                  std::vector<Particle>& particles, std::optional<glm::dvec3>& origin) {
+            buffer.clear();
+            buffer.reserve(piece.size() + 2 + simdjson::SIMDJSON_PADDING);
+            buffer.append(1, '[').append(piece).append(1, ']');
+            ondemand::document document;
+            ondemand::array list;
+            if (parser.iterate(simdjson::padded_string_view(buffer.data(), buffer.size(), buffer.capacity()))
+                    .get(document) ||
+                document.get_array().get(list))
+                throw FastReaderDeclined{"not JSON simdjson can index"};
+            for (auto element : list) {
+                ondemand::object object;
+                if (element.get_object().get(object)) throw FastReaderDeclined{"a particle is not an object"};
+                if (index == end) throw FastReaderDeclined{"a brace outside a particle"};
+                const ParticleValues values = read_particle(r, object, index);
+                if (!origin) origin = origin_near(values.center, values.radius);
+                particles[index++] = local_particle(values, *origin);
+            }
+            if (index != end) throw FastReaderDeclined{"a brace outside a particle"};
+        }
+    };
+
+    // The list's text between its brackets, cut before a particle's '{' into pieces of about kListPieceBytes,
+    // each without the comma that followed it.
+    [[nodiscard]] std::vector<std::string_view> cut_into_pieces() const {
+        std::string_view body = text_;  // (simdjson's raw text of a value runs on over the whitespace after it)
+        while (!body.empty() && json_whitespace(body.back())) body.remove_suffix(1);
+        if (body.size() < 2 || body.front() != '[' || body.back() != ']') throw FastReaderDeclined{"not an array"};
+        body = body.substr(1, body.size() - 2);
+        while (!body.empty() && json_whitespace(body.back())) body.remove_suffix(1);
+        std::vector<std::string_view> pieces;
+        if (std::all_of(body.begin(), body.end(), json_whitespace)) return pieces;
+        for (std::size_t begin = 0; begin < body.size();) {
+            std::size_t end = body.size();
+            if (body.size() - begin > 2 * kListPieceBytes)
+                end = std::min(end, body.find('{', begin + kListPieceBytes));
+            std::string_view piece = body.substr(begin, end - begin);
+            if (end != body.size()) {
+                while (!piece.empty() && json_whitespace(piece.back())) piece.remove_suffix(1);
+                if (piece.empty() || piece.back() != ',') throw FastReaderDeclined{"no comma between particles"};
+                piece.remove_suffix(1);
+            }
+            pieces.push_back(piece);
+            begin = end;
+        }
+        return pieces;
+    }
+
     static ParticleValues read_particle(const Reader& r, ondemand::object& object, std::size_t index) {
         enum Key : unsigned { center = 1, radius = 2, velocity = 4, spin = 8, growth = 16, rotation = 32 };
         ParticleValues p;
@@ -911,12 +995,12 @@ private:
         return p;
     }
 
-    ondemand::document& document_;
+    std::string_view text_;
 };
 
 // `origin`: the file's, or (when it gave none) set here from the first particle or the tubes; 0 if neither.
 // `fast`: reads /smoke/particles in place of the tree (whose list is then a placeholder).
-SmokeDescription read_smoke(const Reader& r, const Node& n, std::optional<glm::dvec3>& origin, FastParticleList* fast,
+SmokeDescription read_smoke(const Reader& r, const Node& n, std::optional<glm::dvec3>& origin, const FastParticleList* fast,
                             const std::filesystem::path& base_dir) {
     r.require_object(n, {"particles", "tubes", "sigma_t", "alpha", "shape"});
     SmokeDescription smoke;
@@ -933,7 +1017,7 @@ SmokeDescription read_smoke(const Reader& r, const Node& n, std::optional<glm::d
         if (list->value->is_string()) {
             smoke.particle_file = read_ply_particles(r, *list, base_dir, smoke.particles, add);
         } else if (fast) {
-            fast->read(r, smoke.particles, add);
+            fast->read(r, smoke.particles, origin);
         } else {
             if (!list->value->is_array()) r.wrong_type(*list, "an array of particles");
             if (const std::string problem = particle_count_problem(list->value->size(), false); !problem.empty())
@@ -1083,7 +1167,7 @@ RenderSettings read_render(const Reader& r, const Node& n) {
 
 // The scene from its JSON tree. `fast`: reads /smoke/particles (the tree holds a placeholder there).
 // `base_dir`: the scene file's folder, where a PLY particle file is found.
-SceneDescription read_scene(const json& document, const Reader& r, FastParticleList* fast,
+SceneDescription read_scene(const json& document, const Reader& r, const FastParticleList* fast,
                             const std::filesystem::path& base_dir) {
     const Node root{&document, ""};
     r.require_object(root, {"origin", "light", "ambient", "background", "smoke", "ground", "camera", "render"});
@@ -1130,7 +1214,7 @@ std::optional<SceneDescription> parse_fast(simdjson::padded_string_view text, co
     rest.append(text.data(), begin).append("[]");
     rest.append(text.data() + begin + list_text.size(), text.data() + text.length());
     const json tree = parse_json(rest, r, r.source());
-    FastParticleList fast(document);
+    const FastParticleList fast(list_text);
     return read_scene(tree, r, &fast, base_dir);
 }
 
