@@ -11,7 +11,6 @@
 
 #include <algorithm>
 #include <atomic>
-#include <bit>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -67,39 +66,25 @@ RayOutcome optical_depth_outcome(const AccelScene& scene, const Ray& ray, const 
 
 // Hits per block of a thread's kept hits: 1 MiB, so that the slack of a thread's last block is small
 // next to the hits of a large pass, and a block holds tens of thousands of rays.
-constexpr std::size_t kHitBlock = (std::size_t{1} << 20) / sizeof(std::uint32_t);
+constexpr std::size_t kHitBlock = (std::size_t{1} << 20) / sizeof(PackedSurfaceHit);
 
-namespace {
-
-constexpr std::uint32_t kLeavingBit = 0x80000000u;
-
-// See OpticalDepthPass::PackedHit. value is +1 or −1 (the any-hit shader's).
-std::uint32_t pack_hit(const SurfaceHit& h) {
-    return std::bit_cast<std::uint32_t>(h.t) | (h.value < 0 ? kLeavingBit : 0u);
-}
-SurfaceHit unpack_hit(std::uint32_t bits) {
-    return SurfaceHit{std::bit_cast<float>(bits & ~kLeavingBit), (bits & kLeavingBit) != 0 ? -1 : +1};
-}
-
-}  // namespace
-
-OpticalDepthPass::PackedHit* OpticalDepthPass::Scratch::keep(std::span<const SurfaceHit> hits) {
+PackedSurfaceHit* OpticalDepthPass::Scratch::keep(std::span<const SurfaceHit> hits) {
     if (blocks.empty() || blocks[block].capacity() - blocks[block].size() < hits.size()) {
         if (!blocks.empty()) ++block;
         if (block == blocks.size()) blocks.emplace_back();
         blocks[block].reserve(std::max(kHitBlock, hits.size()));  // empty here: nothing moves
     }
-    std::vector<PackedHit>& b = blocks[block];
+    std::vector<PackedSurfaceHit>& b = blocks[block];
     const std::size_t first = b.size();
     b.resize(first + hits.size());  // within the capacity: earlier rays' hits stay put
-    PackedHit* at = b.data() + first;
-    for (std::size_t k = 0; k < hits.size(); ++k) at[k].bits = pack_hit(hits[k]);
+    PackedSurfaceHit* at = b.data() + first;
+    for (std::size_t k = 0; k < hits.size(); ++k) at[k] = pack_surface_hit(hits[k]);
     kept += hits.size();
     return at;
 }
 
 void OpticalDepthPass::Scratch::clear() {
-    for (std::vector<PackedHit>& b : blocks) b.clear();
+    for (std::vector<PackedSurfaceHit>& b : blocks) b.clear();
     block = 0;
     kept = 0;
 }
@@ -231,7 +216,7 @@ void OpticalDepthPass::gather(OpticalDepthHits& out) const {
             const RayRecord& r = rays_[k];
             if (r.status != DepthStatus::ok) continue;
             std::transform(r.hits, r.hits + r.count, lists.hits.begin() + lists.offsets[ray_order_[k]],
-                           [](const PackedHit& h) { return unpack_hit(h.bits); });
+                           unpack_surface_hit);
         }
     });
 }
@@ -243,22 +228,16 @@ void OpticalDepthPass::resolve(HitSort method, std::span<float> lengths) {
                                     std::to_string(lengths.size()) + " lengths");
     }
     // Ray by ray in trace order, chunk by chunk as they were traced: each task reads the stretch of a
-    // thread's kept hits that one trace task wrote. Each ray sorts only its own hits: deterministic.
+    // thread's kept hits that one trace task wrote, packed as they are (ListResolver). Each ray sorts only
+    // its own hits: deterministic.
     const std::size_t chunk_count = (n + kParticlesPerChunk - 1) / kParticlesPerChunk;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunk_count, 1),
                       [&](const tbb::blocked_range<std::size_t>& r) {
-        ListResolver resolve_list;
-        std::vector<SurfaceHit>& list = scratch_->threads.local().unpacked;
+        ListResolver& resolve_list = scratch_->threads.local().resolver;
         for (std::size_t k = r.begin() * kParticlesPerChunk; k < std::min(n, r.end() * kParticlesPerChunk); ++k) {
             const RayRecord& ray = rays_[k];
-            if (ray.status != DepthStatus::ok) {
-                lengths[ray_order_[k]] = kFullyDarkPathLength;
-                continue;
-            }
-            if (list.size() < ray.count) list.resize(ray.count);  // only grows: no refill per ray
-            SurfaceHit* hits = list.data();
-            for (std::uint32_t j = 0; j < ray.count; ++j) hits[j] = unpack_hit(ray.hits[j].bits);
-            lengths[ray_order_[k]] = resolve_list({hits, ray.count}, method);
+            const std::span<const PackedSurfaceHit> hits(ray.hits, ray.count);
+            lengths[ray_order_[k]] = ray.status == DepthStatus::ok ? resolve_list(hits, method) : kFullyDarkPathLength;
         }
     });
 }
