@@ -64,15 +64,11 @@ RayOutcome optical_depth_outcome(const AccelScene& scene, const Ray& ray, const 
     return {DepthStatus::ok, static_cast<std::uint32_t>(hits.size())};
 }
 
-// Hits per block of a thread's kept hits: 1 MiB, so that the slack of a thread's last block is small
-// next to the hits of a large pass, and a block holds tens of thousands of rays.
-constexpr std::size_t kHitBlock = (std::size_t{1} << 20) / sizeof(PackedSurfaceHit);
-
 PackedSurfaceHit* OpticalDepthPass::Scratch::keep(std::span<const SurfaceHit> hits) {
     if (blocks.empty() || blocks[block].capacity() - blocks[block].size() < hits.size()) {
         if (!blocks.empty()) ++block;
         if (block == blocks.size()) blocks.emplace_back();
-        blocks[block].reserve(std::max(kHitBlock, hits.size()));  // empty here: nothing moves
+        blocks[block].reserve(std::max(kKeptHitsPerBlock, hits.size()));  // empty here: nothing moves
     }
     std::vector<PackedSurfaceHit>& b = blocks[block];
     const std::size_t first = b.size();

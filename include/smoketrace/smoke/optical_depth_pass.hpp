@@ -50,6 +50,10 @@ inline constexpr float kOpticalDepthTminPerRadius = 0x1.0p-22f;
 // TMax of the thesis's optical-depth rays: effectively unbounded, yet finite.
 inline constexpr float kOpticalDepthTmax = 1e38f;
 
+// Hits per block of a thread's kept hits (OpticalDepthPass): 1 MiB of packed hits, so that the slack of a
+// thread's last block is small next to the hits of a large pass, and a block holds tens of thousands of rays.
+inline constexpr std::size_t kKeptHitsPerBlock = (std::size_t{1} << 20) / sizeof(PackedSurfaceHit);
+
 struct OpticalDepthSettings {
     std::uint32_t cutoff = 0;  // K: more than K surfaces → cutoff (0 = no cutoff)
     // Most hits one trace() (or run()) may keep, over all its particles; 0 = default_max_total_hits(). Without a cutoff
