@@ -154,9 +154,13 @@ private:
     struct ThreadScratch;
     std::unique_ptr<ThreadScratch> scratch_;
     std::vector<glm::vec3> origins_;        // the rays' origins, in the order of `which`
-    std::vector<float> tmins_;              // and their tmin (optical_depth_tmin of the particle's radius)
     std::vector<std::uint32_t> ray_order_;  // bundle_order() of origins_
     BundleOrderScratch order_scratch_;
+    struct RayStart {
+        glm::vec3 origin;
+        float tmin;  // optical_depth_tmin() of the particle's radius
+    };
+    std::vector<RayStart> starts_;          // [k]: the k-th ray traced's
     std::vector<RayRecord> rays_;           // [k]: the k-th ray traced
     std::vector<std::uint32_t> which_;      // the particles of the last trace()
     std::vector<DepthStatus> status_;       // [i]: the ray of which_[i]
