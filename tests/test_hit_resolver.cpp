@@ -471,6 +471,33 @@ TEST_CASE("optical_path_length gives the bits of the scalar walk", "[resolver]")
     }
 }
 
+TEST_CASE("a list of packed hits resolves to the bits of the list unpacked", "[resolver]") {
+    // Lists of 0..200 chords (0..400 hits: every network size, and past the largest to the unpacking path),
+    // half on a grid to force ties, a third spread over many binades, in any-hit order.
+    Pcg32 rng(29);
+    ListResolver packed_resolver, resolver;
+    for (int round = 0; round < 3000; ++round) {
+        const std::size_t chords = round < 200 ? std::size_t(round) : rng.below(201);
+        std::vector<SurfaceHit> hits = hits_of(random_intervals(rng, chords, round % 2 == 0));
+        if (round % 3 == 0) {
+            for (SurfaceHit& h : hits) h.t = std::ldexp(h.t, int(rng.below(40)) - 20);
+        }
+        shuffle(hits, rng);
+        std::vector<PackedSurfaceHit> packed;
+        for (const SurfaceHit& h : hits) {
+            packed.push_back(pack_surface_hit(h));
+            const SurfaceHit back = unpack_surface_hit(packed.back());
+            REQUIRE((same_bits(back.t, h.t) && back.value == h.value));
+        }
+        INFO("round " << round << ", " << hits.size() << " hits");
+        for (const HitSort method : {HitSort::adaptive, HitSort::std_sort}) {
+            std::vector<SurfaceHit> unpacked = hits;
+            const float expected = resolver(unpacked, method);
+            CHECK(same_bits(packed_resolver(std::span<const PackedSurfaceHit>(packed), method), expected));
+        }
+    }
+}
+
 TEST_CASE("the three HitSort methods give bit-identical lengths equal to the interval union", "[resolver]") {
     // 4000 particles: lists of 0..160 chords (up to ~320 hits, past the thesis's largest cutoff), half on a
     // grid to force ties, a few particles occluded or over the cutoff.

@@ -593,6 +593,53 @@ TEST_CASE("optical depth: the bundled pass gives every particle what its ray alo
     }
 }
 
+TEST_CASE("optical depth: hits kept over several blocks per thread", "[optical-depth]") {
+    // The two tubes at 50,000 particles (radius 0.35·√(750/N), as the large scenes: ~18 surfaces per ray),
+    // some 900,000 kept hits: at one thread more than three blocks, at two more than one block per thread,
+    // with rays' lists ending at block ends. Against each ray traced alone and the analytic answer for a
+    // sample, against gathering the hits first for all, at one and two threads alike.
+    constexpr std::uint32_t kParticles = 50'000;
+    TubeSettings settings;
+    settings.particles = kParticles;
+    settings.particle_radius = 0.35f * std::sqrt(750.0f / float(kParticles));
+    const std::vector<Particle> ps = generate_tubes(settings);
+    const SmokeScene scene = make_scene(ps, kSphere);
+    const glm::vec3 light(0.0f, 1.0f, 0.0f);
+    std::vector<float> first_lengths;
+    for (const std::size_t threads : {1u, 2u}) {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+        OpticalDepthPass pass;
+        OpticalDepthHits gathered;
+        pass.trace(scene, ps, all_of(ps.size()), light, OpticalDepthSettings{});
+        pass.gather(gathered);
+        INFO(threads << " threads, " << gathered.lists.hit_count() << " hits");
+        REQUIRE(gathered.lists.hit_count() > 5 * kKeptHitsPerBlock / 2);
+        std::vector<float> in_place(ps.size()), from_gathered(ps.size());
+        pass.resolve(HitSort::adaptive, in_place);
+        resolve_optical_path_lengths(gathered.lists, gathered.status, from_gathered, HitSort::adaptive);
+        CHECK(same_bits(in_place, from_gathered));
+        if (first_lengths.empty()) first_lengths = in_place;
+        else CHECK(same_bits(in_place, first_lengths));
+        for (std::size_t i = 0; i < ps.size(); i += 37) {
+            CAPTURE(i);
+            REQUIRE(gathered.status[i] == DepthStatus::ok);
+            const Ray ray{ps[i].center, optical_depth_tmin(ps[i].radius), light, kOpticalDepthTmax};
+            std::vector<std::uint32_t> alone, kept;
+            trace<TlasWalk::all_hits>(scene.scene(), ray, ray_flag_none, kLightRayMask, [&](const TraceHit& h) {
+                alone.push_back(std::bit_cast<std::uint32_t>(h.t) ^ (h.front_face() ? 0u : 1u));
+                return AnyHitDecision::ignore;
+            });
+            for (const SurfaceHit& h : gathered.lists.of(i))
+                kept.push_back(std::bit_cast<std::uint32_t>(h.t) ^ (h.value > 0 ? 0u : 1u));
+            std::sort(alone.begin(), alone.end());
+            std::sort(kept.begin(), kept.end());
+            CHECK(kept == alone);
+            const SphereAnswer want = exact_spheres(ps, glm::dvec3(ps[i].center), glm::dvec3(light));
+            CHECK(std::abs(double(in_place[i]) - want.length) <= want.tolerance);
+        }
+    }
+}
+
 TEST_CASE("optical depth: empty particle lists", "[optical-depth]") {
     const std::vector<Particle> none;
     for (bool with_ground : {false, true}) {

@@ -144,6 +144,16 @@ void resolve_optical_path_lengths(HitLists& lists, std::span<const DepthStatus> 
     });
 }
 
+float ListResolver::operator()(std::span<const PackedSurfaceHit> hits, HitSort method) {
+#if defined(SMOKETRACE_SIMD_AVX512)
+    if (method == HitSort::adaptive && hits.size() <= detail::kNetworkSortMaxHits)
+        return static_cast<float>(detail::resolve_packed_hits_avx512(hits));
+#endif
+    if (unpacked_.size() < hits.size()) unpacked_.resize(hits.size());  // only grows: no refill per list
+    for (std::size_t j = 0; j < hits.size(); ++j) unpacked_[j] = unpack_surface_hit(hits[j]);
+    return (*this)(std::span(unpacked_.data(), hits.size()), method);
+}
+
 float ListResolver::operator()(std::span<SurfaceHit> hits, HitSort method) {
     std::span<SurfaceHit> scratch(small_);
     if (method == HitSort::adaptive && hits.size() > small_.size()) {

@@ -11,7 +11,6 @@
 
 #include <algorithm>
 #include <atomic>
-#include <bit>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -65,41 +64,23 @@ RayOutcome optical_depth_outcome(const AccelScene& scene, const Ray& ray, const 
     return {DepthStatus::ok, static_cast<std::uint32_t>(hits.size())};
 }
 
-// Hits per block of a thread's kept hits: 1 MiB, so that the slack of a thread's last block is small
-// next to the hits of a large pass, and a block holds tens of thousands of rays.
-constexpr std::size_t kHitBlock = (std::size_t{1} << 20) / sizeof(std::uint32_t);
-
-namespace {
-
-constexpr std::uint32_t kLeavingBit = 0x80000000u;
-
-// See OpticalDepthPass::PackedHit. value is +1 or −1 (the any-hit shader's).
-std::uint32_t pack_hit(const SurfaceHit& h) {
-    return std::bit_cast<std::uint32_t>(h.t) | (h.value < 0 ? kLeavingBit : 0u);
-}
-SurfaceHit unpack_hit(std::uint32_t bits) {
-    return SurfaceHit{std::bit_cast<float>(bits & ~kLeavingBit), (bits & kLeavingBit) != 0 ? -1 : +1};
-}
-
-}  // namespace
-
-OpticalDepthPass::PackedHit* OpticalDepthPass::Scratch::keep(std::span<const SurfaceHit> hits) {
+PackedSurfaceHit* OpticalDepthPass::Scratch::keep(std::span<const SurfaceHit> hits) {
     if (blocks.empty() || blocks[block].capacity() - blocks[block].size() < hits.size()) {
         if (!blocks.empty()) ++block;
         if (block == blocks.size()) blocks.emplace_back();
-        blocks[block].reserve(std::max(kHitBlock, hits.size()));  // empty here: nothing moves
+        blocks[block].reserve(std::max(kKeptHitsPerBlock, hits.size()));  // empty here: nothing moves
     }
-    std::vector<PackedHit>& b = blocks[block];
+    std::vector<PackedSurfaceHit>& b = blocks[block];
     const std::size_t first = b.size();
     b.resize(first + hits.size());  // within the capacity: earlier rays' hits stay put
-    PackedHit* at = b.data() + first;
-    for (std::size_t k = 0; k < hits.size(); ++k) at[k].bits = pack_hit(hits[k]);
+    PackedSurfaceHit* at = b.data() + first;
+    for (std::size_t k = 0; k < hits.size(); ++k) at[k] = pack_surface_hit(hits[k]);
     kept += hits.size();
     return at;
 }
 
 void OpticalDepthPass::Scratch::clear() {
-    for (std::vector<PackedHit>& b : blocks) b.clear();
+    for (std::vector<PackedSurfaceHit>& b : blocks) b.clear();
     block = 0;
     kept = 0;
 }
@@ -138,15 +119,20 @@ void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> 
     // The rays in bundles of neighbours (ray_bundle.hpp): ray_order_[k] is the k-th ray traced, an index
     // into `which`.
     origins_.resize(n);
-    tmins_.resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
-        origins_[i] = particles[which[i]].center;
-        tmins_[i] = optical_depth_tmin(particles[which[i]].radius);
-    }
+    for (std::size_t i = 0; i < n; ++i) origins_[i] = particles[which[i]].center;
     bundle_order(origins_, dir, ray_order_, order_scratch_);
+    // The rays' starts in trace order, gathered in one sweep of independent loads: filled into each bundle
+    // from the order of `which`, every start was a cache miss that the bundle waited for (at 10^7 particles).
+    starts_.resize(n);
+    const std::size_t chunk_count = (n + kParticlesPerChunk - 1) / kParticlesPerChunk;
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t k = r.begin(); k < r.end(); ++k) {
+            const std::uint32_t i = ray_order_[k];
+            starts_[k] = {origins_[i], optical_depth_tmin(particles[which[i]].radius)};
+        }
+    });
     rays_.resize(n);
 
-    const std::size_t chunk_count = (n + kParticlesPerChunk - 1) / kParticlesPerChunk;
     // Hits kept so far, over all chunks; the budget also keeps the 32-bit offsets below from wrapping.
     const std::uint64_t budget = std::min<std::uint64_t>(
         settings.max_total_hits > 0 ? settings.max_total_hits : default_max_total_hits(),
@@ -177,7 +163,7 @@ void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> 
                 for (std::size_t k = c * kParticlesPerChunk; k < end; k += kBundleWidth) {
                     RayBundle bundle(dir);
                     for (std::size_t j = k; j < std::min(end, k + kBundleWidth); ++j)
-                        bundle.add(origins_[ray_order_[j]], tmins_[ray_order_[j]], kOpticalDepthTmax);
+                        bundle.add(starts_[j].origin, starts_[j].tmin, kOpticalDepthTmax);
                     for (std::vector<SurfaceHit>& lane : sc.lane_hits) lane.clear();
                     // Thesis 4.3.2's any-hit shader: store (t, +1) entering a stand-in, (t, −1) leaving one,
                     // and IgnoreHit() so that the search goes on.
@@ -201,15 +187,17 @@ void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> 
         },
         tbb::simple_partitioner());
 
-    // Statuses and counts to the order of `which`.
+    // Statuses and counts to the order of `which`, in parallel: at 10^7 particles each store is a cache miss.
     which_.assign(which.begin(), which.end());
     status_.resize(n);
     hit_counts_.resize(n);
-    for (std::size_t k = 0; k < n; ++k) {
-        const std::size_t i = ray_order_[k];
-        status_[i] = rays_[k].status;
-        hit_counts_[i] = rays_[k].count;
-    }
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t k = r.begin(); k < r.end(); ++k) {
+            const std::size_t i = ray_order_[k];
+            status_[i] = rays_[k].status;
+            hit_counts_[i] = rays_[k].count;
+        }
+    });
 }
 
 void OpticalDepthPass::gather(OpticalDepthHits& out) const {
@@ -231,7 +219,7 @@ void OpticalDepthPass::gather(OpticalDepthHits& out) const {
             const RayRecord& r = rays_[k];
             if (r.status != DepthStatus::ok) continue;
             std::transform(r.hits, r.hits + r.count, lists.hits.begin() + lists.offsets[ray_order_[k]],
-                           [](const PackedHit& h) { return unpack_hit(h.bits); });
+                           unpack_surface_hit);
         }
     });
 }
@@ -243,22 +231,16 @@ void OpticalDepthPass::resolve(HitSort method, std::span<float> lengths) {
                                     std::to_string(lengths.size()) + " lengths");
     }
     // Ray by ray in trace order, chunk by chunk as they were traced: each task reads the stretch of a
-    // thread's kept hits that one trace task wrote. Each ray sorts only its own hits: deterministic.
+    // thread's kept hits that one trace task wrote, packed as they are (ListResolver). Each ray sorts only
+    // its own hits: deterministic.
     const std::size_t chunk_count = (n + kParticlesPerChunk - 1) / kParticlesPerChunk;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunk_count, 1),
                       [&](const tbb::blocked_range<std::size_t>& r) {
-        ListResolver resolve_list;
-        std::vector<SurfaceHit>& list = scratch_->threads.local().unpacked;
+        ListResolver& resolve_list = scratch_->threads.local().resolver;
         for (std::size_t k = r.begin() * kParticlesPerChunk; k < std::min(n, r.end() * kParticlesPerChunk); ++k) {
             const RayRecord& ray = rays_[k];
-            if (ray.status != DepthStatus::ok) {
-                lengths[ray_order_[k]] = kFullyDarkPathLength;
-                continue;
-            }
-            if (list.size() < ray.count) list.resize(ray.count);  // only grows: no refill per ray
-            SurfaceHit* hits = list.data();
-            for (std::uint32_t j = 0; j < ray.count; ++j) hits[j] = unpack_hit(ray.hits[j].bits);
-            lengths[ray_order_[k]] = resolve_list({hits, ray.count}, method);
+            const std::span<const PackedSurfaceHit> hits(ray.hits, ray.count);
+            lengths[ray_order_[k]] = ray.status == DepthStatus::ok ? resolve_list(hits, method) : kFullyDarkPathLength;
         }
     });
 }

@@ -3,6 +3,7 @@
 // any order by the any-hit callback, thesis 4.3.2) into the optical path length through smoke toward the
 // light (thesis 3.1, eq. 3.1).
 #include <array>
+#include <bit>
 #include <cstddef>
 #include <cstdint>
 #include <limits>
@@ -17,6 +18,23 @@ struct SurfaceHit {
     float t = 0.0f;
     std::int32_t value = 0;
 };
+
+// A SurfaceHit in 4 bytes, as the optical-depth pass keeps them (18 per ray at 10^6 particles without a
+// cutoff: most of the pass's memory): t's bits with the sign bit set for a −1 (leaving a particle). Every
+// kept t is a finite float >= the ray's tmin > 0, whose sign bit is free, so unpacking gives the same t
+// and value bit for bit. Rotated left by one bit, it is a sort key: t's bits above the leaving flag, so
+// that the keys' unsigned order is the order of t.
+struct PackedSurfaceHit {
+    std::uint32_t bits = 0;
+};
+inline constexpr std::uint32_t kPackedLeavingBit = 0x80000000u;
+// `h`: t > 0 finite, value +1 or −1 (the any-hit shader's).
+[[nodiscard]] inline PackedSurfaceHit pack_surface_hit(const SurfaceHit& h) {
+    return {std::bit_cast<std::uint32_t>(h.t) | (h.value < 0 ? kPackedLeavingBit : 0u)};
+}
+[[nodiscard]] inline SurfaceHit unpack_surface_hit(PackedSurfaceHit p) {
+    return SurfaceHit{std::bit_cast<float>(p.bits & ~kPackedLeavingBit), (p.bits & kPackedLeavingBit) != 0 ? -1 : +1};
+}
 
 // What the optical-depth ray of a particle found: hits to resolve (ok), something opaque between the
 // particle and the light (occluded), or more hits than the cutoff allows (cutoff, thesis 4.4.3).
@@ -96,10 +114,15 @@ void network_sort_hits_scalar(std::span<SurfaceHit> hits);
 class ListResolver {
 public:
     [[nodiscard]] float operator()(std::span<SurfaceHit> hits, HitSort method);
+    // The same bits for a list of packed hits, which stays as it is. With HitSort::adaptive and AVX-512 a list
+    // the sorting network holds is sorted and walked in registers, straight from the packed hits
+    // (hit_resolver_avx512.hpp); other lists are unpacked into this resolver's memory first.
+    [[nodiscard]] float operator()(std::span<const PackedSurfaceHit> hits, HitSort method);
 
 private:
     std::array<SurfaceHit, 256> small_;  // scratch for the usual short lists, no allocation
     std::vector<SurfaceHit> large_;      // grown once for longer ones
+    std::vector<SurfaceHit> unpacked_;   // a packed list unpacked; only grows
 };
 
 // For each particle with status ok: sorts its hits by t with `method` (in place) and writes its optical

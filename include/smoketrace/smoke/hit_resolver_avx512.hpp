@@ -1,14 +1,16 @@
 #pragma once
-// The hit resolver's AVX-512 kernels (hit_resolver.cpp): the sorting network for one particle's hits and
-// the walk eight hits at a time. Neither maps onto the lanes types (core/simd/lanes.hpp): the network
-// lives on lane shuffles and masked min / max (core/sorting_network_avx512.hpp), the walk on masked loads,
-// a prefix sum across lanes and 64-bit integer lanes. Each gives its scalar definition's bits
-// (hit_resolver.hpp: detail::network_sort_hits_scalar, detail::optical_path_length_scalar), which
-// tests/test_hit_resolver.cpp checks.
+// The hit resolver's AVX-512 kernels (hit_resolver.cpp): the sorting network for one particle's hits, the
+// walk eight hits at a time, and both at once in registers for a list of packed hits. None maps onto the
+// lanes types (core/simd/lanes.hpp): the network lives on lane shuffles and masked min / max
+// (core/sorting_network_avx512.hpp), the walk on masked loads, a prefix sum across lanes and 64-bit integer
+// lanes. Each gives its scalar definition's bits (hit_resolver.hpp: detail::network_sort_hits_scalar,
+// detail::optical_path_length_scalar; for packed hits, the unpacked list's), which tests/test_hit_resolver.cpp
+// checks.
 #include <smoketrace/core/simd/isa.hpp>
 #include <smoketrace/core/sorting_network_avx512.hpp>
 #include <smoketrace/smoke/hit_resolver.hpp>
 
+#include <bit>
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -73,6 +75,94 @@ static void network_sort_hits_avx512(std::span<SurfaceHit> hits) {
     if (registers <= 4) return network_sort_hits_avx512<4>(hits);
     if (registers <= 8) return network_sort_hits_avx512<8>(hits);
     return network_sort_hits_avx512<16>(hits);
+}
+
+// A list of at most kNetworkSortMaxHits packed hits (hit_resolver.hpp), sorted and walked without leaving the
+// registers: the bits of network_sort_hits_avx512() and optical_path_length_avx512() on the unpacked
+// list. Each key is a hit's packed bits rotated left by one (t above the leaving flag), zero-extended;
+// its next hit comes from the registers (valignq) rather than from a load at one hit's offset, which would
+// straddle two stores of the sort and wait for them, and for every store before them, to reach the cache.
+template <unsigned R>
+static double resolve_packed_hits_avx512(const PackedSurfaceHit* packed, std::size_t n) {
+    static_assert(kWalkLanes == kNetworkSortLanes, "one register of keys is one register of the walk");
+    static_assert(sizeof(PackedSurfaceHit) == sizeof(std::uint32_t));
+    auto lanes_below = [](std::ptrdiff_t count) {  // the first min(count, 8) lanes; none for count <= 0
+        return __mmask8(count >= std::ptrdiff_t(kWalkLanes) ? 0xFFu : count <= 0 ? 0u : (1u << count) - 1u);
+    };
+    const std::ptrdiff_t count = std::ptrdiff_t(n);
+    const unsigned used = unsigned((n + kNetworkSortLanes - 1) / kNetworkSortLanes);
+    const __m512i all_ones = _mm512_set1_epi64(-1);  // padding: after every key
+    const __m512i one = _mm512_set1_epi64(1);
+    __m512i v[R];
+#pragma GCC unroll 16
+    for (unsigned r = 0; r < R; ++r) {
+        if (r >= used) {
+            v[r] = all_ones;
+            continue;
+        }
+        const __mmask8 lanes = lanes_below(count - std::ptrdiff_t(kNetworkSortLanes * r));
+        const __m512i bits = _mm512_maskz_loadu_epi32(__mmask16(lanes), packed + kNetworkSortLanes * r);
+        const __m512i keys = _mm512_maskz_rol_epi32(__mmask16(lanes), bits, 1);
+        v[r] = _mm512_mask_cvtepu32_epi64(all_ones, lanes, _mm512_maskz_extracti64x4_epi64(0xF, keys, 0));
+    }
+    bitonic_sort<R>(v);
+
+    // The sorted keys hold the n hits first, then the padding.
+    constexpr __mmask8 kEveryLane = 0xFF;
+    const __m512i zero = _mm512_setzero_si512();
+    auto values_of = [&](__m512i k) {  // +1 entering, −1 leaving
+        return _mm512_sub_epi64(one, _mm512_maskz_slli_epi64(kEveryLane, _mm512_and_si512(k, one), 1));
+    };
+    auto t_of = [&](__m512i k) {  // t's bits, as floats widened to double
+        const __m512i t_bits = _mm512_maskz_srli_epi64(kEveryLane, k, 1);
+        return _mm512_maskz_cvtps_pd(kEveryLane, _mm256_castsi256_ps(_mm512_maskz_cvtepi64_epi32(kEveryLane, t_bits)));
+    };
+    std::int64_t leaving = 0;  // eq. 3.1: counter_start = −sum of hit values = leaving − entering
+#pragma GCC unroll 16
+    for (unsigned r = 0; r < R; ++r) {
+        if (r >= used) break;
+        const __mmask8 lanes = lanes_below(count - std::ptrdiff_t(kNetworkSortLanes * r));
+        leaving += std::popcount(unsigned(_mm512_mask_test_epi64_mask(lanes, v[r], one)));
+    }
+    const std::int64_t counter_start = 2 * leaving - count;
+
+    __m512d sums = _mm512_setzero_pd();
+    if (counter_start > 0) sums = _mm512_mask_mov_pd(sums, 1, t_of(v[0]));  // in smoke from the origin
+    __m512i counter = _mm512_set1_epi64(counter_start);  // before the register's first hit
+    const __m512i last_lane = _mm512_set1_epi64(kWalkLanes - 1);
+#pragma GCC unroll 16
+    for (unsigned r = 0; r < R; ++r) {
+        if (r >= used) break;
+        const __m512i h = v[r];
+        // Hit i + 1 in lane i.
+        const __m512i next = _mm512_maskz_alignr_epi64(kEveryLane, r + 1 < R ? v[r + 1] : all_ones, h, 1);
+        __m512i s = values_of(h);  // inclusive prefix sum over the lanes: shifted by 1, 2 and 4
+        s = _mm512_add_epi64(s, _mm512_maskz_alignr_epi64(kEveryLane, s, zero, kWalkLanes - 1));
+        s = _mm512_add_epi64(s, _mm512_maskz_alignr_epi64(kEveryLane, s, zero, kWalkLanes - 2));
+        s = _mm512_add_epi64(s, _mm512_maskz_alignr_epi64(kEveryLane, s, zero, kWalkLanes - 4));
+        const __m512i after = _mm512_add_epi64(counter, s);  // the counter after each lane's hit
+        counter = _mm512_maskz_permutexvar_epi64(kEveryLane, last_lane, after);
+        // Gaps exist up to hit n - 2.
+        const __mmask8 in_smoke = _mm512_mask_cmpgt_epi64_mask(
+            lanes_below(count - std::ptrdiff_t(kNetworkSortLanes * r) - 1), after, zero);
+        sums = _mm512_mask_add_pd(sums, in_smoke, sums, _mm512_sub_pd(t_of(next), t_of(h)));
+    }
+    // sum_lanes() of hit_resolver.cpp: the halves, then the quarters, then the two left.
+    const __m256d q =
+        _mm256_add_pd(_mm512_maskz_extractf64x4_pd(0xF, sums, 0), _mm512_maskz_extractf64x4_pd(0xF, sums, 1));
+    const __m128d p = _mm_add_pd(_mm256_castpd256_pd128(q), _mm256_extractf128_pd(q, 1));
+    return _mm_cvtsd_f64(_mm_add_sd(p, _mm_unpackhi_pd(p, p)));
+}
+
+// resolve_packed_hits_avx512<R> with the smallest network that holds the list (at most kNetworkSortMaxHits).
+[[maybe_unused]] static double resolve_packed_hits_avx512(std::span<const PackedSurfaceHit> hits) {
+    const std::size_t registers = (hits.size() + kNetworkSortLanes - 1) / kNetworkSortLanes;
+    if (hits.empty()) return 0.0;
+    if (registers == 1) return resolve_packed_hits_avx512<1>(hits.data(), hits.size());
+    if (registers == 2) return resolve_packed_hits_avx512<2>(hits.data(), hits.size());
+    if (registers <= 4) return resolve_packed_hits_avx512<4>(hits.data(), hits.size());
+    if (registers <= 8) return resolve_packed_hits_avx512<8>(hits.data(), hits.size());
+    return resolve_packed_hits_avx512<16>(hits.data(), hits.size());
 }
 
 // optical_path_length() eight hits at a time: each lane i of a register holds hit 8c + i as loaded (t in

@@ -50,6 +50,10 @@ inline constexpr float kOpticalDepthTminPerRadius = 0x1.0p-22f;
 // TMax of the thesis's optical-depth rays: effectively unbounded, yet finite.
 inline constexpr float kOpticalDepthTmax = 1e38f;
 
+// Hits per block of a thread's kept hits (OpticalDepthPass): 1 MiB of packed hits, so that the slack of a
+// thread's last block is small next to the hits of a large pass, and a block holds tens of thousands of rays.
+inline constexpr std::size_t kKeptHitsPerBlock = (std::size_t{1} << 20) / sizeof(PackedSurfaceHit);
+
 struct OpticalDepthSettings {
     std::uint32_t cutoff = 0;  // K: more than K surfaces → cutoff (0 = no cutoff)
     // Most hits one trace() (or run()) may keep, over all its particles; 0 = default_max_total_hits(). Without a cutoff
@@ -111,7 +115,7 @@ public:
     void gather(OpticalDepthHits& out) const;
 
     // After trace(): resolve_optical_path_lengths() on the kept hits where they lie, without gathering
-    // them first (each list unpacked into the thread's scratch, sorted and walked, eq. 3.1). lengths[i] for which[i]
+    // them first (each packed list sorted and walked by a ListResolver, eq. 3.1). lengths[i] for which[i]
     // (std::invalid_argument unless lengths.size() == which.size()); the same bits as gather() and then
     // resolve_optical_path_lengths(), without the copy.
     void resolve(HitSort method, std::span<float> lengths);
@@ -121,33 +125,27 @@ public:
     [[nodiscard]] std::span<const std::uint32_t> hit_counts() const { return hit_counts_; }
 
 private:
-    // A kept hit in 4 bytes, half a SurfaceHit: its t with the sign bit set for a −1 (leaving a stand-in).
-    // Every kept t is a finite float >= the ray's tmin > 0, whose sign bit is free, so unpacking gives the
-    // same t and value bit for bit. The kept hits are most of the pass's memory (18 per ray at 10^6
-    // particles without a cutoff).
-    struct PackedHit {
-        std::uint32_t bits;
-    };
     struct Scratch {
         std::array<std::vector<SurfaceHit>, kBundleWidth> lane_hits;  // the bundle in flight's, per ray
-        std::vector<SurfaceHit> unpacked;  // resolve()'s: the kept hits of the ray it resolves, unpacked
-        // The hits of this thread's ok rays, ray after ray, in blocks of fixed capacity (a ray with more
+        ListResolver resolver;  // resolve()'s, kept with its memory for lists past the sorting network
+        // The hits of this thread's ok rays, packed (PackedSurfaceHit: 18 per ray at 10^6 particles without a
+        // cutoff, most of the pass's memory), ray after ray, in blocks of fixed capacity (a ray with more
         // hits than a block gets a block of its own size): a ray's hits stay contiguous and never move, and
         // the memory is what the hits need, where one growing vector held up to twice that and copied it
         // at every doubling. The blocks are kept, emptied, for the next trace().
-        std::vector<std::vector<PackedHit>> blocks;
+        std::vector<std::vector<PackedSurfaceHit>> blocks;
         std::size_t block = 0;  // the block being filled
         std::uint64_t kept = 0;  // hits kept in this trace()
         std::uint64_t warmed_in_trace = 0;  // the last trace() in which this thread prefetched the top level
 
-        PackedHit* keep(std::span<const SurfaceHit> hits);
+        PackedSurfaceHit* keep(std::span<const SurfaceHit> hits);
         void clear();
     };
     // A ray's outcome, stored in trace order (index k of ray_order_) so that each task writes a
     // contiguous stretch: in particle order the rays of a task land all over the output arrays, and two
     // threads' writes share cache lines. Scattered to particle order after the parallel part.
     struct RayRecord {
-        PackedHit* hits;  // where the ray's hits are kept (ok rays), until the next trace()
+        PackedSurfaceHit* hits;  // where the ray's hits are kept (ok rays), until the next trace()
         std::uint32_t count;
         DepthStatus status;
     };
@@ -156,9 +154,13 @@ private:
     struct ThreadScratch;
     std::unique_ptr<ThreadScratch> scratch_;
     std::vector<glm::vec3> origins_;        // the rays' origins, in the order of `which`
-    std::vector<float> tmins_;              // and their tmin (optical_depth_tmin of the particle's radius)
     std::vector<std::uint32_t> ray_order_;  // bundle_order() of origins_
     BundleOrderScratch order_scratch_;
+    struct RayStart {
+        glm::vec3 origin;
+        float tmin;  // optical_depth_tmin() of the particle's radius
+    };
+    std::vector<RayStart> starts_;          // [k]: the k-th ray traced's
     std::vector<RayRecord> rays_;           // [k]: the k-th ray traced
     std::vector<std::uint32_t> which_;      // the particles of the last trace()
     std::vector<DepthStatus> status_;       // [i]: the ray of which_[i]
