@@ -1266,6 +1266,38 @@ TEST_CASE("Mesh BLAS wide tree: collapse keeps every leaf, and both walks at bot
     check_blas_wide_walks<8>(blas, rays);
 }
 
+TEST_CASE("Mesh BLAS wide tree: the cut's inner nodes weigh no more area than the greedy collapse's", "[bvh]") {
+    // The cut minimises the total area of the wide inner nodes (each the box of the binary node it is made
+    // from); opening the largest slot first (collapse_slots(), the top level's rule) is one feasible cut.
+    const TriangleMesh m = random_soup(4000, 0.1f, 95);
+    const MeshBlas blas(m);
+    const Bvh& binary = blas.bvh();
+    double greedy = 0.0;
+    std::vector<std::uint32_t> todo{0};
+    while (!todo.empty()) {
+        const std::uint32_t b = todo.back();
+        todo.pop_back();
+        greedy += binary.nodes[b].bounds.area();
+        std::uint32_t slot[kMeshBlasWidth];
+        const unsigned n = collapse_slots(binary, b, kMeshBlasWidth, slot).count;
+        for (unsigned i = 0; i < n; ++i)
+            if (!binary.nodes[slot[i]].is_leaf()) todo.push_back(slot[i]);
+    }
+    const auto& wide = blas.wide();
+    double cut = 0.0;
+    for (std::size_t k = 0; k < wide.node_count(); ++k) {
+        const auto& n = wide.nodes()[k];
+        REQUIRE(n.used >= 2);
+        Aabb box;
+        for (unsigned i = 0; i < n.used; ++i)
+            box.grow(Aabb{{n.bounds[0][i], n.bounds[1][i], n.bounds[2][i]},
+                          {n.bounds[3][i], n.bounds[4][i], n.bounds[5][i]}});
+        cut += box.area();
+    }
+    // The cut is found with float sums: a near tie may go either way by their rounding.
+    CHECK(cut <= greedy * (1.0 + 1e-5));
+}
+
 TEST_CASE("Mesh BLAS wide walk: the key sorting networks sort every input", "[bvh]") {
     // 0/1 principle: a comparator network sorts every input iff it sorts every sequence of zeros and ones.
     for (unsigned v = 0; v < 256; ++v) {

@@ -83,6 +83,12 @@ WideSlots collapse_slots(const Bvh& binary, std::uint32_t node, unsigned width, 
         take(unsigned(best), opened);
         take(n++, opened + 1);
     }
+    return {n, order_slots(binary, slot, n)};
+}
+
+int order_slots(const Bvh& binary, std::uint32_t* slot, unsigned n) {
+    constexpr unsigned kMaxWidth = 16;
+    if (n > kMaxWidth) throw std::invalid_argument("order_slots: more than 16 slots");
     Aabb centres;
     glm::vec3 centre[kMaxWidth];
     for (unsigned i = 0; i < n; ++i) {
@@ -91,18 +97,20 @@ WideSlots collapse_slots(const Bvh& binary, std::uint32_t node, unsigned width, 
     }
     const glm::vec3 spread = centres.extent();
     const int axis = spread.x >= spread.y ? (spread.x >= spread.z ? 0 : 2) : (spread.y >= spread.z ? 1 : 2);
+    float key[kMaxWidth];
+    for (unsigned i = 0; i < n; ++i) key[i] = centre[i][axis];
     for (unsigned i = 1; i < n; ++i) {
         const std::uint32_t s = slot[i];
-        const float key = centre[i][axis];
+        const float k = key[i];
         unsigned j = i;
-        for (; j > 0 && key < centre[j - 1][axis]; --j) {
+        for (; j > 0 && k < key[j - 1]; --j) {
             slot[j] = slot[j - 1];
-            centre[j] = centre[j - 1];
+            key[j] = key[j - 1];
         }
         slot[j] = s;
-        centre[j][axis] = key;
+        key[j] = k;
     }
-    return {n, axis};
+    return axis;
 }
 
 }  // namespace smoketrace
