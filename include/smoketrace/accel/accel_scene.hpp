@@ -193,6 +193,8 @@ private:
     void update_instance(std::uint32_t i);
     void rebuild();
     void refit_binary();
+    template <bool kRefitBoxes>
+    void sweep_binary();
 
     std::vector<std::unique_ptr<BottomLevel>> blases_;  // stable addresses for InstanceRecord::blas
     std::vector<Instance> instances_;
