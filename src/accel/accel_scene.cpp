@@ -7,6 +7,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
+#include <bit>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -221,6 +222,21 @@ bool is_similarity(const glm::dmat3& m, double& scale) {
     return true;
 }
 
+// std::nextafter(x, −∞) and std::nextafter(x, +∞), the same for every x, inline: the libm calls were about
+// a tenth of an instance's set-up.
+float float_below(float x) {
+    if (std::isnan(x) || x == -std::numeric_limits<float>::infinity()) return x;
+    if (x == 0.0f) return -std::numeric_limits<float>::denorm_min();
+    const auto bits = std::bit_cast<std::uint32_t>(x);
+    return std::bit_cast<float>(x > 0.0f ? bits - 1 : bits + 1);
+}
+float float_above(float x) {
+    if (std::isnan(x) || x == std::numeric_limits<float>::infinity()) return x;
+    if (x == 0.0f) return std::numeric_limits<float>::denorm_min();
+    const auto bits = std::bit_cast<std::uint32_t>(x);
+    return std::bit_cast<float>(x > 0.0f ? bits + 1 : bits - 1);
+}
+
 }  // namespace
 
 bool AccelScene::takes_world_triangles(const BottomLevel& b) const {
@@ -239,7 +255,7 @@ bool AccelScene::keeps_detail(const BottomLevel& b) const {
 void AccelScene::update_instance(std::uint32_t i) {
     const Instance& in = instances_[i];
     const BottomLevel& b = *blases_[in.blas];
-    const AffineTransform inv = in.object_to_world.inverse();
+    in.object_to_world.check_invertible();  // every instance needs an inverse, though only details keep it
     InstanceRecord& r = records_[record_slot_[i]];
     // Both fixed by add_instance (and by assign_world_triangle_slots()).
     const std::uint32_t detail = keeps_detail(b) ? r.other.detail : kNoInstanceDetail;
@@ -252,7 +268,7 @@ void AccelScene::update_instance(std::uint32_t i) {
     r.opaque = !(in.flags & instance_flag_force_non_opaque) && ((in.flags & instance_flag_force_opaque) || b.opaque);
     r.user_id = in.user_id;
     r.object_to_world_translation = in.object_to_world.translation;
-    if (detail != kNoInstanceDetail) details_[detail] = {&b, inv.linear};
+    if (detail != kNoInstanceDetail) details_[detail] = {&b, in.object_to_world.inverse().linear};
     // The world-space paths of trace() (see InstancePath); anything else takes the general path.
     double scale = 0.0;
     if (paths_ == InstancePaths::fastest && b.kind == GeometryKind::spheres && b.spheres.leaf_spheres().size() == 1 &&
@@ -290,8 +306,8 @@ void AccelScene::update_instance(std::uint32_t i) {
             hi = glm::max(hi, w);
         }
         for (int a = 0; a < 3; ++a) {
-            wb.lo[a] = std::nextafter(static_cast<float>(lo[a]), -std::numeric_limits<float>::infinity());
-            wb.hi[a] = std::nextafter(static_cast<float>(hi[a]), std::numeric_limits<float>::infinity());
+            wb.lo[a] = float_below(static_cast<float>(lo[a]));
+            wb.hi[a] = float_above(static_cast<float>(hi[a]));
         }
     }
     if (!(std::isfinite(wb.lo.x) && std::isfinite(wb.lo.y) && std::isfinite(wb.lo.z) && std::isfinite(wb.hi.x) &&
