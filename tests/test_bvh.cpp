@@ -1094,6 +1094,69 @@ TEST_CASE("BVH traversal: the paired child test equals the scalar slab test on e
 // scalar slab test, child by child: the same hit bits and, where a child is hit, the same entry distance
 // bit for bit (the same operations in the same order, so not even the sign of a zero may differ). And
 // admitted_children() against the mask bytes one by one.
+// The 4-wide tree's layout, one node at a time: a node's inner children take the next indices when it is
+// filled, and the last child's subtree is filled next, then the one before it.
+struct ReferenceWideNode {
+    std::uint32_t slot[kWideBvhWidth];  // the binary node of each used slot
+    unsigned count;
+    int axis;
+    std::uint32_t child[kWideBvhWidth];
+};
+std::vector<ReferenceWideNode> reference_wide_layout(const Bvh& binary) {
+    std::vector<ReferenceWideNode> nodes(1);
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> jobs{{0u, 0u}};  // (binary node, wide node)
+    while (!jobs.empty()) {
+        const auto [b, w] = jobs.back();
+        jobs.pop_back();
+        ReferenceWideNode n{};
+        const WideSlots s = collapse_slots(binary, b, kWideBvhWidth, n.slot);
+        n.count = s.count;
+        n.axis = s.axis;
+        for (unsigned i = 0; i < s.count; ++i) {
+            const BvhNode& c = binary.nodes[n.slot[i]];
+            n.child[i] = c.is_leaf() ? c.first : static_cast<std::uint32_t>(nodes.size());
+            if (!c.is_leaf()) {
+                jobs.emplace_back(n.slot[i], n.child[i]);
+                nodes.emplace_back();
+            }
+        }
+        nodes[w] = n;
+    }
+    return nodes;
+}
+
+TEST_CASE("Wide BVH: the collapse of a large tree lays out its nodes depth first, slots and boxes as chosen",
+          "[bvh]") {
+    const auto boxes = random_boxes(100000, 93);
+    const Bvh binary = build_bvh(boxes, BvhBuildSettings{{}, 1});
+    std::vector<std::uint8_t> masks(binary.nodes.size());
+    for (std::size_t k = 0; k < masks.size(); ++k) masks[k] = static_cast<std::uint8_t>(k * 37 + 1);
+    const std::vector<ReferenceWideNode> want = reference_wide_layout(binary);
+    WideBvh wide;
+    wide.collapse(binary, masks);
+    REQUIRE(wide.node_count() == want.size());
+    CHECK(wide.root_mask() == masks[0]);
+    int bad = 0;
+    for (std::size_t k = 0; k < want.size(); ++k) {
+        const WideBvhNode& n = wide.nodes()[k];
+        const ReferenceWideNode& r = want[k];
+        bool ok = n.axis == r.axis;
+        for (unsigned i = 0; i < kWideBvhWidth; ++i) {
+            if (i >= r.count) {
+                ok = ok && n.mask[i] == 0 && n.count[i] == 0 && n.bounds[0][i] == kInf && n.bounds[3][i] == -kInf;
+                continue;
+            }
+            const BvhNode& c = binary.nodes[r.slot[i]];
+            ok = ok && n.child[i] == r.child[i] && n.count[i] == c.count && n.mask[i] == masks[r.slot[i]] &&
+                 ((n.leaves >> i) & 1u) == (c.is_leaf() ? 1u : 0u);
+            const float* p = planes(c.bounds);
+            for (int k6 = 0; k6 < 6; ++k6) ok = ok && n.bounds[k6][i] == p[k6];
+        }
+        bad += ok ? 0 : 1;
+    }
+    CHECK(bad == 0);
+}
+
 TEST_CASE("Wide BVH traversal: the four-child box test equals the scalar slab test on every ray", "[bvh]") {
     Pcg32 rng(78);
     const float planes[] = {-1.0f, -0.5f, 0.0f, 0.5f, 1.0f};

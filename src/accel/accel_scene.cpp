@@ -6,6 +6,8 @@
 #include <glm/matrix.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
+#include <bit>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -220,6 +222,21 @@ bool is_similarity(const glm::dmat3& m, double& scale) {
     return true;
 }
 
+// std::nextafter(x, −∞) and std::nextafter(x, +∞), the same for every x, inline: the libm calls were about
+// a tenth of an instance's set-up.
+float float_below(float x) {
+    if (std::isnan(x) || x == -std::numeric_limits<float>::infinity()) return x;
+    if (x == 0.0f) return -std::numeric_limits<float>::denorm_min();
+    const auto bits = std::bit_cast<std::uint32_t>(x);
+    return std::bit_cast<float>(x > 0.0f ? bits - 1 : bits + 1);
+}
+float float_above(float x) {
+    if (std::isnan(x) || x == std::numeric_limits<float>::infinity()) return x;
+    if (x == 0.0f) return std::numeric_limits<float>::denorm_min();
+    const auto bits = std::bit_cast<std::uint32_t>(x);
+    return std::bit_cast<float>(x > 0.0f ? bits + 1 : bits - 1);
+}
+
 }  // namespace
 
 bool AccelScene::takes_world_triangles(const BottomLevel& b) const {
@@ -238,7 +255,7 @@ bool AccelScene::keeps_detail(const BottomLevel& b) const {
 void AccelScene::update_instance(std::uint32_t i) {
     const Instance& in = instances_[i];
     const BottomLevel& b = *blases_[in.blas];
-    const AffineTransform inv = in.object_to_world.inverse();
+    in.object_to_world.check_invertible();  // every instance needs an inverse, though only details keep it
     InstanceRecord& r = records_[record_slot_[i]];
     // Both fixed by add_instance (and by assign_world_triangle_slots()).
     const std::uint32_t detail = keeps_detail(b) ? r.other.detail : kNoInstanceDetail;
@@ -251,7 +268,7 @@ void AccelScene::update_instance(std::uint32_t i) {
     r.opaque = !(in.flags & instance_flag_force_non_opaque) && ((in.flags & instance_flag_force_opaque) || b.opaque);
     r.user_id = in.user_id;
     r.object_to_world_translation = in.object_to_world.translation;
-    if (detail != kNoInstanceDetail) details_[detail] = {&b, inv.linear};
+    if (detail != kNoInstanceDetail) details_[detail] = {&b, in.object_to_world.inverse().linear};
     // The world-space paths of trace() (see InstancePath); anything else takes the general path.
     double scale = 0.0;
     if (paths_ == InstancePaths::fastest && b.kind == GeometryKind::spheres && b.spheres.leaf_spheres().size() == 1 &&
@@ -289,8 +306,8 @@ void AccelScene::update_instance(std::uint32_t i) {
             hi = glm::max(hi, w);
         }
         for (int a = 0; a < 3; ++a) {
-            wb.lo[a] = std::nextafter(static_cast<float>(lo[a]), -std::numeric_limits<float>::infinity());
-            wb.hi[a] = std::nextafter(static_cast<float>(hi[a]), std::numeric_limits<float>::infinity());
+            wb.lo[a] = float_below(static_cast<float>(lo[a]));
+            wb.hi[a] = float_above(static_cast<float>(hi[a]));
         }
     }
     if (!(std::isfinite(wb.lo.x) && std::isfinite(wb.lo.y) && std::isfinite(wb.lo.z) && std::isfinite(wb.hi.x) &&
@@ -305,27 +322,37 @@ void AccelScene::rebuild() {
     // ray (stand-ins masked out) or a light ray (billboards masked out) would still walk the other half.
     const std::vector<std::uint32_t> masks(instance_masks_.begin(), instance_masks_.end());
     tlas_ = build_grouped_bvh(world_boxes_, masks, BvhBuildSettings{.max_leaf_size = 1});
-    node_masks_.assign(tlas_.nodes.size(), 0);
-    refit_binary();  // fills the node masks (boxes are already exact)
-    wide_tlas_.collapse(tlas_, node_masks_);
-    sah_at_build_ = sah_current_;
-    // The records to leaf order (one instance per leaf: prim_indices is a permutation). Each k writes its
-    // own record and its instance's slot.
-    std::vector<InstanceRecord> in_leaf_order(records_.size());
-    const std::vector<std::uint32_t>& leaf = tlas_.prim_indices;
-    using Range = tbb::blocked_range<std::size_t>;
-    tbb::parallel_for(Range(0, leaf.size(), 4096), [&](const Range& r) {
-        for (std::size_t k = r.begin(); k < r.end(); ++k) {
-            in_leaf_order[k] = records_[record_slot_[leaf[k]]];
-            record_slot_[leaf[k]] = static_cast<std::uint32_t>(k);
-        }
-    });
+    // Two independent halves side by side: the node masks, the SAH cost and the wide tree (serial, a
+    // chain of cache misses down the binary tree), and the records to leaf order (one instance per leaf:
+    // prim_indices is a permutation; each k writes its own record and its instance's slot).
+    decltype(records_) in_leaf_order(records_.size());
+    tbb::parallel_invoke(
+        [&] {
+            node_masks_.assign(tlas_.nodes.size(), 0);
+            sweep_binary<false>();  // the boxes are already exact
+            wide_tlas_.collapse(tlas_, node_masks_);
+        },
+        [&] {
+            const std::vector<std::uint32_t>& leaf = tlas_.prim_indices;
+            using Range = tbb::blocked_range<std::size_t>;
+            tbb::parallel_for(Range(0, leaf.size(), 4096), [&](const Range& r) {
+                for (std::size_t k = r.begin(); k < r.end(); ++k) {
+                    in_leaf_order[k] = records_[record_slot_[leaf[k]]];
+                    record_slot_[leaf[k]] = static_cast<std::uint32_t>(k);
+                }
+            });
+        });
     records_.swap(in_leaf_order);
+    sah_at_build_ = sah_current_;
 }
 
-// One backward sweep (children before parents) refits the boxes, ORs the instance masks and sums the
-// SAH cost, with the terms and order of Bvh::sah_cost, so the rebuild test costs no extra pass.
-void AccelScene::refit_binary() {
+void AccelScene::refit_binary() { sweep_binary<true>(); }
+
+// One backward sweep (children before parents) refits the boxes (kRefitBoxes; a fresh build's are exact
+// already), ORs the instance masks and sums the SAH cost, with the terms and order of Bvh::sah_cost, so the
+// rebuild test costs no extra pass.
+template <bool kRefitBoxes>
+void AccelScene::sweep_binary() {
     constexpr std::size_t kPrefetch = 16;
     auto& nodes = tlas_.nodes;
     const SahCosts costs{};
@@ -333,7 +360,7 @@ void AccelScene::refit_binary() {
     for (std::size_t k = nodes.size(); k-- > 0;) {
         // A leaf's instance box is read at random (leaf order is not instance order): fetched kPrefetch
         // nodes ahead, the misses overlap instead of stalling the sweep one after another.
-        if (k >= kPrefetch) {
+        if (kRefitBoxes && k >= kPrefetch) {
             const BvhNode& ahead = nodes[k - kPrefetch];
             if (ahead.is_leaf()) __builtin_prefetch(&world_boxes_[tlas_.prim_indices[ahead.first]]);
         }
@@ -344,14 +371,14 @@ void AccelScene::refit_binary() {
         if (n.is_leaf()) {
             for (std::uint32_t i = 0; i < n.count; ++i) {
                 const std::uint32_t p = tlas_.prim_indices[n.first + i];
-                b.grow(world_boxes_[p]);
+                if (kRefitBoxes) b.grow(world_boxes_[p]);
                 m |= instance_masks_[p];
             }
         } else {
-            b = merge(nodes[n.first].bounds, nodes[n.first + 1].bounds);
+            if (kRefitBoxes) b = merge(nodes[n.first].bounds, nodes[n.first + 1].bounds);
             m = node_masks_[n.first] | node_masks_[n.first + 1];
         }
-        n.bounds = b;
+        if (kRefitBoxes) n.bounds = b;
         node_masks_[k] = m;
         weighted += sah_term(n, costs);
     }

@@ -8,9 +8,13 @@ namespace smoketrace {
 
 double AffineTransform::determinant() const { return glm::determinant(linear); }
 
-AffineTransform AffineTransform::inverse() const {
+void AffineTransform::check_invertible() const {
     const double det = determinant();
     if (!(std::abs(det) > 0.0) || !std::isfinite(det)) throw std::domain_error("AffineTransform: singular transform");
+}
+
+AffineTransform AffineTransform::inverse() const {
+    check_invertible();
     AffineTransform inv;
     inv.linear = glm::inverse(linear);
     inv.translation = -(inv.linear * translation);

@@ -58,6 +58,7 @@ void WideBvh::collapse(const Bvh& binary, const std::vector<std::uint8_t>& node_
                 w.count[i] = static_cast<std::uint8_t>(c.count);
                 w.leaves |= std::uint8_t(1u << i);
             } else {
+                __builtin_prefetch(&binary.nodes[c.first]);  // its children: what collapsing it reads first
                 w.child[i] = static_cast<std::uint32_t>(nodes_.size());
                 w.count[i] = 0;
                 jobs.push_back({slot[i], w.child[i]});

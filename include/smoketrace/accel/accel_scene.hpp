@@ -193,6 +193,8 @@ private:
     void update_instance(std::uint32_t i);
     void rebuild();
     void refit_binary();
+    template <bool kRefitBoxes>
+    void sweep_binary();
 
     std::vector<std::unique_ptr<BottomLevel>> blases_;  // stable addresses for InstanceRecord::blas
     std::vector<Instance> instances_;
@@ -200,7 +202,8 @@ private:
     // (and instances added since sit at the end, in instance order): a walk meets the instances of a region
     // together, and instance order is often random in space (a particle system's), so records in instance
     // order cost a cache miss per visit.
-    std::vector<InstanceRecord> records_;
+    // Not zeroed when grown: every record is written whole (update_instance(), the rebuild's reordering).
+    std::vector<InstanceRecord, UninitialisedAlignedAllocator<InstanceRecord, 64>> records_;
     std::vector<std::uint32_t> record_slot_;
     std::vector<InstanceDetail> details_;  // of the instances that keeps_detail(), in instance order
     std::vector<MeshBlas::Triangle> world_triangles_;  // in instance order; slots fixed when added

@@ -14,6 +14,8 @@
 #include <cstdint>
 #include <new>
 #include <span>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 namespace smoketrace {
@@ -40,6 +42,22 @@ struct AlignedAllocator {
     T* allocate(std::size_t n) { return static_cast<T*>(::operator new(n * sizeof(T), std::align_val_t{Align})); }
     void deallocate(T* p, std::size_t) { ::operator delete(p, std::align_val_t{Align}); }
     bool operator==(const AlignedAllocator&) const { return true; }
+};
+
+// AlignedAllocator whose vectors leave the elements they grow by unwritten (default-initialised, not
+// value-initialised): for large arrays of a type without initialisers whose owner writes every element
+// itself, where zeroing them first was a serial pass over the whole array.
+template <class T, std::size_t Align>
+struct UninitialisedAlignedAllocator : AlignedAllocator<T, Align> {
+    UninitialisedAlignedAllocator() = default;
+    template <class U>
+    UninitialisedAlignedAllocator(const UninitialisedAlignedAllocator<U, Align>&) {}
+    template <class U>
+    struct rebind { using other = UninitialisedAlignedAllocator<U, Align>; };
+    template <class U>
+    void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) { ::new (static_cast<void*>(p)) U; }
+    template <class U, class... Args>
+    void construct(U* p, Args&&... args) { ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...); }
 };
 
 // Deepest tree any builder may produce; traversal stacks are this deep and live on the stack.

@@ -18,6 +18,7 @@ struct AffineTransform {
     [[nodiscard]] glm::dvec3 vector(const glm::dvec3& v) const { return linear * v; }
     [[nodiscard]] double determinant() const;
     [[nodiscard]] AffineTransform inverse() const;  // throws std::domain_error if singular
+    void check_invertible() const;                   // throws as inverse() does, without inverting
 
     static AffineTransform translate_scale(const glm::dvec3& t, double uniform_scale);
 
