@@ -521,3 +521,43 @@ TEST_CASE("Mesh BLAS tile query: a wide node's children are culled as outside() 
     CHECK(visible > 200);
     CHECK(culled > 200);
 }
+
+TEST_CASE("ray tile: shadow_lanes() keeps every ray that meets the box", "[trace-tile]") {
+    // Random boxes in front of, around and behind random tiles: a ray of the grid that enters a box (the slab
+    // test of a single ray, to any distance) lies on a column and a row of its shadow; and the shadow stays
+    // small for a small box in front (the test is not passed by keeping everything).
+    Pcg32 rng(31);
+    long met = 0, narrow_shadows = 0;
+    for (int k = 0; k < 2000; ++k) {
+        const glm::vec3 eye = rng.uniform(0.0f, 10.0f) * random_unit(rng);
+        const glm::vec3 at = eye + random_unit(rng);
+        const glm::vec3 up = std::abs(glm::normalize(at - eye).y) > 0.99f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0);
+        const Camera cam(eye, at, up, rng.uniform(5.0f, 120.0f), 256, 256);
+        const int columns = 1 + int(rng.below(kTileColumns)), rows = 1 + int(rng.below(kTileRows));
+        const RayTile tile = cam.tile(int(rng.below(240)), int(rng.below(240)), columns, rows, glm::vec2(0.5f), 0.0f);
+        // Around a ray of the grid (behind the eye too), of a size from a thousandth to twice its distance.
+        const float distance = rng.uniform(-2.0f, 20.0f);
+        const float size = std::abs(distance) * std::pow(10.0f, rng.uniform(-3.0f, 0.3f)) + 1e-3f;
+        const unsigned lane = RayTile::lane(rng.below(unsigned(columns)), rng.below(unsigned(rows)));
+        const glm::vec3 c = eye + distance * tile.direction(lane) + 0.5f * size * random_unit(rng);
+        const Aabb box{c - size * glm::vec3(rng.uniform01(), rng.uniform01(), rng.uniform01()),
+                       c + size * glm::vec3(rng.uniform01(), rng.uniform01(), rng.uniform01())};
+        TileLineSet shadow_columns = 0, shadow_rows = 0;
+        const bool any = tile.shadow_lanes(box, shadow_columns, shadow_rows);
+        REQUIRE((shadow_columns & ~tile.all_columns()) == 0);
+        REQUIRE((shadow_rows & ~tile.all_rows()) == 0);
+        for (unsigned r = 0; r < unsigned(rows); ++r)
+            for (unsigned col = 0; col < unsigned(columns); ++col) {
+                float t_enter;
+                if (!intersect(box, BoxRay(tile.ray(RayTile::lane(col, r))), kInf, t_enter)) continue;
+                CAPTURE(k, col, r);
+                REQUIRE(any);
+                REQUIRE(((shadow_columns >> col) & 1u));
+                REQUIRE(((shadow_rows >> r) & 1u));
+                ++met;
+            }
+        narrow_shadows += any && std::popcount(shadow_columns) < columns && std::popcount(shadow_rows) < rows;
+    }
+    CHECK(met > 10000);
+    CHECK(narrow_shadows > 100);
+}
