@@ -149,6 +149,12 @@ void check_doubles(Pcg32& rng) {
         c.check("|", [](auto x, auto y) { return (x < y) | (x > y); });
         c.check("select", [](auto x, auto y) { return select(x > y, x, y); });
         c.check("narrow", [](auto x, auto) { return narrow(x); });
+        // A mask from bits (those above lane N − 1 ignored), through select() and bits().
+        const unsigned lane_bits = rng.next_u32();
+        const auto mask = simd::Mask<double, N>::from_bits(lane_bits);
+        CHECK(bits(mask) == (lane_bits & ((1u << N) - 1u)));
+        const auto got = lanes_of(select(mask, simd::Doubles<N>::load(c.a), simd::Doubles<N>::load(c.b)));
+        for (unsigned i = 0; i < N; ++i) CHECK(same(got[i], (lane_bits >> i) & 1u ? c.a[i] : c.b[i]));
     }
     // widen: N floats, each exactly.
     alignas(64) float f[N];
@@ -171,6 +177,27 @@ void check_float_halves(Pcg32& rng) {
             CHECK(same(low[i], static_cast<double>(f[i])));
             CHECK(same(high[i], static_cast<double>(f[N + i])));
         }
+    }
+}
+
+// store_compressed: the selected lanes in lane order, then zeros, N values from an unaligned place and no more;
+// bits of the lane set above lane N − 1 ignored.
+template <class T, unsigned N>
+void check_store_compressed(Pcg32& rng) {
+    alignas(64) T a[N];
+    for (int round = 0; round < 1000; ++round) {
+        for (T& x : a) x = random_value<T>(rng);
+        const unsigned lanes = rng.below(4) == 0 ? ~0u : rng.next_u32();
+        T out[N + 2];
+        out[0] = out[N + 1] = T(7);
+        store_compressed(out + 1, Lanes<T, N>::load(a), lanes);
+        INFO("store_compressed, " << N << " lanes, set " << lanes);
+        unsigned j = 0;
+        for (unsigned i = 0; i < N; ++i)
+            if ((lanes >> i) & 1u) CHECK(same(out[1 + j++], a[i]));
+        for (; j < N; ++j) CHECK(same(out[1 + j], T(0)));
+        CHECK(out[0] == T(7));
+        CHECK(out[N + 1] == T(7));
     }
 }
 
@@ -204,6 +231,10 @@ TEST_CASE("simd lanes: floats at every width give the scalar lanes' bits", "[sim
     check_floats<8>(rng);
     check_floats<16>(rng);
     check_float_halves<4>(rng);
+    check_store_compressed<float, 1>(rng);
+    check_store_compressed<float, 4>(rng);
+    check_store_compressed<float, 8>(rng);
+    check_store_compressed<float, 16>(rng);
 }
 
 TEST_CASE("simd lanes: doubles at every width give the scalar lanes' bits", "[simd]") {
@@ -216,6 +247,9 @@ TEST_CASE("simd lanes: 32-bit integers at every width give the scalar lanes' bit
     Pcg32 rng(63);
     check_uints<8>(rng);
     check_uints<16>(rng);
+    check_store_compressed<std::uint32_t, 1>(rng);
+    check_store_compressed<std::uint32_t, 8>(rng);
+    check_store_compressed<std::uint32_t, 16>(rng);
 }
 
 TEST_CASE("simd lanes: four bytes compare like the scalar lanes", "[simd]") {

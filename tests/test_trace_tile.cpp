@@ -466,8 +466,8 @@ TEST_CASE("Mesh BLAS tile query: every ray's closest hit is closest_hit()'s for 
 
 TEST_CASE("Mesh BLAS tile query: whole images, including tiles whose rays change dominant axis", "[trace-tile]") {
     const MeshBlas blas(terrain_and_ball(16));
-    // A wide view along a diagonal: the dominant axis of the camera rays changes inside some tiles, which are
-    // then traced ray by ray.
+    // A wide view along a diagonal: the dominant axis of the camera rays changes inside some tiles, whose rays
+    // are then tested in a pack per axis group.
     std::size_t hit = 0, mixed = 0;
     for (const glm::vec3& eye : {glm::vec3(4.0f, 4.0f, 4.0f), glm::vec3(0.0f, 3.0f, 0.0f), glm::vec3(-3.0f, 0.5f, 2.0f)}) {
         const Camera cam(eye, glm::vec3(0.0f), std::abs(eye.x) + std::abs(eye.z) == 0 ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0),
@@ -520,4 +520,167 @@ TEST_CASE("Mesh BLAS tile query: a wide node's children are culled as outside() 
     }
     CHECK(visible > 200);
     CHECK(culled > 200);
+}
+
+TEST_CASE("ray tile: shear_sieve() passes every lane shear_lanes() keeps, and packed rays are the tile's",
+          "[trace-tile]") {
+    // The tiles and triangles of the shear_lanes() test above (rays through edges and vertices too): the sieve
+    // may pass a lane the full test then drops, never the other way round. Then the same lanes packed
+    // (PackedTileRays) from random rows: each packed ray is its lane's, the sieve and the full test give it the
+    // same answers there, and the padding after the last ray is zeros.
+    Pcg32 rng(29);
+    constexpr unsigned W = simd::kFloatLanes;
+    constexpr unsigned kAll = W == 32 ? ~0u : (1u << W) - 1u;
+    std::size_t kept = 0, sifted_out = 0, packed_rays = 0;
+    for (int k = 0; k < 300; ++k) {
+        float x[kTileColumns], y[kTileRows];
+        const float spread = rng.uniform(0.01f, 1.5f);
+        for (unsigned i = 0; i < kTileColumns; ++i) x[i] = spread * (float(int(i) - 8) / 8.0f);
+        for (unsigned i = 0; i < kTileRows; ++i) y[i] = spread * (float(8 - int(i)) / 8.0f);
+        const int axis = k % 3;
+        glm::vec3 f(0.0f), rt(0.0f), up(0.0f);
+        f[axis] = k % 2 ? 1.0f : -1.0f;
+        rt[(axis + 1) % 3] = 1.0f;
+        up[(axis + 2) % 3] = 1.0f;
+        const glm::vec3 eye(rng.uniform(-3, 3), rng.uniform(-3, 3), rng.uniform(-3, 3));
+        RayTile tile(eye, f, rt, up, x, kTileColumns, y, kTileRows, 0.0f);
+        for (unsigned lane = 0; lane < kTileRays; ++lane)
+            if (rng.below(4) == 0) tile.set_tmax(lane, rng.uniform(0.5f, 9.0f));
+        const TileTriangleRays rays(tile);
+        if (!rays.shared_axes) continue;
+        // A random set of lanes per row, packed.
+        PackedTileRays<W> packed;
+        for (unsigned r = 0; r < kTileRows; ++r)
+            for (unsigned first = RayTile::lane(0, r); first < RayTile::lane(0, r + 1); first += W)
+                packed.add(tile, rays, first, rng.next_u32() & kAll);
+        packed.close();
+        packed_rays += packed.count;
+        const unsigned end = (packed.count + W - 1) / W * W;
+        for (unsigned j = 0; j < end; ++j) {
+            CAPTURE(k, j, packed.count);
+            if (j >= packed.count) {
+                REQUIRE((packed.sx[j] == 0.0f && packed.sy[j] == 0.0f && packed.dx[j] == 0.0f &&
+                         packed.dy[j] == 0.0f && packed.dz[j] == 0.0f && packed.tmax[j] == 0.0f));
+                continue;
+            }
+            const unsigned lane = packed.lane[j];
+            REQUIRE((j == 0 || packed.lane[j - 1] < lane));
+            REQUIRE(same_bits(packed.sx[j], rays.sx[lane]));
+            REQUIRE(same_bits(packed.sy[j], rays.sy[lane]));
+            REQUIRE(same_bits(packed.dx[j], tile.direction(lane).x));
+            REQUIRE(same_bits(packed.dy[j], tile.direction(lane).y));
+            REQUIRE(same_bits(packed.dz[j], tile.direction(lane).z));
+            REQUIRE(same_bits(packed.tmax[j], tile.tmax(lane)));
+        }
+        const glm::vec3 on_axis = eye + f * rng.uniform(1.0f, 9.0f);
+        for (int j = 0; j < 20; ++j) {
+            glm::vec3 v[3];
+            for (glm::vec3& p : v)
+                p = eye + f * rng.uniform(0.5f, 9.0f) + rt * rng.uniform(-4, 4) + up * rng.uniform(-4, 4);
+            if (j % 2 == 0) v[j % 3] = on_axis;  // a vertex on the middle ray
+            if (j % 4 == 1) v[1] = on_axis + (v[0] - on_axis) * -1.0f;  // an edge through the middle ray
+            const RelativeTriangle rel = relative(rays, eye, v[0], v[1], v[2]);
+            for (unsigned first = 0; first < kTileRays; first += W) {
+                ShearedLanes<W> out{};
+                const unsigned keep = shear_lanes<W>(rays, first, kAll, rel, out);
+                const unsigned sieve = shear_sieve<W>(rays.sx + first, rays.sy + first, kAll, rel);
+                CAPTURE(k, j, first);
+                REQUIRE((keep & ~sieve) == 0);
+                kept += unsigned(std::popcount(keep));
+                sifted_out += unsigned(std::popcount(~sieve & kAll));
+                REQUIRE(shear_sieve<W>(rays.sx + first, rays.sy + first, 0u, rel) == 0u);
+            }
+            for (unsigned first = 0; first < end; first += W) {
+                const unsigned lanes = packed.count - first >= W ? kAll : (1u << (packed.count - first)) - 1u;
+                ShearedLanes<W> out{};
+                const unsigned keep = shear_lanes<W>(packed.sx + first, packed.sy + first, lanes, rel, out);
+                const unsigned sieve = shear_sieve<W>(packed.sx + first, packed.sy + first, lanes, rel);
+                REQUIRE((keep & ~sieve) == 0);
+                for (unsigned i = 0; i < W && first + i < packed.count; ++i) {
+                    const ShearedTriangle s = shear_triangle(TriangleRay(tile.ray(packed.lane[first + i])), v[0],
+                                                             v[1], v[2]);
+                    CAPTURE(k, j, first, i);
+                    REQUIRE(bool(keep >> i & 1u) == !straddles(s));
+                }
+            }
+        }
+    }
+    CHECK(kept > 10000);
+    CHECK(sifted_out > 500000);  // the sieve does drop what the triangles certainly straddle
+    CHECK(packed_rays > 10000);
+}
+
+TEST_CASE("ray tile: on a tile whose rays change dominant axis each lane has its own TriangleRay and axis group",
+          "[trace-tile]") {
+    // Wide views along diagonals, as in the BLAS test above: every lane's TriangleRay field for field the one
+    // TriangleRay(tile.ray(lane)) makes, and the lane in exactly the group of its axes.
+    std::size_t mixed = 0;
+    for (const glm::vec3& eye : {glm::vec3(4.0f, 4.0f, 4.0f), glm::vec3(-3.0f, 0.5f, 2.0f), glm::vec3(1.0f, -2.0f, 2.0f)}) {
+        const Camera cam(eye, glm::vec3(0.0f), glm::vec3(0, 1, 0), 90.0f, 96, 80);
+        for (int y0 = 0; y0 < 80; y0 += 16)
+            for (int x0 = 0; x0 < 96; x0 += 16) {
+                const RayTile tile = cam.tile(x0, y0, 16, 16, glm::vec2(0.5f), 0.0f);
+                const TileTriangleRays rays(tile);
+                unsigned groups = 0;
+                for (unsigned lane = 0; lane < kTileRays; ++lane) {
+                    const TriangleRay alone(tile.ray(lane)), from_table = rays.ray(lane);
+                    CAPTURE(x0, y0, lane);
+                    REQUIRE(std::memcmp(&alone, &from_table, sizeof(TriangleRay)) == 0);
+                    unsigned in = 0;
+                    for (unsigned g = 0; g < kAxisGroups; ++g) {
+                        if (!((rays.groups >> g) & 1u)) continue;
+                        if (!((rays.group_columns[g][lane / kTileColumns] >> (lane % kTileColumns)) & 1u)) continue;
+                        ++in;
+                        const RayAxes a = axes_of_group(g);
+                        REQUIRE((a.kx == alone.kx && a.ky == alone.ky && a.kz == alone.kz));
+                        groups |= 1u << g;
+                    }
+                    REQUIRE(in == 1);
+                }
+                REQUIRE(groups == rays.groups);
+                REQUIRE(rays.shared_axes == (std::popcount(groups) == 1));
+                mixed += !rays.shared_axes;
+            }
+    }
+    CHECK(mixed > 0);
+}
+
+TEST_CASE("ray tile: shadow_lanes() keeps every ray that meets the box", "[trace-tile]") {
+    // Random boxes in front of, around and behind random tiles: a ray of the grid that enters a box (the slab
+    // test of a single ray, to any distance) lies on a column and a row of its shadow; and the shadow stays
+    // small for a small box in front (the test is not passed by keeping everything).
+    Pcg32 rng(31);
+    long met = 0, narrow_shadows = 0;
+    for (int k = 0; k < 2000; ++k) {
+        const glm::vec3 eye = rng.uniform(0.0f, 10.0f) * random_unit(rng);
+        const glm::vec3 at = eye + random_unit(rng);
+        const glm::vec3 up = std::abs(glm::normalize(at - eye).y) > 0.99f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0);
+        const Camera cam(eye, at, up, rng.uniform(5.0f, 120.0f), 256, 256);
+        const int columns = 1 + int(rng.below(kTileColumns)), rows = 1 + int(rng.below(kTileRows));
+        const RayTile tile = cam.tile(int(rng.below(240)), int(rng.below(240)), columns, rows, glm::vec2(0.5f), 0.0f);
+        // Around a ray of the grid (behind the eye too), of a size from a thousandth to twice its distance.
+        const float distance = rng.uniform(-2.0f, 20.0f);
+        const float size = std::abs(distance) * std::pow(10.0f, rng.uniform(-3.0f, 0.3f)) + 1e-3f;
+        const unsigned lane = RayTile::lane(rng.below(unsigned(columns)), rng.below(unsigned(rows)));
+        const glm::vec3 c = eye + distance * tile.direction(lane) + 0.5f * size * random_unit(rng);
+        const Aabb box{c - size * glm::vec3(rng.uniform01(), rng.uniform01(), rng.uniform01()),
+                       c + size * glm::vec3(rng.uniform01(), rng.uniform01(), rng.uniform01())};
+        TileLineSet shadow_columns = 0, shadow_rows = 0;
+        const bool any = tile.shadow_lanes(box, shadow_columns, shadow_rows);
+        REQUIRE((shadow_columns & ~tile.all_columns()) == 0);
+        REQUIRE((shadow_rows & ~tile.all_rows()) == 0);
+        for (unsigned r = 0; r < unsigned(rows); ++r)
+            for (unsigned col = 0; col < unsigned(columns); ++col) {
+                float t_enter;
+                if (!intersect(box, BoxRay(tile.ray(RayTile::lane(col, r))), kInf, t_enter)) continue;
+                CAPTURE(k, col, r);
+                REQUIRE(any);
+                REQUIRE(((shadow_columns >> col) & 1u));
+                REQUIRE(((shadow_rows >> r) & 1u));
+                ++met;
+            }
+        narrow_shadows += any && std::popcount(shadow_columns) < columns && std::popcount(shadow_rows) < rows;
+    }
+    CHECK(met > 10000);
+    CHECK(narrow_shadows > 100);
 }

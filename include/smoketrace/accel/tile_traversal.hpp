@@ -119,10 +119,11 @@ template <unsigned W>
 // callback that shortens the rays shortens the walk) are taken in the order of their boxes' distance from
 // the tile's origin, the nearest next and the others stacked; an entry popped beyond the reach of that
 // moment is skipped. Calls leaf(ref, count, box) for each leaf reached (ref: what the leaf slot holds, box
-// its box); leaf returns true to end the walk.
-template <unsigned W, class LeafFn>
+// its box); leaf returns true to end the walk. prefetch_leaf(ref, count) is called for each leaf the tile may
+// see, when its parent is visited, as in traverse_blas_wide(); the children nodes are fetched then too.
+template <unsigned W, class LeafFn, class PrefetchLeaf = NoLeafPrefetch>
 inline void traverse_blas_wide_tile(const BlasWideBvh<W>& bvh, const RayTile& tile, const float& reach,
-                                    LeafFn&& leaf, TraversalStats& stats) {
+                                    LeafFn&& leaf, TraversalStats& stats, PrefetchLeaf&& prefetch_leaf = {}) {
     using detail::kLeafRef;
     if (bvh.empty()) return;
     const BlasWideNode<W>* nodes = bvh.nodes();
@@ -149,7 +150,10 @@ inline void traverse_blas_wide_tile(const BlasWideBvh<W>& bvh, const RayTile& ti
             for (unsigned m = visible_children(tile, n.bounds, n.used, reach, dist); m != 0; m &= m - 1) {
                 const unsigned i = unsigned(std::countr_zero(m));
                 const float d = dist[i];
-                const std::uint32_t child = (n.leaves >> i) & 1u ? kLeafRef | (ref * W + i) : n.child[i];
+                const bool is_leaf = (n.leaves >> i) & 1u;
+                if (is_leaf) prefetch_leaf(n.child[i], n.count[i]);
+                else detail::prefetch_bytes<sizeof(BlasWideNode<W>)>(nodes + n.child[i]);
+                const std::uint32_t child = is_leaf ? kLeafRef | (ref * W + i) : n.child[i];
                 unsigned j = count++;
                 for (; j > 0 && near[j - 1].t > d; --j) near[j] = near[j - 1];
                 near[j] = StackEntry{child, d};

@@ -136,30 +136,32 @@ public:
     // The columns and rows whose rays can meet anything inside `box` (see above); false when none can.
     bool shadow_lanes(const Aabb& box, TileLineSet& columns, TileLineSet& rows) const {
         // In double (see outside()); then the shadow itself carries no error worth a margin. The eight corners
-        // in lanes: two divisions per block of lanes rather than sixteen one by one.
+        // in lanes (corner k takes hi on axis a where bit a of k is set): two divisions per block of lanes
+        // rather than sixteen one by one.
         using Doubles = simd::Doubles<simd::kDoubleLanes>;
-        const glm::dvec3 o(origin_);
-        alignas(64) double qx[8], qy[8], qz[8], sx[8], sy[8];
-        for (unsigned k = 0; k < 8; ++k) {
-            qx[k] = double(k & 1 ? box.hi.x : box.lo.x) - o.x;
-            qy[k] = double(k & 2 ? box.hi.y : box.lo.y) - o.y;
-            qz[k] = double(k & 4 ? box.hi.z : box.lo.z) - o.z;
-        }
+        constexpr unsigned D = simd::kDoubleLanes;
+        alignas(64) static constexpr double kCornerBits[3][8] = {
+            {0, 1, 0, 1, 0, 1, 0, 1}, {0, 0, 1, 1, 0, 0, 1, 1}, {0, 0, 0, 0, 1, 1, 1, 1}};
         const Doubles zero = Doubles::broadcast(0.0);
-        for (unsigned k = 0; k < 8; k += simd::kDoubleLanes) {
-            const Doubles x = Doubles::load(qx + k), y = Doubles::load(qy + k), z = Doubles::load(qz + k);
-            const Doubles depth = x * Doubles::broadcast(forward_d_.x) + y * Doubles::broadcast(forward_d_.y) +
-                                  z * Doubles::broadcast(forward_d_.z);
+        alignas(64) double sx[8], sy[8];
+        for (unsigned k = 0; k < 8; k += D) {
+            Doubles q[3];
+            for (int a = 0; a < 3; ++a)
+                q[a] = select(Doubles::load(kCornerBits[a] + k) > zero, Doubles::broadcast(double(box.hi[a])),
+                              Doubles::broadcast(double(box.lo[a]))) -
+                       Doubles::broadcast(double(origin_[a]));
+            const Doubles depth = q[0] * Doubles::broadcast(forward_d_.x) + q[1] * Doubles::broadcast(forward_d_.y) +
+                                  q[2] * Doubles::broadcast(forward_d_.z);
             // At or behind the eye's plane the shadow is unbounded (or the corner is the eye itself).
-            if (bits(depth > zero) != (simd::kDoubleLanes == 32 ? ~0u : (1u << simd::kDoubleLanes) - 1u)) {
+            if (bits(depth > zero) != (D == 32 ? ~0u : (1u << D) - 1u)) {
                 columns = all_columns_;
                 rows = all_rows_;
                 return true;
             }
-            store(sx + k, (x * Doubles::broadcast(right_d_.x) + y * Doubles::broadcast(right_d_.y) +
-                           z * Doubles::broadcast(right_d_.z)) / depth);
-            store(sy + k, (x * Doubles::broadcast(up_d_.x) + y * Doubles::broadcast(up_d_.y) +
-                           z * Doubles::broadcast(up_d_.z)) / depth);
+            store(sx + k, (q[0] * Doubles::broadcast(right_d_.x) + q[1] * Doubles::broadcast(right_d_.y) +
+                           q[2] * Doubles::broadcast(right_d_.z)) / depth);
+            store(sy + k, (q[0] * Doubles::broadcast(up_d_.x) + q[1] * Doubles::broadcast(up_d_.y) +
+                           q[2] * Doubles::broadcast(up_d_.z)) / depth);
         }
         double sx_lo = sx[0], sx_hi = sx[0], sy_lo = sy[0], sy_hi = sy[0];
         for (unsigned k = 1; k < 8; ++k) {
@@ -168,14 +170,20 @@ public:
             sy_lo = std::min(sy_lo, sy[k]);
             sy_hi = std::max(sy_hi, sy[k]);
         }
-        sx_lo -= margin_;
-        sx_hi += margin_;
-        sy_lo -= margin_;
-        sy_hi += margin_;
-        columns = 0;
-        for (unsigned c = 0; c < columns_; ++c) columns |= TileLineSet(x_[c] >= sx_lo && x_[c] <= sx_hi) << c;
-        rows = 0;
-        for (unsigned r = 0; r < rows_; ++r) rows |= TileLineSet(y_[r] >= sy_lo && y_[r] <= sy_hi) << r;
+        // The grid lines inside [lo − margin, hi + margin], in lanes (a NaN bound, from a box at infinity,
+        // keeps them all).
+        auto inside = [&](const float* coords, double lo, double hi) {
+            const Doubles l = Doubles::broadcast(lo - margin_), h = Doubles::broadcast(hi + margin_);
+            TileLineSet set = 0;
+            for (unsigned i = 0; i < kTileColumns; i += D) {
+                const Doubles c = Doubles::widen(coords + i);
+                set |= TileLineSet(~bits((c < l) | (c > h)) & ((1u << D) - 1u)) << i;
+            }
+            return set;
+        };
+        static_assert(kTileColumns == kTileRows);
+        columns = inside(x_, sx_lo, sx_hi) & all_columns_;
+        rows = inside(y_, sy_lo, sy_hi) & all_rows_;
         return columns != 0 && rows != 0;
     }
 
@@ -183,7 +191,7 @@ private:
     glm::vec3 origin_, forward_, right_, up_;
     unsigned columns_, rows_;
     float tmin_;
-    float x_[kTileColumns] = {}, y_[kTileRows] = {};
+    alignas(64) float x_[kTileColumns] = {}, y_[kTileRows] = {};
     float margin_, x_lo_, x_hi_, y_lo_, y_hi_;
     glm::dvec3 planes_[4];
     glm::dvec3 forward_d_, right_d_, up_d_;

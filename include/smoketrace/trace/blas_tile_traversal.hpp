@@ -2,15 +2,15 @@
 // Closest hit of a tile of camera rays (geometry/ray_tile.hpp) against a mesh BLAS: the rays traced together,
 // as Embree traces a packet. Rays from one eye through neighbouring pixels meet the same nodes and the same
 // triangles, so the tile walks the wide tree once (accel/tile_traversal.hpp: a node is entered unless the
-// tile's frustum excludes its box or the box lies beyond every ray's tmax, nearest box first), and each
-// triangle of a leaf it reaches is tested against the rays under the leaf box's shadow on the image plane,
-// a row of lanes at a time (geometry/ray_triangle_tile.hpp: shear and finish in lanes, bit for bit the scalar
-// watertight test).
+// tile's frustum excludes its box or the box lies beyond every ray's tmax, nearest box first). A leaf it
+// reaches is tested for the rays under its box's shadow on the image plane that enter the box, packed side
+// by side so that they fill the lanes (geometry/ray_triangle_tile.hpp: a sieve, then shear and finish in
+// lanes, bit for bit the scalar watertight test); rays of different dominant axes (on the few tiles where
+// the camera's dominant axis changes) in separate packs.
 //
 // Contract: for every ray of the grid, the hit is what closest_hit(blas, tile.ray(lane)) finds: the same t,
 // barycentrics and facing bit for bit, and the same triangle unless two triangles are hit at the same t
-// (then either may be reported, as either walk order may meet them first). A tile whose rays do not share
-// their dominant axes (the few on which the camera's dominant axis changes) is traced ray by ray.
+// (then either may be reported, as either walk order may meet them first).
 #include <smoketrace/accel/tile_traversal.hpp>
 #include <smoketrace/core/simd/lanes.hpp>
 #include <smoketrace/geometry/ray_tile.hpp>
@@ -46,21 +46,6 @@ inline void closest_hit(const MeshBlas& blas, RayTile& tile, BlasTileHits& hits,
     for (TileLineSet& f : hits.found) f = 0;
 
     const TileTriangleRays rays(tile);
-    if (!rays.shared_axes) {
-        for (unsigned r = 0; r < tile.rows(); ++r)
-            for (unsigned c = 0; c < tile.columns(); ++c) {
-                const unsigned lane = RayTile::lane(c, r);
-                BlasCounters counters;
-                if (closest_hit(blas, tile.ray(lane), hits.hit[lane], counters)) {
-                    hits.found[r] |= 1u << c;
-                    tile.set_tmax(lane, hits.hit[lane].t);
-                }
-                stats.nodes_visited += counters.traversal.nodes_visited;
-                stats.boxes_tested += counters.traversal.boxes_tested;
-                stats.primitives_tested += counters.traversal.primitives_tested;
-            }
-        return;
-    }
 
     // The farthest any ray of the grid reaches (lanes outside the grid repeat its first ray).
     auto farthest = [&] {
@@ -95,6 +80,7 @@ inline void closest_hit(const MeshBlas& blas, RayTile& tile, BlasTileHits& hits,
             }
     }
     const Floats tmin = Floats::broadcast(tile.tmin());
+    PackedTileRays<W> packed;  // a leaf's rays (reused: no zero-fill per leaf)
 
     auto leaf = [&](std::uint32_t first_block, std::uint32_t count, const Aabb& box) {
         TileLineSet columns, rows;
@@ -119,37 +105,67 @@ inline void closest_hit(const MeshBlas& blas, RayTile& tile, BlasTileHits& hits,
             return under & (bits(t0 <= t1) | unbounded[r][blk]);
         };
         // Decided once per leaf: a hit on one of its triangles lowers a ray's tmax, which the triangle test
-        // itself then applies.
-        unsigned entering[kTileRows][kTileColumns / W];
-        TileLineSet active = 0;  // the rows with a ray entering
-        for (TileLineSet rs = rows; rs != 0; rs &= rs - 1) {
-            const unsigned r = unsigned(std::countr_zero(rs));
-            unsigned any_lane = 0;
-            for (unsigned blk = 0; blk < kTileColumns / W; ++blk) {
-                entering[r][blk] = enter(r, blk);
-                any_lane |= entering[r][blk];
-                stats.primitives_tested += count * unsigned(std::popcount(entering[r][blk]));
-            }
-            if (any_lane != 0) active |= TileLineSet(1) << r;
-        }
-        if (active == 0) return false;
+        // itself then applies. The rays that enter are packed side by side, so that each triangle is tested
+        // on full blocks of lanes; rays of different axes (axis groups, TileTriangleRays) apart.
         bool any = false;
-        auto lanes_of = [&](unsigned r, unsigned blk) { return entering[r][blk]; };
-        for (std::uint32_t k = 0; k < count; ++k) {
-            const TriangleBlock& b = blocks[first_block + k / kTriangleBlockLanes];
-            const unsigned i = k % kTriangleBlockLanes;
-            triangle_tile_hits<W>(tile, rays, active, BlockLaneVertices{b, i}, lanes_of,
-                                  [&](unsigned lane, const TriangleHit& th) {
-                                      hits.hit[lane] = BlasHit{th.t, th.barycentrics, b.primitive[i], th.front_face};
-                                      hits.found[lane / kTileColumns] |= 1u << (lane % kTileColumns);
-                                      tile.set_tmax(lane, th.t);
-                                      any = true;
-                                  });
+        for (unsigned axis_groups = rays.groups; axis_groups != 0; axis_groups &= axis_groups - 1) {
+            const unsigned group = unsigned(std::countr_zero(axis_groups));
+            packed.count = 0;
+            for (TileLineSet rs = rows; rs != 0; rs &= rs - 1) {
+                const unsigned r = unsigned(std::countr_zero(rs));
+                for (unsigned blk = 0; blk < kTileColumns / W; ++blk) {
+                    const unsigned entering = enter(r, blk) & (rays.group_columns[group][r] >> (blk * W));
+                    if (entering == 0) continue;
+                    stats.primitives_tested += count * unsigned(std::popcount(entering));
+                    packed.add(tile, rays, RayTile::lane(blk * W, r), entering);
+                }
+            }
+            if (packed.count == 0) continue;
+            packed.close();
+            // Each block of triangles is sifted first (shear_sieve(): a pass without branches over its
+            // triangles and the packed blocks of rays), then the few (triangle, rays) that pass are tested in
+            // full, in the same order as without the sieve.
+            const unsigned ray_blocks = (packed.count + W - 1) / W;
+            unsigned block_lanes[kTileRays / W];
+            for (unsigned g = 0; g < ray_blocks; ++g)
+                block_lanes[g] = packed.count - g * W >= W ? kBlockBits : (1u << (packed.count - g * W)) - 1u;
+            for (std::uint32_t k0 = 0; k0 < count; k0 += kTriangleBlockLanes) {
+                const TriangleBlock& b = blocks[first_block + k0 / kTriangleBlockLanes];
+                const RelativeBlock relative(axes_of_group(group), tile.origin(), b);
+                const unsigned lanes = std::min(count - k0, kTriangleBlockLanes);
+                unsigned sieved[kTriangleBlockLanes][kTileRays / W];
+                unsigned passing = 0;  // the triangles with a block of rays that passed
+                for (unsigned i = 0; i < lanes; ++i) {
+                    const RelativeTriangle t = relative.lane(i);
+                    unsigned any_lane = 0;
+                    for (unsigned g = 0; g < ray_blocks; ++g) {
+                        sieved[i][g] = shear_sieve<W>(packed.sx + g * W, packed.sy + g * W, block_lanes[g], t);
+                        any_lane |= sieved[i][g];
+                    }
+                    passing |= unsigned(any_lane != 0) << i;
+                }
+                for (unsigned m = passing; m != 0; m &= m - 1) {
+                    const unsigned i = unsigned(std::countr_zero(m));
+                    closest_packed_hits<W>(tile, rays, packed, BlockLaneVertices{b, relative, i}, b.primitive[i],
+                                           sieved[i]);
+                }
+            }
+            // The leaf's hits into the tile.
+            for (unsigned g = 0; g < ray_blocks; ++g)
+                for (unsigned m = packed.hit_found[g]; m != 0; m &= m - 1) {
+                    const unsigned j = g * W + unsigned(std::countr_zero(m));
+                    const unsigned lane = packed.lane[j];
+                    hits.hit[lane] = BlasHit{packed.tmax[j], packed.hit_barycentrics(j),
+                                             std::uint32_t(packed.hit_primitive[j]), packed.hit_front_face(j)};
+                    hits.found[lane / kTileColumns] |= 1u << (lane % kTileColumns);
+                    tile.set_tmax(lane, packed.tmax[j]);
+                    any = true;
+                }
         }
         if (any) reach = farthest();
         return false;
     };
-    traverse_blas_wide_tile(blas.wide(), tile, reach, leaf, stats);
+    traverse_blas_wide_tile(blas.wide(), tile, reach, leaf, stats, MeshLeafPrefetch{blas});
 }
 
 }  // namespace smoketrace

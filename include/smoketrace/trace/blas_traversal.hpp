@@ -114,6 +114,15 @@ inline bool sphere_leaf_hits(const SphereBlas& blas, const SphereRay& r, const f
 }
 
 namespace detail {
+// mesh_leaf_hits() as a call of its own, for the per-ray walks below: the wide walk's loop runs faster without
+// the leaf test's code inside it (bench bvh, the per-ray rows; docs/design.md).
+template <class OnHit>
+[[gnu::noinline]] bool mesh_leaf_hits_call(const MeshBlas& blas, const BlasRay& r, const float& tmax,
+                                           std::uint32_t first_block, std::uint32_t count, TraversalStats& stats,
+                                           OnHit& on_hit) {
+    return mesh_leaf_hits(blas, r, tmax, first_block, count, stats, on_hit);
+}
+
 // One any-hit search over either BLAS kind: the callback decides every candidate. A mesh BLAS is walked
 // through its wide tree in `Order` (blas_wide_traversal.hpp); a sphere BLAS through its binary tree.
 template <BlasWalkOrder Order, class Blas, class AnyHit>
@@ -134,7 +143,7 @@ inline bool blas_any_hit_search(const Blas& blas, const Ray& ray, AnyHit&& any_h
     };
     if constexpr (std::is_same_v<Blas, MeshBlas>) {
         traverse_blas_wide<Order>(blas.wide(), BoxRay(ray), tmax, [&](std::uint32_t first, std::uint32_t count) {
-            return mesh_leaf_hits(blas, r, tmax, first, count, counters.traversal, on_hit);
+            return mesh_leaf_hits_call(blas, r, tmax, first, count, counters.traversal, on_hit);
         }, counters.traversal, MeshLeafPrefetch{blas});
     } else {
         traverse_bvh(blas.bvh(), BoxRay(ray), tmax, [&](std::uint32_t first, std::uint32_t count) {

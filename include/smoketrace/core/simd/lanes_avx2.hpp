@@ -60,6 +60,10 @@ struct Lanes<float, 8> {
 template <>
 struct Mask<double, 4> {
     __m256d m;
+    [[gnu::always_inline]] static Mask from_bits(unsigned bits) {  // lane i tests bit i
+        const __m256i bit = _mm256_setr_epi64x(1, 2, 4, 8);
+        return {_mm256_castsi256_pd(_mm256_cmpeq_epi64(_mm256_and_si256(_mm256_set1_epi64x(bits), bit), bit))};
+    }
 };
 
 template <>

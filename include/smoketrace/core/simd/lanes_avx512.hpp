@@ -30,6 +30,10 @@ struct Lanes<float, 16> {
 };
 
 [[gnu::always_inline]] inline void store(float* p, Floats<16> a) { _mm512_store_ps(p, a.v); }  // 64-byte aligned
+[[gnu::always_inline]] inline void store_compressed(float* p, Floats<16> a, unsigned lanes) {
+    // The register form and a plain store: the memory form of vcompressps is microcoded on Zen 4.
+    _mm512_storeu_ps(p, _mm512_maskz_compress_ps(__mmask16(lanes), a.v));
+}
 [[gnu::always_inline]] inline Floats<16> operator+(Floats<16> a, Floats<16> b) { return {_mm512_add_ps(a.v, b.v)}; }
 [[gnu::always_inline]] inline Floats<16> operator-(Floats<16> a, Floats<16> b) { return {_mm512_sub_ps(a.v, b.v)}; }
 [[gnu::always_inline]] inline Floats<16> operator*(Floats<16> a, Floats<16> b) { return {_mm512_mul_ps(a.v, b.v)}; }
@@ -68,6 +72,7 @@ struct Lanes<float, 16> {
 template <>
 struct Mask<double, 8> {
     __mmask8 k;
+    [[gnu::always_inline]] static Mask from_bits(unsigned bits) { return {__mmask8(bits)}; }
 };
 
 template <>
@@ -132,6 +137,9 @@ struct Lanes<std::uint32_t, 16> {
 
 [[gnu::always_inline]] inline void store(std::uint32_t* p, UInts<16> a) {  // 64-byte aligned
     _mm512_store_si512(p, a.v);
+}
+[[gnu::always_inline]] inline void store_compressed(std::uint32_t* p, UInts<16> a, unsigned lanes) {
+    _mm512_storeu_si512(p, _mm512_maskz_compress_epi32(__mmask16(lanes), a.v));
 }
 [[gnu::always_inline]] inline UInts<16> masked_add(UInts<16> a, Mask<std::uint32_t, 16> m, UInts<16> b) {
     return {_mm512_mask_add_epi32(a.v, m.k, a.v, b.v)};

@@ -87,6 +87,20 @@ template <class T, unsigned N>
     for (unsigned i = 0; i < N; ++i) p[i] = a.lane[i];
 }
 
+// The lanes of `a` selected by `lanes` (bit i: lane i; bits above lane N − 1 ignored), stored in lane order to
+// p[0], p[1], …, and zeros after them up to p[N − 1]: N values written, p unaligned. For packing the lanes a
+// kernel needs side by side. (Through store() and load(), so that it serves the instruction-set types without
+// a compress instruction too: AVX2's.)
+template <class T, unsigned N>
+[[gnu::always_inline]] inline void store_compressed(T* p, const Lanes<T, N>& a, unsigned lanes) {
+    alignas(64) T in[N];
+    store(in, a);
+    unsigned j = 0;
+    for (unsigned i = 0; i < N; ++i)
+        if ((lanes >> i) & 1u) p[j++] = in[i];
+    for (; j < N; ++j) p[j] = T(0);
+}
+
 template <class T, unsigned N>
 [[gnu::always_inline]] inline Lanes<T, N> operator+(const Lanes<T, N>& a, const Lanes<T, N>& b) {
     return scalar::each([](T x, T y) -> T { return T(x + y); }, a, b);
