@@ -615,7 +615,8 @@ TEST_CASE("ray tile: on a tile whose rays change dominant axis each lane has its
     // Wide views along diagonals, as in the BLAS test above: every lane's TriangleRay field for field the one
     // TriangleRay(tile.ray(lane)) makes, and the lane in exactly the group of its axes.
     std::size_t mixed = 0;
-    for (const glm::vec3& eye : {glm::vec3(4.0f, 4.0f, 4.0f), glm::vec3(-3.0f, 0.5f, 2.0f), glm::vec3(1.0f, -2.0f, 2.0f)}) {
+    for (const glm::vec3& eye :
+         {glm::vec3(4.0f, 4.0f, 4.0f), glm::vec3(-3.0f, 0.5f, 2.0f), glm::vec3(1.0f, -2.0f, 2.0f)}) {
         const Camera cam(eye, glm::vec3(0.0f), glm::vec3(0, 1, 0), 90.0f, 96, 80);
         for (int y0 = 0; y0 < 80; y0 += 16)
             for (int x0 = 0; x0 < 96; x0 += 16) {
