@@ -15,6 +15,8 @@
 //    uses; the wrapper maps "releasing" and "acquired" to __tsan_release / __tsan_acquire on the same address.
 //    A wait_context's counter (8 bytes in) is decremented just after that notification, and the waiting
 //    thread's last read of it happens inside libtbb, so "acquired" also acquires the counter's address;
+//    When a task threw, the wait rethrows before that notification: the wrappers of r1::execute_and_wait
+//    and r1::wait acquire on that path themselves;
 //  * memory reuse: oneTBB recycles task and tree-node memory through its own small-object pool, across
 //    threads, and TSan would compare a new task with the accesses to the old one that lived in the same
 //    block. AnnotateNewMemory on r1::allocate did not silence that with GCC 12's libtsan, so r1::deallocate
@@ -46,6 +48,10 @@ void AnnotateIgnoreWritesEnd(const char* file, int line);
 void __real__ZN3tbb6detail2r15spawnERNS0_2d14taskERNS2_18task_group_contextE(d1::task&, d1::task_group_context&);
 void __real__ZN3tbb6detail2r15spawnERNS0_2d14taskERNS2_18task_group_contextEt(d1::task&, d1::task_group_context&,
                                                                               unsigned short);
+void __real__ZN3tbb6detail2r116execute_and_waitERNS0_2d14taskERNS2_18task_group_contextERNS2_12wait_contextES6_(
+    d1::task&, d1::task_group_context&, d1::wait_context&, d1::task_group_context&);
+void __real__ZN3tbb6detail2r14waitERNS0_2d112wait_contextERNS2_18task_group_contextE(d1::wait_context&,
+                                                                                     d1::task_group_context&);
 }
 
 namespace {
@@ -127,6 +133,29 @@ void __wrap__ZN3tbb6detail2r115call_itt_notifyEiPv(int type, void* ptr) {
     } else if (type == 2) {
         __tsan_acquire(ptr);
         __tsan_acquire(static_cast<char*>(ptr) + sizeof(std::uint64_t));  // d1::wait_context::m_ref_count
+    }
+}
+
+// tbb::detail::r1::execute_and_wait() and wait(): when a task threw, they rethrow its exception, and the
+// header's "acquired" after them never runs; the tasks have all finished by then all the same (they refer to
+// the waiting thread's stack), so the acquire is made here on that path.
+void __wrap__ZN3tbb6detail2r116execute_and_waitERNS0_2d14taskERNS2_18task_group_contextERNS2_12wait_contextES6_(
+    d1::task& t, d1::task_group_context& t_ctx, d1::wait_context& wait_ctx, d1::task_group_context& w_ctx) {
+    try {
+        __real__ZN3tbb6detail2r116execute_and_waitERNS0_2d14taskERNS2_18task_group_contextERNS2_12wait_contextES6_(
+            t, t_ctx, wait_ctx, w_ctx);
+    } catch (...) {
+        __wrap__ZN3tbb6detail2r115call_itt_notifyEiPv(2, &wait_ctx);
+        throw;
+    }
+}
+void __wrap__ZN3tbb6detail2r14waitERNS0_2d112wait_contextERNS2_18task_group_contextE(d1::wait_context& wait_ctx,
+                                                                                     d1::task_group_context& ctx) {
+    try {
+        __real__ZN3tbb6detail2r14waitERNS0_2d112wait_contextERNS2_18task_group_contextE(wait_ctx, ctx);
+    } catch (...) {
+        __wrap__ZN3tbb6detail2r115call_itt_notifyEiPv(2, &wait_ctx);
+        throw;
     }
 }
 
