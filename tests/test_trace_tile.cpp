@@ -137,6 +137,34 @@ SmokeView smoke_view(std::vector<Particle> particles, const std::optional<Ground
 
 constexpr std::uint8_t kOpaqueView = kViewRayMask & std::uint8_t(~kBillboardMask);
 
+// A view along axis k % 3 (the negative way for even k) from a random eye, with image-plane offsets whose middle
+// column and row are x = y = 0 exactly: the tile's middle ray is the axis itself, and triangles with an edge or a
+// vertex on it give float edge functions of exactly 0 (the double path).
+struct AxisView {
+    glm::vec3 eye, forward{0.0f}, right{0.0f}, up{0.0f};
+    float x[kTileColumns], y[kTileRows];
+
+    AxisView(Pcg32& rng, int k) {
+        const float spread = rng.uniform(0.01f, 1.5f);
+        for (unsigned i = 0; i < kTileColumns; ++i) x[i] = spread * (float(int(i) - 8) / 8.0f);
+        for (unsigned i = 0; i < kTileRows; ++i) y[i] = spread * (float(8 - int(i)) / 8.0f);
+        const int axis = k % 3;
+        forward[axis] = k % 2 ? 1.0f : -1.0f;
+        right[(axis + 1) % 3] = 1.0f;
+        up[(axis + 2) % 3] = 1.0f;
+        eye = glm::vec3(rng.uniform(-3, 3), rng.uniform(-3, 3), rng.uniform(-3, 3));
+    }
+    [[nodiscard]] RayTile tile() const { return RayTile(eye, forward, right, up, x, kTileColumns, y, kTileRows, 0.0f); }
+    // Triangle j of a run in front of the eye: every even one has a vertex at `on_axis` (a point on the middle
+    // ray), every fourth from the second an edge through it.
+    void triangle(Pcg32& rng, const glm::vec3& on_axis, int j, glm::vec3 (&v)[3]) const {
+        for (glm::vec3& p : v)
+            p = eye + forward * rng.uniform(0.5f, 9.0f) + right * rng.uniform(-4, 4) + up * rng.uniform(-4, 4);
+        if (j % 2 == 0) v[j % 3] = on_axis;
+        if (j % 4 == 1) v[1] = on_axis + (v[0] - on_axis) * -1.0f;
+    }
+};
+
 // Every tile of the view, billboards (every candidate) and the opaque surface (closest hit).
 std::size_t check_smoke_view(const SmokeView& v, glm::vec2 offset) {
     std::size_t seen = 0;
@@ -180,26 +208,15 @@ TEST_CASE("ray tile: shear_lanes() and finish_lanes() are the scalar test lane b
     constexpr unsigned W = simd::kFloatLanes;
     std::size_t kept = 0, zero_edges = 0, finished = 0, finished_on_edge = 0;
     for (int k = 0; k < 400; ++k) {
-        float x[kTileColumns], y[kTileRows];
-        const float spread = rng.uniform(0.01f, 1.5f);
-        for (unsigned i = 0; i < kTileColumns; ++i) x[i] = spread * (float(int(i) - 8) / 8.0f);
-        for (unsigned i = 0; i < kTileRows; ++i) y[i] = spread * (float(8 - int(i)) / 8.0f);
-        const int axis = k % 3;
-        glm::vec3 f(0.0f), rt(0.0f), up(0.0f);
-        f[axis] = k % 2 ? 1.0f : -1.0f;
-        rt[(axis + 1) % 3] = 1.0f;
-        up[(axis + 2) % 3] = 1.0f;
-        const glm::vec3 eye(rng.uniform(-3, 3), rng.uniform(-3, 3), rng.uniform(-3, 3));
-        const RayTile tile(eye, f, rt, up, x, kTileColumns, y, kTileRows, 0.0f);
+        const AxisView view(rng, k);
+        const glm::vec3& eye = view.eye;
+        const RayTile tile = view.tile();
         const TileTriangleRays rays(tile);
         if (!rays.shared_axes) continue;
-        const glm::vec3 on_axis = eye + f * rng.uniform(1.0f, 9.0f);
+        const glm::vec3 on_axis = eye + view.forward * rng.uniform(1.0f, 9.0f);
         for (int j = 0; j < 20; ++j) {
             glm::vec3 v[3];
-            for (glm::vec3& p : v)
-                p = eye + f * rng.uniform(0.5f, 9.0f) + rt * rng.uniform(-4, 4) + up * rng.uniform(-4, 4);
-            if (j % 2 == 0) v[j % 3] = on_axis;  // a vertex on the middle ray
-            if (j % 4 == 1) v[1] = on_axis + (v[0] - on_axis) * -1.0f;  // an edge through the middle ray
+            view.triangle(rng, on_axis, j, v);
             const glm::dvec3 normal = triangle_normal(v[0], v[1], v[2]);
             const glm::dvec3 p = glm::dvec3(v[0]) - glm::dvec3(eye);
             const double n_dot_p = normal.x * p.x + normal.y * p.y + normal.z * p.z;
@@ -533,17 +550,9 @@ TEST_CASE("ray tile: shear_sieve() passes every lane shear_lanes() keeps, and pa
     constexpr unsigned kAll = W == 32 ? ~0u : (1u << W) - 1u;
     std::size_t kept = 0, sifted_out = 0, packed_rays = 0;
     for (int k = 0; k < 300; ++k) {
-        float x[kTileColumns], y[kTileRows];
-        const float spread = rng.uniform(0.01f, 1.5f);
-        for (unsigned i = 0; i < kTileColumns; ++i) x[i] = spread * (float(int(i) - 8) / 8.0f);
-        for (unsigned i = 0; i < kTileRows; ++i) y[i] = spread * (float(8 - int(i)) / 8.0f);
-        const int axis = k % 3;
-        glm::vec3 f(0.0f), rt(0.0f), up(0.0f);
-        f[axis] = k % 2 ? 1.0f : -1.0f;
-        rt[(axis + 1) % 3] = 1.0f;
-        up[(axis + 2) % 3] = 1.0f;
-        const glm::vec3 eye(rng.uniform(-3, 3), rng.uniform(-3, 3), rng.uniform(-3, 3));
-        RayTile tile(eye, f, rt, up, x, kTileColumns, y, kTileRows, 0.0f);
+        const AxisView view(rng, k);
+        const glm::vec3& eye = view.eye;
+        RayTile tile = view.tile();
         for (unsigned lane = 0; lane < kTileRays; ++lane)
             if (rng.below(4) == 0) tile.set_tmax(lane, rng.uniform(0.5f, 9.0f));
         const TileTriangleRays rays(tile);
@@ -572,13 +581,10 @@ TEST_CASE("ray tile: shear_sieve() passes every lane shear_lanes() keeps, and pa
             REQUIRE(same_bits(packed.dz[j], tile.direction(lane).z));
             REQUIRE(same_bits(packed.tmax[j], tile.tmax(lane)));
         }
-        const glm::vec3 on_axis = eye + f * rng.uniform(1.0f, 9.0f);
+        const glm::vec3 on_axis = eye + view.forward * rng.uniform(1.0f, 9.0f);
         for (int j = 0; j < 20; ++j) {
             glm::vec3 v[3];
-            for (glm::vec3& p : v)
-                p = eye + f * rng.uniform(0.5f, 9.0f) + rt * rng.uniform(-4, 4) + up * rng.uniform(-4, 4);
-            if (j % 2 == 0) v[j % 3] = on_axis;  // a vertex on the middle ray
-            if (j % 4 == 1) v[1] = on_axis + (v[0] - on_axis) * -1.0f;  // an edge through the middle ray
+            view.triangle(rng, on_axis, j, v);
             const RelativeTriangle rel = relative(rays, eye, v[0], v[1], v[2]);
             for (unsigned first = 0; first < kTileRays; first += W) {
                 ShearedLanes<W> out{};

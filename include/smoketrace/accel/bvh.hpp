@@ -8,14 +8,12 @@
 // the traversal tests both children of a node after a single memory fetch, the same effect as a
 // "child boxes in the parent" layout but with a node half the size. Nodes are in depth-first order
 // (a pair always comes after its parent), so a refit is one backward sweep over the array.
+#include <smoketrace/core/aligned_allocator.hpp>
 #include <smoketrace/geometry/aabb.hpp>
 
 #include <cstddef>
 #include <cstdint>
-#include <new>
 #include <span>
-#include <type_traits>
-#include <utility>
 #include <vector>
 
 namespace smoketrace {
@@ -29,36 +27,6 @@ struct alignas(32) BvhNode {
     [[nodiscard]] bool is_leaf() const { return count != 0; }
 };
 static_assert(sizeof(BvhNode) == 32);
-
-// Minimal allocator so that node pairs sit in one 64-byte cache line.
-template <class T, std::size_t Align>
-struct AlignedAllocator {
-    using value_type = T;
-    AlignedAllocator() = default;
-    template <class U>
-    AlignedAllocator(const AlignedAllocator<U, Align>&) {}
-    template <class U>
-    struct rebind { using other = AlignedAllocator<U, Align>; };
-    T* allocate(std::size_t n) { return static_cast<T*>(::operator new(n * sizeof(T), std::align_val_t{Align})); }
-    void deallocate(T* p, std::size_t) { ::operator delete(p, std::align_val_t{Align}); }
-    bool operator==(const AlignedAllocator&) const { return true; }
-};
-
-// AlignedAllocator whose vectors leave the elements they grow by unwritten (default-initialised, not
-// value-initialised): for large arrays of a type without initialisers whose owner writes every element
-// itself, where zeroing them first was a serial pass over the whole array.
-template <class T, std::size_t Align>
-struct UninitialisedAlignedAllocator : AlignedAllocator<T, Align> {
-    UninitialisedAlignedAllocator() = default;
-    template <class U>
-    UninitialisedAlignedAllocator(const UninitialisedAlignedAllocator<U, Align>&) {}
-    template <class U>
-    struct rebind { using other = UninitialisedAlignedAllocator<U, Align>; };
-    template <class U>
-    void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) { ::new (static_cast<void*>(p)) U; }
-    template <class U, class... Args>
-    void construct(U* p, Args&&... args) { ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...); }
-};
 
 // Deepest tree any builder may produce; traversal stacks are this deep and live on the stack.
 inline constexpr int kMaxBvhDepth = 64;

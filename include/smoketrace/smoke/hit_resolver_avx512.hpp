@@ -77,6 +77,34 @@ static void network_sort_hits_avx512(std::span<SurfaceHit> hits) {
     return network_sort_hits_avx512<16>(hits);
 }
 
+// One register of eq. 3.1's walk, shared by the walk from memory and the walk of packed hits in registers:
+// lane i holds hit i's value (+1 entering, −1 leaving) and the times t of hit i and hit i + 1. The counter
+// after each lane's hit is `counter` (before the register's first hit) plus an inclusive prefix sum of the
+// values across the lanes (shifted by 1, 2 and 4); lane i adds gap i to its running sum where that counter
+// is > 0 and `gaps` has its bit (a gap exists up to hit n − 2). Returns the counter after the last lane.
+static inline __m512i walk_register_avx512(__m512i values, __m512d t, __m512d t_next, __mmask8 gaps, __m512i counter,
+                                           __m512d& sums) {
+    constexpr __mmask8 kEveryLane = 0xFF;
+    const __m512i zero = _mm512_setzero_si512();
+    __m512i s = values;
+    s = _mm512_add_epi64(s, _mm512_maskz_alignr_epi64(kEveryLane, s, zero, kWalkLanes - 1));
+    s = _mm512_add_epi64(s, _mm512_maskz_alignr_epi64(kEveryLane, s, zero, kWalkLanes - 2));
+    s = _mm512_add_epi64(s, _mm512_maskz_alignr_epi64(kEveryLane, s, zero, kWalkLanes - 4));
+    const __m512i after = _mm512_add_epi64(counter, s);
+    const __mmask8 in_smoke = _mm512_mask_cmpgt_epi64_mask(gaps, after, zero);
+    sums = _mm512_mask_add_pd(sums, in_smoke, sums, _mm512_sub_pd(t_next, t));
+    return _mm512_maskz_permutexvar_epi64(kEveryLane, _mm512_set1_epi64(kWalkLanes - 1), after);
+}
+
+// The walk's kWalkLanes sums added as sum_lanes() of hit_resolver.cpp does: the halves, then the quarters,
+// then the two left.
+static inline double sum_lanes_avx512(__m512d sums) {
+    const __m256d q =
+        _mm256_add_pd(_mm512_maskz_extractf64x4_pd(0xF, sums, 0), _mm512_maskz_extractf64x4_pd(0xF, sums, 1));
+    const __m128d p = _mm_add_pd(_mm256_castpd256_pd128(q), _mm256_extractf128_pd(q, 1));
+    return _mm_cvtsd_f64(_mm_add_sd(p, _mm_unpackhi_pd(p, p)));
+}
+
 // A list of at most kNetworkSortMaxHits packed hits (hit_resolver.hpp), sorted and walked without leaving the
 // registers: the bits of network_sort_hits_avx512() and optical_path_length_avx512() on the unpacked
 // list. Each key is a hit's packed bits rotated left by one (t above the leaving flag), zero-extended;
@@ -109,7 +137,6 @@ static double resolve_packed_hits_avx512(const PackedSurfaceHit* packed, std::si
 
     // The sorted keys hold the n hits first, then the padding.
     constexpr __mmask8 kEveryLane = 0xFF;
-    const __m512i zero = _mm512_setzero_si512();
     auto values_of = [&](__m512i k) {  // +1 entering, −1 leaving
         return _mm512_sub_epi64(one, _mm512_maskz_slli_epi64(kEveryLane, _mm512_and_si512(k, one), 1));
     };
@@ -129,29 +156,16 @@ static double resolve_packed_hits_avx512(const PackedSurfaceHit* packed, std::si
     __m512d sums = _mm512_setzero_pd();
     if (counter_start > 0) sums = _mm512_mask_mov_pd(sums, 1, t_of(v[0]));  // in smoke from the origin
     __m512i counter = _mm512_set1_epi64(counter_start);  // before the register's first hit
-    const __m512i last_lane = _mm512_set1_epi64(kWalkLanes - 1);
 #pragma GCC unroll 16
     for (unsigned r = 0; r < R; ++r) {
         if (r >= used) break;
         const __m512i h = v[r];
         // Hit i + 1 in lane i.
         const __m512i next = _mm512_maskz_alignr_epi64(kEveryLane, r + 1 < R ? v[r + 1] : all_ones, h, 1);
-        __m512i s = values_of(h);  // inclusive prefix sum over the lanes: shifted by 1, 2 and 4
-        s = _mm512_add_epi64(s, _mm512_maskz_alignr_epi64(kEveryLane, s, zero, kWalkLanes - 1));
-        s = _mm512_add_epi64(s, _mm512_maskz_alignr_epi64(kEveryLane, s, zero, kWalkLanes - 2));
-        s = _mm512_add_epi64(s, _mm512_maskz_alignr_epi64(kEveryLane, s, zero, kWalkLanes - 4));
-        const __m512i after = _mm512_add_epi64(counter, s);  // the counter after each lane's hit
-        counter = _mm512_maskz_permutexvar_epi64(kEveryLane, last_lane, after);
-        // Gaps exist up to hit n - 2.
-        const __mmask8 in_smoke = _mm512_mask_cmpgt_epi64_mask(
-            lanes_below(count - std::ptrdiff_t(kNetworkSortLanes * r) - 1), after, zero);
-        sums = _mm512_mask_add_pd(sums, in_smoke, sums, _mm512_sub_pd(t_of(next), t_of(h)));
+        counter = walk_register_avx512(values_of(h), t_of(h), t_of(next),
+                                       lanes_below(count - std::ptrdiff_t(kNetworkSortLanes * r) - 1), counter, sums);
     }
-    // sum_lanes() of hit_resolver.cpp: the halves, then the quarters, then the two left.
-    const __m256d q =
-        _mm256_add_pd(_mm512_maskz_extractf64x4_pd(0xF, sums, 0), _mm512_maskz_extractf64x4_pd(0xF, sums, 1));
-    const __m128d p = _mm_add_pd(_mm256_castpd256_pd128(q), _mm256_extractf128_pd(q, 1));
-    return _mm_cvtsd_f64(_mm_add_sd(p, _mm_unpackhi_pd(p, p)));
+    return sum_lanes_avx512(sums);
 }
 
 // resolve_packed_hits_avx512<R> with the smallest network that holds the list (at most kNetworkSortMaxHits).
@@ -195,25 +209,12 @@ static double resolve_packed_hits_avx512(const PackedSurfaceHit* packed, std::si
     __m512d sums = _mm512_setzero_pd();
     if (counter_start > 0) sums = _mm512_mask_mov_pd(sums, 1, _mm512_set1_pd(static_cast<double>(hits[0].t)));
     __m512i counter = _mm512_set1_epi64(counter_start);  // before the register's first hit
-    const __m512i last_lane = _mm512_set1_epi64(kWalkLanes - 1);
     for (std::size_t c = 0; c < n; c += kWalkLanes) {
         const __m512i h = _mm512_maskz_loadu_epi64(lanes_below(n - c), hits + c);
         const __m512i next = _mm512_maskz_loadu_epi64(lanes_below(n - c - 1), hits + c + 1);
-        __m512i v = values_of(h);  // inclusive prefix sum over the lanes: shifted by 1, 2 and 4
-        v = _mm512_add_epi64(v, _mm512_maskz_alignr_epi64(kEveryLane, v, zero, kWalkLanes - 1));
-        v = _mm512_add_epi64(v, _mm512_maskz_alignr_epi64(kEveryLane, v, zero, kWalkLanes - 2));
-        v = _mm512_add_epi64(v, _mm512_maskz_alignr_epi64(kEveryLane, v, zero, kWalkLanes - 4));
-        const __m512i after = _mm512_add_epi64(counter, v);  // the counter after each lane's hit
-        counter = _mm512_maskz_permutexvar_epi64(kEveryLane, last_lane, after);
-        // Gaps exist up to hit n - 2.
-        const __mmask8 in_smoke = _mm512_mask_cmpgt_epi64_mask(lanes_below(n - c - 1), after, zero);
-        sums = _mm512_mask_add_pd(sums, in_smoke, sums, _mm512_sub_pd(t_of(next), t_of(h)));
+        counter = walk_register_avx512(values_of(h), t_of(h), t_of(next), lanes_below(n - c - 1), counter, sums);
     }
-    // sum_lanes() of hit_resolver.cpp: the halves, then the quarters, then the two left.
-    const __m256d q =
-        _mm256_add_pd(_mm512_maskz_extractf64x4_pd(0xF, sums, 0), _mm512_maskz_extractf64x4_pd(0xF, sums, 1));
-    const __m128d p = _mm_add_pd(_mm256_castpd256_pd128(q), _mm256_extractf128_pd(q, 1));
-    return _mm_cvtsd_f64(_mm_add_sd(p, _mm_unpackhi_pd(p, p)));
+    return sum_lanes_avx512(sums);
 }
 
 }  // namespace smoketrace::detail
