@@ -402,3 +402,34 @@ TEST_CASE("bundle_order: a permutation that keeps neighbours across the directio
     bundle_order({}, glm::vec3(0, 1, 0), order, scratch);
     CHECK(order.empty());
 }
+
+TEST_CASE("bundle_order: the grid refines with the ray count, so that rays far apart in input never share a cell",
+          "[trace-bundle]") {
+    // 1100 x 1100 origins on a lattice across the direction, aligned with the grid's axes: more rays than
+    // 1024 x 1024 cells, so a grid of that size puts some two in one cell, where they keep their input
+    // order. The grid refines to 2048 x 2048 for this count, every ray gets a cell of its own (1.86 cells
+    // per lattice step), and the order of the lattice points is the same for two different input orders.
+    constexpr int kSide = 1100;
+    const glm::vec3 dir(0, 1, 0);
+    const glm::vec3 d = glm::normalize(dir);
+    const glm::vec3 u = glm::normalize(glm::cross(d, glm::vec3(1, 0, 0))), v = glm::cross(d, u);
+    std::vector<std::uint32_t> point(std::size_t(kSide) * kSide);
+    std::iota(point.begin(), point.end(), 0u);
+    auto lattice_order = [&](std::uint64_t seed) {
+        Pcg32 rng(seed);
+        for (std::size_t i = point.size(); i > 1; --i) std::swap(point[i - 1], point[rng.below(std::uint32_t(i))]);
+        std::vector<glm::vec3> origins(point.size());
+        for (std::size_t i = 0; i < point.size(); ++i)
+            origins[i] = float(point[i] / kSide) * u + float(point[i] % kSide) * v + rng.uniform(-50, 50) * d;
+        std::vector<std::uint32_t> order;
+        BundleOrderScratch scratch;
+        bundle_order(origins, dir, order, scratch);
+        for (std::uint32_t& k : order) k = point[k];
+        return order;
+    };
+    const std::vector<std::uint32_t> a = lattice_order(61), b = lattice_order(62);
+    REQUIRE(a.size() == b.size());
+    std::size_t differ = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) differ += a[i] != b[i] ? 1 : 0;
+    CHECK(differ == 0);
+}

@@ -48,47 +48,6 @@ void Bvh::refit(std::span<const Aabb> prim_boxes) {
     }
 }
 
-WideSlots collapse_slots(const Bvh& binary, std::uint32_t node, unsigned width, std::uint32_t* slot) {
-    // Each slot's area is taken once (kept beside it, -1 for a leaf, which is never opened), and the final
-    // order is a stable insertion sort of at most `width` keys: the choices and the order of opening the
-    // largest slot and of std::stable_sort, without recomputing areas or centres.
-    constexpr unsigned kMaxWidth = 16;
-    if (width > kMaxWidth) throw std::invalid_argument("collapse_slots: width over 16");
-    float area[kMaxWidth];
-    auto take = [&](unsigned i, std::uint32_t b) {
-        slot[i] = b;
-        const BvhNode& c = binary.nodes[b];
-        area[i] = c.is_leaf() ? -1.0f : c.bounds.area();
-        // Its children, read if it is opened, are a cache miss in a large tree: asked for now, they
-        // overlap with the rest of the choice.
-        if (!c.is_leaf()) __builtin_prefetch(&binary.nodes[c.first]);
-    };
-    unsigned n = 0;
-    const BvhNode& top = binary.nodes[node];
-    if (top.is_leaf()) {
-        slot[n++] = node;
-        area[0] = -1.0f;
-    } else {
-        take(n++, top.first);
-        take(n++, top.first + 1);
-    }
-    while (n < width) {
-        int best = -1;
-        float best_area = -1.0f;
-        for (unsigned i = 0; i < n; ++i) {
-            if (area[i] > best_area) {
-                best = int(i);
-                best_area = area[i];
-            }
-        }
-        if (best < 0) break;
-        const std::uint32_t opened = binary.nodes[slot[best]].first;
-        take(unsigned(best), opened);
-        take(n++, opened + 1);
-    }
-    return {n, order_slots(binary, slot, n)};
-}
-
 int order_slots(const Bvh& binary, std::uint32_t* slot, unsigned n) {
     constexpr unsigned kMaxWidth = 16;
     if (n > kMaxWidth) throw std::invalid_argument("order_slots: more than 16 slots");

@@ -1,5 +1,6 @@
 // Collapsing a binary BVH into a 4-wide one, and refitting it from the binary tree (see wide_bvh.hpp).
 #include <smoketrace/accel/wide_bvh.hpp>
+#include <smoketrace/accel/wide_cut.hpp>
 
 #include <algorithm>
 #include <stdexcept>
@@ -24,6 +25,7 @@ void WideBvh::collapse(const Bvh& binary, const std::vector<std::uint8_t>& node_
     root_mask_ = 0;
     if (binary.nodes.empty()) return;
     root_mask_ = node_masks[0];
+    const WideCut<kWideBvhWidth> cut(binary);
 
     // Depth first, with an explicit list of (binary node, wide node to fill) so that the recursion
     // depth of the binary tree (≤ kMaxBvhDepth) costs no native stack.
@@ -43,10 +45,10 @@ void WideBvh::collapse(const Bvh& binary, const std::vector<std::uint8_t>& node_
         const Job job = jobs.back();
         jobs.pop_back();
         std::uint32_t slot[kWideBvhWidth];
-        const auto [n, axis] = collapse_slots(binary, job.binary, kWideBvhWidth, slot);
+        const unsigned n = cut.slots(job.binary, slot);
 
         WideBvhNode w{};
-        w.axis = static_cast<std::uint8_t>(axis);
+        w.axis = static_cast<std::uint8_t>(order_slots(binary, slot, n));
         for (unsigned i = 0; i < kWideBvhWidth; ++i) set_slot(w, i, Aabb{}, 0);  // empty: every ray misses
         for (unsigned i = 0; i < n; ++i) {
             const BvhNode& c = binary.nodes[slot[i]];
@@ -58,7 +60,7 @@ void WideBvh::collapse(const Bvh& binary, const std::vector<std::uint8_t>& node_
                 w.count[i] = static_cast<std::uint8_t>(c.count);
                 w.leaves |= std::uint8_t(1u << i);
             } else {
-                __builtin_prefetch(&binary.nodes[c.first]);  // its children: what collapsing it reads first
+                __builtin_prefetch(&binary.nodes[c.first]);  // its children: what cutting it reads first
                 w.child[i] = static_cast<std::uint32_t>(nodes_.size());
                 w.count[i] = 0;
                 jobs.push_back({slot[i], w.child[i]});

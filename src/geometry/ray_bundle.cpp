@@ -12,12 +12,20 @@
 namespace smoketrace {
 namespace {
 
-// Cells per axis of the Morton code: 1024, enough to tell apart the rays of 10^6 particles, and a 20-bit
-// code that the radix sort takes in two passes.
-constexpr unsigned kCellBits = 10;
-constexpr double kLastCell = double((1u << kCellBits) - 1u);
+// Cells per axis of the Morton code: 2^bits, the fewest (at least 1024) for which the grid has a cell per
+// ray, so that a cell holds about one ray however many there are (a coarser grid leaves the rays within a
+// cell in input order, and bundles of 10^7 rays spread further across the direction). At most 16 bits per
+// axis: a 32-bit code.
+constexpr unsigned kMinCellBits = 10;
+constexpr unsigned kMaxCellBits = 16;
 
-// The bits of a 10-bit value spread to the even bit positions of a 20-bit one.
+unsigned cell_bits(std::size_t rays) {
+    unsigned bits = kMinCellBits;
+    while (bits < kMaxCellBits && (std::uint64_t{1} << (2 * bits)) < rays) ++bits;
+    return bits;
+}
+
+// The bits of a 16-bit value spread to the even bit positions of a 32-bit one.
 std::uint32_t spread_bits(std::uint32_t v) {
     v = (v | (v << 8)) & 0x00FF00FFu;
     v = (v | (v << 4)) & 0x0F0F0F0Fu;
@@ -53,13 +61,14 @@ void bundle_order(std::span<const glm::vec3> origins, const glm::vec3& direction
             hi[k] = std::max(hi[k], p[k]);
         }
     }
+    const double last_cell = double((1u << cell_bits(n)) - 1u);
     double scale[2];
-    for (int k = 0; k < 2; ++k) scale[k] = hi[k] > lo[k] ? kLastCell / (hi[k] - lo[k]) : 0.0;
+    for (int k = 0; k < 2; ++k) scale[k] = hi[k] > lo[k] ? last_cell / (hi[k] - lo[k]) : 0.0;
     for (std::size_t i = 0; i < n; ++i) {
         const glm::dvec3 o(origins[i]);
         const double p[2] = {glm::dot(o, u), glm::dot(o, v)};
         std::uint32_t q[2];
-        for (int k = 0; k < 2; ++k) q[k] = static_cast<std::uint32_t>(std::min(kLastCell, (p[k] - lo[k]) * scale[k]));
+        for (int k = 0; k < 2; ++k) q[k] = static_cast<std::uint32_t>(std::min(last_cell, (p[k] - lo[k]) * scale[k]));
         entries[i] = {spread_bits(q[0]) | (spread_bits(q[1]) << 1), static_cast<std::uint32_t>(i)};
     }
     scratch.sorted.resize(n);

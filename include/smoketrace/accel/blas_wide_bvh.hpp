@@ -41,7 +41,7 @@ public:
     using Node = BlasWideNode<W>;
 
     // Root at node 0. Which binary inner nodes become wide nodes is the cut of least total box area (the
-    // wide tree's SAH cost; see WideCut in blas_wide_bvh.cpp), so that nodes a ray is likely to enter are
+    // wide tree's SAH cost; wide_cut.hpp), so that nodes a ray is likely to enter are
     // full and small subtrees hang in their parent's slots; a node's slots are ordered by order_slots()
     // (bvh.hpp). A node's inner children are stored side by side. A leaf slot's child is leaf_refs[i] for
     // the binary leaf node i (leaf_refs has one entry per binary node). Throws std::length_error for a leaf

@@ -69,18 +69,9 @@ struct Bvh {
     void refit(std::span<const Aabb> prim_boxes);
 };
 
-// The children a wide node collapsed from binary node `node` takes (the top level's wide tree, wide_bvh.hpp):
-// start from the node's two children (or the node itself, a leaf), then keep opening the inner slot of
-// largest surface area (the one a ray is likeliest to enter) while fewer than `width` are taken; then
-// order_slots(). Writes the binary nodes to `slots` (room for `width`).
-struct WideSlots {
-    unsigned count;
-    int axis;  // 0, 1, 2
-};
-WideSlots collapse_slots(const Bvh& binary, std::uint32_t node, unsigned width, std::uint32_t* slots);
-
-// Orders a wide node's n ≤ 16 slots (binary nodes) by box centre along the axis on which the centres spread
-// most, stably, so that ties keep the binary tree's left-right order; returns that axis (0, 1, 2).
+// Orders a wide node's n ≤ 16 slots (binary nodes, as wide_cut.hpp chooses them) by box centre along the
+// axis on which the centres spread most, stably, so that ties keep the binary tree's left-right order;
+// returns that axis (0, 1, 2).
 int order_slots(const Bvh& binary, std::uint32_t* slots, unsigned n);
 
 }  // namespace smoketrace

@@ -36,9 +36,10 @@ static_assert(sizeof(WideBvhNode) == 128);
 
 class WideBvh {
 public:
-    // Root at node 0. Each node takes the binary tree's nodes down to where its slots are full, always
-    // opening the child of largest surface area (the one a ray is likeliest to enter), and orders its
-    // slots along the axis on which their centres spread most (WideBvhNode::axis). `node_masks` are
+    // Root at node 0. Which binary inner nodes become wide nodes is the cut of least total box area
+    // (wide_cut.hpp), as for the mesh BLAS: nodes a ray is likely to enter are full and small subtrees
+    // hang in their parent's slots. Each node orders its slots by order_slots() (bvh.hpp: along the axis
+    // on which their centres spread most, WideBvhNode::axis). `node_masks` are
     // the binary nodes' masks (all 0xFF where masks are not used). Leaves keep their primitive ranges,
     // so Bvh::prim_indices serves both trees.
     void collapse(const Bvh& binary, const std::vector<std::uint8_t>& node_masks);

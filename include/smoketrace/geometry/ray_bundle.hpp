@@ -64,7 +64,8 @@ struct RayBundle {
 // A permutation of [0, origins.size()) in which rays from `origins` along `direction` (nonzero) that lie
 // close together come close together, so that consecutive groups of kBundleWidth make good bundles: the
 // Morton (Z-order) curve over the origins projected onto the plane perpendicular to `direction`, on a
-// grid of 1024 x 1024 cells over their bounding rectangle. Equal codes keep their input order.
+// grid over their bounding rectangle of 2^b x 2^b cells, b the least in 10 … 16 with a cell per ray (1024 x
+// 1024 up to 2^20 rays). Equal codes keep their input order.
 // Deterministic, and O(n) (radix-sorted codes). `order` and `scratch` are resized; keeping them between
 // frames allocates nothing.
 struct BundleOrderScratch {
