@@ -646,10 +646,9 @@ void leaf_order(const Bvh& top, std::uint32_t node, std::vector<std::uint32_t>& 
     leaf_order(top, n.first + 1, order);
 }
 
-}  // namespace
 
-Bvh build_grouped_bvh(std::span<const Aabb> prim_boxes, std::span<const std::uint32_t> group_of,
-                      const BvhBuildSettings& settings) {
+template <class Group>
+Bvh build_grouped(std::span<const Aabb> prim_boxes, std::span<const Group> group_of, const BvhBuildSettings& settings) {
     if (group_of.size() != prim_boxes.size()) throw std::invalid_argument("build_grouped_bvh: one group per primitive");
     if (prim_boxes.size() >= std::numeric_limits<std::uint32_t>::max() / 2)
         throw std::length_error("build_bvh: too many primitives");
@@ -713,6 +712,18 @@ Bvh build_grouped_bvh(std::span<const Aabb> prim_boxes, std::span<const std::uin
     const int depth = join_groups(top, 0, prim_boxes, groups, settings, joined, 0, 0);
     if (depth > kMaxBvhDepth) return build_bvh(prim_boxes, settings);
     return joined;
+}
+
+}  // namespace
+
+Bvh build_grouped_bvh(std::span<const Aabb> prim_boxes, std::span<const std::uint32_t> group_of,
+                      const BvhBuildSettings& settings) {
+    return build_grouped(prim_boxes, group_of, settings);
+}
+
+Bvh build_grouped_bvh(std::span<const Aabb> prim_boxes, std::span<const std::uint8_t> group_of,
+                      const BvhBuildSettings& settings) {
+    return build_grouped(prim_boxes, group_of, settings);
 }
 
 }  // namespace smoketrace

@@ -60,6 +60,23 @@ struct UninitialisedAlignedAllocator : AlignedAllocator<T, Align> {
     void construct(U* p, Args&&... args) { ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...); }
 };
 
+// AlignedAllocator whose vectors leave the elements they grow by unwritten, for implicit-lifetime types
+// (trivially copyable and destructible, such as Aabb and BvhNode) whose owner writes every element whole:
+// their initialisers made growing an array of ten million boxes or nodes a serial pass over fresh pages.
+template <class T, std::size_t Align = alignof(T)>
+struct UnwrittenAllocator : AlignedAllocator<T, Align> {
+    static_assert(std::is_trivially_copyable_v<T> && std::is_trivially_destructible_v<T>);
+    UnwrittenAllocator() = default;
+    template <class U>
+    UnwrittenAllocator(const UnwrittenAllocator<U, Align>&) {}
+    template <class U>
+    struct rebind { using other = UnwrittenAllocator<U, Align>; };
+    template <class U>
+    void construct(U*) noexcept {}
+    template <class U, class... Args>
+    void construct(U* p, Args&&... args) { ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...); }
+};
+
 // Deepest tree any builder may produce; traversal stacks are this deep and live on the stack.
 inline constexpr int kMaxBvhDepth = 64;
 
@@ -85,7 +102,9 @@ inline double sah_term(const BvhNode& n, const SahCosts& costs) {
 inline constexpr double kRebuildSahRatio = 1.2;
 
 struct Bvh {
-    std::vector<BvhNode, AlignedAllocator<BvhNode, 64>> nodes;  // nodes[0] is the root
+    // nodes[0] is the root. Grown unwritten (the builder writes every node, in parallel): whoever grows
+    // the array writes each new node whole.
+    std::vector<BvhNode, UnwrittenAllocator<BvhNode, 64>> nodes;
     std::vector<std::uint32_t> prim_indices;                    // leaf ranges index into the input
 
     [[nodiscard]] bool empty() const { return nodes.empty(); }
