@@ -405,6 +405,61 @@ TEST_CASE("scene: a scene with every instance removed traces as empty", "[scene]
     CHECK(r.counters.instances_entered == 0);
 }
 
+// The scene keeps a uniform scale without its matrix and any other linear part in a slot of its own
+// (AccelScene::StoredInstance): instance() must still give back every transform bit for bit, including the
+// near misses of a uniform scale (a -0.0 off the diagonal, diagonals equal as numbers but not as bits),
+// through transforms that turn from one form to the other, removals that renumber the slots, and bulk adds.
+TEST_CASE("scene: instance() gives back each instance's transform bit for bit", "[scene]") {
+    const auto same_bits = [](const AffineTransform& a, const AffineTransform& b) {
+        return std::memcmp(&a.linear, &b.linear, sizeof(a.linear)) == 0 &&
+               std::memcmp(&a.translation, &b.translation, sizeof(a.translation)) == 0;
+    };
+    Pcg32 rng(1234);
+    std::vector<AffineTransform> forms;
+    forms.push_back(AffineTransform::translate_scale({1, 2, 3}, 0.25));
+    forms.push_back(random_transform(rng, 10.0f));
+    AffineTransform negative_zero = AffineTransform::translate_scale({0, 0, 0}, 2.0);
+    negative_zero.linear[1][0] = -0.0;
+    forms.push_back(negative_zero);
+    AffineTransform signed_diagonal = AffineTransform::translate_scale({4, 5, 6}, 1.0);
+    signed_diagonal.linear[2][2] = -1.0;
+    forms.push_back(signed_diagonal);
+    forms.push_back(AffineTransform::translate_scale({-1, 0, 1}, -3.0));
+    forms.push_back(random_transform(rng, 10.0f));
+
+    AccelScene s;
+    const auto b = s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 1.0f}}, true));
+    std::vector<Instance> expected;
+    for (std::uint32_t i = 0; i < 40; ++i)
+        expected.push_back(Instance{b, forms[i % forms.size()], std::uint8_t(i), 100 + i, std::uint8_t(i % 3)});
+    s.add_instances(std::span(expected).first(20));
+    for (std::uint32_t i = 20; i < 40; ++i) s.add_instance(expected[i]);
+    const auto check_all = [&] {
+        REQUIRE(s.instance_count() == expected.size());
+        for (std::uint32_t i = 0; i < expected.size(); ++i) {
+            const Instance in = s.instance(i);
+            REQUIRE(same_bits(in.object_to_world, expected[i].object_to_world));
+            REQUIRE(same_bits(s.transform(i), expected[i].object_to_world));
+            REQUIRE(in.blas == expected[i].blas);
+            REQUIRE(in.mask == expected[i].mask);
+            REQUIRE(in.user_id == expected[i].user_id);
+            REQUIRE(in.flags == expected[i].flags);
+            REQUIRE(s.detail(i).world_to_object_linear == expected[i].object_to_world.inverse().linear);
+        }
+    };
+    check_all();
+    for (int frame = 0; frame < 6; ++frame) {
+        for (std::uint32_t i = 0; i < expected.size(); ++i) {
+            expected[i].object_to_world = forms[(i + std::size_t(frame) * 7 + 1) % forms.size()];
+            s.set_transform(i, expected[i].object_to_world);
+        }
+        s.remove_instance(std::uint32_t(frame * 3 % expected.size()));
+        expected.erase(expected.begin() + frame * 3 % expected.size());
+        check_all();
+        s.commit();
+    }
+}
+
 TEST_CASE("scene: a singular instance transform is rejected", "[scene]") {
     AccelScene s;
     const auto b = s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 1.0f}}, true));

@@ -40,6 +40,34 @@ BottomLevel BottomLevel::from_spheres(const std::vector<Sphere>& s, bool opaque)
     return b;
 }
 
+namespace {
+
+// Whether m is s·I bit for bit (then glm::dmat3(s) gives back the same bits): the diagonal the same
+// number, the rest +0.0.
+bool uniform_scale(const glm::dmat3& m, double& s) {
+    const auto bits = [&](int c, int r) { return std::bit_cast<std::uint64_t>(m[c][r]); };
+    if (bits(0, 0) != bits(1, 1) || bits(0, 0) != bits(2, 2)) return false;
+    if ((bits(0, 1) | bits(0, 2) | bits(1, 0) | bits(1, 2) | bits(2, 0) | bits(2, 1)) != 0) return false;
+    s = m[0][0];
+    return true;
+}
+
+}  // namespace
+
+void AccelScene::store_linear(std::uint32_t i, const glm::dmat3& m, std::uint32_t new_slot) {
+    StoredInstance& s = instances_[i];
+    s.scaled = uniform_scale(m, s.scale);
+    if (s.scaled) return;
+    if (s.linear_slot == kNoLinearSlot) {
+        if (new_slot == kNoLinearSlot) {
+            new_slot = static_cast<std::uint32_t>(linears_.size());
+            linears_.emplace_back();
+        }
+        s.linear_slot = new_slot;
+    }
+    linears_[s.linear_slot] = m;
+}
+
 std::uint32_t AccelScene::add_bottom_level(BottomLevel blas) {
     blases_.push_back(std::make_unique<BottomLevel>(std::move(blas)));
     return static_cast<std::uint32_t>(blases_.size() - 1);
@@ -48,7 +76,9 @@ std::uint32_t AccelScene::add_bottom_level(BottomLevel blas) {
 std::uint32_t AccelScene::add_instance(const Instance& instance) {
     if (instance.blas >= blases_.size())
         throw std::out_of_range("AccelScene::add_instance: no bottom level " + std::to_string(instance.blas));
-    instances_.push_back(instance);
+    instances_.push_back(StoredInstance{instance.object_to_world.translation, 0.0, instance.blas, instance.user_id,
+                                        kNoLinearSlot, instance.mask, instance.flags, false});
+    store_linear(static_cast<std::uint32_t>(instances_.size() - 1), instance.object_to_world.linear);
     record_slot_.push_back(static_cast<std::uint32_t>(records_.size()));
     records_.emplace_back();
     // Whether an instance keeps a detail and takes the world_triangles path depends on the BLAS alone, so
@@ -63,7 +93,7 @@ std::uint32_t AccelScene::add_instance(const Instance& instance) {
         records_.back().other.first_world_triangle = static_cast<std::uint32_t>(world_triangles_.size());
         world_triangles_.resize(world_triangles_.size() + b.mesh.leaf_triangles().size());
     }
-    world_boxes_.emplace_back();
+    world_boxes_.push_back(Aabb{});
     instance_masks_.push_back(instance.mask);
     update_instance(static_cast<std::uint32_t>(instances_.size() - 1));
     structure_dirty_ = true;
@@ -74,30 +104,79 @@ std::uint32_t AccelScene::add_instances(std::span<const Instance> added) {
     for (const Instance& in : added)
         if (in.blas >= blases_.size())
             throw std::out_of_range("AccelScene::add_instances: no bottom level " + std::to_string(in.blas));
-    const std::size_t first = instances_.size(), first_triangle = world_triangles_.size();
-    const std::size_t first_detail = details_.size();
-    instances_.insert(instances_.end(), added.begin(), added.end());
-    records_.resize(instances_.size());  // added at the end: instance i's slot is i
-    for (std::size_t i = first; i < instances_.size(); ++i) record_slot_.push_back(static_cast<std::uint32_t>(i));
-    world_boxes_.resize(instances_.size());
-    for (const Instance& in : added) instance_masks_.push_back(in.mask);
-    // Detail and world-triangle slots in instance order, as add_instance() lays them out one by one.
-    std::size_t triangles = first_triangle, details = first_detail;
-    for (std::size_t i = first; i < instances_.size(); ++i) {
-        const BottomLevel& b = *blases_[instances_[i].blas];
-        records_[i].other.detail = keeps_detail(b) ? static_cast<std::uint32_t>(details++) : kNoInstanceDetail;
-        if (takes_world_triangles(b)) {
-            records_[i].other.first_world_triangle = static_cast<std::uint32_t>(triangles);
-            triangles += b.mesh.leaf_triangles().size();
-        }
+    const std::size_t first = instances_.size(), last = first + added.size();
+    const std::size_t first_triangle = world_triangles_.size(), first_detail = details_.size();
+    // Grown unwritten: every new element is written once, by the parallel set-up below, so that the
+    // fresh pages are first touched on all threads instead of in serial fills.
+    instances_.resize(last);
+    records_.resize(last);
+    record_slot_.resize(last);
+    world_boxes_.resize(last);
+    instance_masks_.resize(last);
+    // Detail and world-triangle slots in instance order, as add_instance() lays them out one by one: each
+    // fixed-size chunk's counts first, then each chunk's slots from the running totals before it (the same
+    // slots whatever the thread count).
+    constexpr std::size_t kChunk = 4096;
+    const std::size_t chunks = (added.size() + kChunk - 1) / kChunk;
+    std::vector<std::uint32_t> blas_triangles(blases_.size());  // per BLAS: world triangles per instance
+    std::vector<std::uint8_t> blas_detail(blases_.size());
+    for (std::size_t b = 0; b < blases_.size(); ++b) {
+        blas_detail[b] = keeps_detail(*blases_[b]);
+        blas_triangles[b] = takes_world_triangles(*blases_[b])
+                                ? static_cast<std::uint32_t>(blases_[b]->mesh.leaf_triangles().size())
+                                : 0;
     }
-    world_triangles_.resize(triangles);
-    details_.resize(details);
+    struct Slots {
+        std::size_t details, triangles, linears;
+    };
+    const std::size_t first_linear = linears_.size();
+    std::vector<Slots> chunk_first(chunks + 1, Slots{first_detail, first_triangle, first_linear});
+    using Range = tbb::blocked_range<std::size_t>;
+    tbb::parallel_for(Range(0, chunks), [&](const Range& r) {
+        for (std::size_t c = r.begin(); c < r.end(); ++c) {
+            Slots n{0, 0, 0};
+            double scale = 0.0;
+            for (std::size_t k = c * kChunk; k < std::min(added.size(), (c + 1) * kChunk); ++k) {
+                n.details += blas_detail[added[k].blas];
+                n.triangles += blas_triangles[added[k].blas];
+                n.linears += !uniform_scale(added[k].object_to_world.linear, scale);
+            }
+            chunk_first[c + 1] = n;
+        }
+    });
+    for (std::size_t c = 0; c < chunks; ++c) {
+        chunk_first[c + 1].details += chunk_first[c].details;
+        chunk_first[c + 1].triangles += chunk_first[c].triangles;
+        chunk_first[c + 1].linears += chunk_first[c].linears;
+    }
+    world_triangles_.resize(chunk_first[chunks].triangles);
+    details_.resize(chunk_first[chunks].details);
+    linears_.resize(chunk_first[chunks].linears);
     // Each instance's set-up reads only its own instance and bottom level and writes only its own slots.
     try {
-        using Range = tbb::blocked_range<std::size_t>;
-        tbb::parallel_for(Range(first, instances_.size(), 4096), [&](const Range& r) {
-            for (std::size_t i = r.begin(); i < r.end(); ++i) update_instance(static_cast<std::uint32_t>(i));
+        tbb::parallel_for(Range(0, chunks), [&](const Range& r) {
+            for (std::size_t c = r.begin(); c < r.end(); ++c) {
+                Slots next = chunk_first[c];
+                for (std::size_t k = c * kChunk; k < std::min(added.size(), (c + 1) * kChunk); ++k) {
+                    const Instance& in = added[k];
+                    const std::size_t i = first + k;
+                    instances_[i] = StoredInstance{in.object_to_world.translation, 0.0, in.blas, in.user_id,
+                                                   kNoLinearSlot, in.mask, in.flags, false};
+                    store_linear(static_cast<std::uint32_t>(i), in.object_to_world.linear,
+                                 static_cast<std::uint32_t>(next.linears));
+                    if (!instances_[i].scaled) ++next.linears;
+                    record_slot_[i] = static_cast<std::uint32_t>(i);  // added at the end: instance i's slot is i
+                    instance_masks_[i] = in.mask;
+                    InstanceRecord& rec = records_[i];
+                    rec.other.detail = blas_detail[in.blas] ? static_cast<std::uint32_t>(next.details++)
+                                                            : kNoInstanceDetail;
+                    if (blas_triangles[in.blas] != 0) {
+                        rec.other.first_world_triangle = static_cast<std::uint32_t>(next.triangles);
+                        next.triangles += blas_triangles[in.blas];
+                    }
+                    update_instance(static_cast<std::uint32_t>(i));
+                }
+            }
         });
     } catch (...) {
         instances_.resize(first);
@@ -107,6 +186,7 @@ std::uint32_t AccelScene::add_instances(std::span<const Instance> added) {
         instance_masks_.resize(first);
         world_triangles_.resize(first_triangle);
         details_.resize(first_detail);
+        linears_.resize(first_linear);
         throw;
     }
     if (!added.empty()) structure_dirty_ = true;
@@ -139,6 +219,11 @@ void AccelScene::remove_instance(std::uint32_t index) {
             if (r.path != InstancePath::world_sphere && r.other.detail != kNoInstanceDetail && r.other.detail > d)
                 --r.other.detail;
     }
+    if (const std::uint32_t gone_linear = instances_[index].linear_slot; gone_linear != kNoLinearSlot) {
+        linears_.erase(linears_.begin() + gone_linear);
+        for (StoredInstance& in : instances_)
+            if (in.linear_slot != kNoLinearSlot && in.linear_slot > gone_linear) --in.linear_slot;
+    }
     instances_.erase(instances_.begin() + index);
     records_.erase(records_.begin() + slot);
     record_slot_.erase(record_slot_.begin() + index);
@@ -150,14 +235,17 @@ void AccelScene::remove_instance(std::uint32_t index) {
 }
 
 void AccelScene::set_transform(std::uint32_t index, const AffineTransform& m) {
-    if (instances_.at(index).object_to_world == m) return;  // an unchanged frame does no TLAS work
-    instances_[index].object_to_world = m;
+    if (index >= instances_.size()) throw std::out_of_range("AccelScene::set_transform");
+    if (transform(index) == m) return;  // an unchanged frame does no TLAS work
+    instances_[index].translation = m.translation;
+    store_linear(index, m.linear);
     update_instance(index);
     transforms_dirty_ = true;
 }
 
 void AccelScene::set_mask(std::uint32_t index, std::uint8_t mask) {
-    if (instances_.at(index).mask == mask) return;
+    if (index >= instances_.size()) throw std::out_of_range("AccelScene::set_mask");
+    if (instances_[index].mask == mask) return;
     instances_[index].mask = mask;
     records_[record_slot_[index]].mask = mask;
     instance_masks_[index] = mask;
@@ -253,7 +341,7 @@ bool AccelScene::keeps_detail(const BottomLevel& b) const {
 
 // World box: the 8 transformed corners of the object box, in double, rounded outward to float.
 void AccelScene::update_instance(std::uint32_t i) {
-    const Instance& in = instances_[i];
+    const Instance in = instance(i);
     const BottomLevel& b = *blases_[in.blas];
     in.object_to_world.check_invertible();  // every instance needs an inverse, though only details keep it
     InstanceRecord& r = records_[record_slot_[i]];
@@ -320,8 +408,8 @@ void AccelScene::rebuild() {
     // Grouped by mask (bvh_builder.hpp): in the smoke scene a particle's stand-in and its billboard have
     // almost the same box, and one SAH tree over both would pair them in every leaf's parent, so a view
     // ray (stand-ins masked out) or a light ray (billboards masked out) would still walk the other half.
-    const std::vector<std::uint32_t> masks(instance_masks_.begin(), instance_masks_.end());
-    tlas_ = build_grouped_bvh(world_boxes_, masks, BvhBuildSettings{.max_leaf_size = 1});
+    tlas_ = build_grouped_bvh(world_boxes_, std::span<const std::uint8_t>(instance_masks_),
+                              BvhBuildSettings{.max_leaf_size = 1});
     // Two independent halves side by side: the node masks, the SAH cost and the wide tree (serial, a
     // chain of cache misses down the binary tree), and the records to leaf order (one instance per leaf:
     // prim_indices is a permutation; each k writes its own record and its instance's slot).

@@ -293,6 +293,7 @@ struct Builder {
     template <class GoesLeft>
     std::uint32_t partition(std::uint32_t begin, std::uint32_t end, const GoesLeft& goes_left, Bounds4 (&box)[2],
                             Bounds4 (&cent)[2]) {
+        if (direct) return partition_without_branches(begin, end, goes_left, box, cent);
         const Floats4 half = Floats4::broadcast(0.5f);
         // Locals rather than the output arrays, so that the bounds stay in registers through the loop.
         Bounds4 box_l, box_r, cent_l, cent_r;
@@ -322,6 +323,40 @@ struct Builder {
         cent[0] = cent_l;
         cent[1] = cent_r;
         return static_cast<std::uint32_t>(l - refs);
+    }
+
+    // partition() with no branch on the side a primitive goes to, which is as good as random in most nodes
+    // (a mispredicted branch per primitive per level): each primitive is swapped to the end of the left
+    // side whichever side it takes, and the end moves only for a left-goer (Lomuto). The two sides hold the
+    // same primitives as partition() gives, in another order within each side, so only for trees of one
+    // primitive per leaf (direct), where a side's order decides nothing: binning and bounds are exact in any
+    // order, and the object-median fallback orders by (centroid, index).
+    template <class GoesLeft>
+    std::uint32_t partition_without_branches(std::uint32_t begin, std::uint32_t end, const GoesLeft& goes_left,
+                                             Bounds4 (&box)[2], Bounds4 (&cent)[2]) {
+        const Floats4 half = Floats4::broadcast(0.5f);
+        Bounds4 side_box[2], side_cent[2];  // [0] left, [1] right
+        std::uint32_t store = begin;
+        for (std::uint32_t i = begin; i < end; ++i) {
+            const PrimRef r = refs[i];
+            const bool left = goes_left(r);
+            const Floats4 lo = Floats4::load(&r.lo.x), hi = Floats4::load(&r.hi.x);
+            const Floats4 centre = half * (lo + hi);
+            Bounds4& b = side_box[left ? 0 : 1];
+            Bounds4& c = side_cent[left ? 0 : 1];
+            b.lo = min(b.lo, lo);
+            b.hi = max(b.hi, hi);
+            c.lo = min(c.lo, centre);
+            c.hi = max(c.hi, centre);
+            refs[i] = refs[store];
+            refs[store] = r;
+            store += left ? 1u : 0u;
+        }
+        for (int side = 0; side < 2; ++side) {
+            box[side] = side_box[side];
+            cent[side] = side_cent[side];
+        }
+        return store;
     }
 
     // partition() of a large range on all threads, in place and with a result that does not depend on
@@ -646,10 +681,9 @@ void leaf_order(const Bvh& top, std::uint32_t node, std::vector<std::uint32_t>& 
     leaf_order(top, n.first + 1, order);
 }
 
-}  // namespace
 
-Bvh build_grouped_bvh(std::span<const Aabb> prim_boxes, std::span<const std::uint32_t> group_of,
-                      const BvhBuildSettings& settings) {
+template <class Group>
+Bvh build_grouped(std::span<const Aabb> prim_boxes, std::span<const Group> group_of, const BvhBuildSettings& settings) {
     if (group_of.size() != prim_boxes.size()) throw std::invalid_argument("build_grouped_bvh: one group per primitive");
     if (prim_boxes.size() >= std::numeric_limits<std::uint32_t>::max() / 2)
         throw std::length_error("build_bvh: too many primitives");
@@ -713,6 +747,18 @@ Bvh build_grouped_bvh(std::span<const Aabb> prim_boxes, std::span<const std::uin
     const int depth = join_groups(top, 0, prim_boxes, groups, settings, joined, 0, 0);
     if (depth > kMaxBvhDepth) return build_bvh(prim_boxes, settings);
     return joined;
+}
+
+}  // namespace
+
+Bvh build_grouped_bvh(std::span<const Aabb> prim_boxes, std::span<const std::uint32_t> group_of,
+                      const BvhBuildSettings& settings) {
+    return build_grouped(prim_boxes, group_of, settings);
+}
+
+Bvh build_grouped_bvh(std::span<const Aabb> prim_boxes, std::span<const std::uint8_t> group_of,
+                      const BvhBuildSettings& settings) {
+    return build_grouped(prim_boxes, group_of, settings);
 }
 
 }  // namespace smoketrace

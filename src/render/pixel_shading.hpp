@@ -77,7 +77,7 @@ public:
         const bool optical_depth = s.mode != RenderMode::basic;
         billboards_.resize(particles.size());
         for (std::size_t i = 0; i < particles.size(); ++i) {
-            const glm::dmat3& m = scene.scene().instance(std::uint32_t(particles.size() + i)).object_to_world.linear;
+            const glm::dmat3 m = scene.scene().transform(std::uint32_t(particles.size() + i)).linear;
             const glm::dvec3 L(s.to_light);
             Billboard& b = billboards_[i];
             b.light_tangent = glm::vec3(glm::dot(L, glm::normalize(m[0])), glm::dot(L, glm::normalize(m[1])),

@@ -70,7 +70,7 @@ PackedSurfaceHit* OpticalDepthPass::Scratch::keep(std::span<const SurfaceHit> hi
         if (block == blocks.size()) blocks.emplace_back();
         blocks[block].reserve(std::max(kKeptHitsPerBlock, hits.size()));  // empty here: nothing moves
     }
-    std::vector<PackedSurfaceHit>& b = blocks[block];
+    auto& b = blocks[block];
     const std::size_t first = b.size();
     b.resize(first + hits.size());  // within the capacity: earlier rays' hits stay put
     PackedSurfaceHit* at = b.data() + first;
@@ -80,7 +80,7 @@ PackedSurfaceHit* OpticalDepthPass::Scratch::keep(std::span<const SurfaceHit> hi
 }
 
 void OpticalDepthPass::Scratch::clear() {
-    for (std::vector<PackedSurfaceHit>& b : blocks) b.clear();
+    for (auto& b : blocks) b.clear();
     block = 0;
     kept = 0;
 }

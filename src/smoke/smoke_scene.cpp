@@ -2,6 +2,8 @@
 #include <smoketrace/smoke/smoke_scene.hpp>
 
 #include <glm/geometric.hpp>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 #include <algorithm>
 #include <cmath>
 #include <vector>
@@ -71,9 +73,14 @@ SmokeScene::SmokeScene(std::span<const Particle> particles, StandInShape shape, 
     std::vector<Instance> batch;
     auto add_all = [&](std::uint32_t blas, std::uint8_t mask) {
         for (std::size_t first = 0; first < particles.size(); first += kInstanceBatch) {
-            batch.clear();
-            for (std::size_t i = first; i < std::min(particles.size(), first + kInstanceBatch); ++i)
-                batch.push_back(Instance{blas, stand_in_transform(particles[i]), mask, std::uint32_t(i)});
+            batch.resize(std::min(particles.size(), first + kInstanceBatch) - first);
+            using Range = tbb::blocked_range<std::size_t>;
+            tbb::parallel_for(Range(0, batch.size(), 4096), [&](const Range& r) {
+                for (std::size_t k = r.begin(); k < r.end(); ++k) {
+                    const std::size_t i = first + k;
+                    batch[k] = Instance{blas, stand_in_transform(particles[i]), mask, std::uint32_t(i)};
+                }
+            });
             scene_.add_instances(batch);
         }
     };
@@ -91,14 +98,33 @@ SmokeScene::SmokeScene(std::span<const Particle> particles, StandInShape shape, 
 }
 
 TlasUpdate SmokeScene::update(std::span<const Particle> particles, const glm::vec3& eye) {
-    for (std::size_t i = 0; i < count_; ++i) {
-        const auto idx = static_cast<std::uint32_t>(i);
-        const AffineTransform s = stand_in_transform(particles[i]);
-        if (!same(scene_.instance(idx).object_to_world, s)) scene_.set_transform(idx, s);
-        if (billboards_) {
-            const auto b_idx = static_cast<std::uint32_t>(count_ + i);
-            const AffineTransform b = billboard_transform(particles[i], eye);
-            if (!same(scene_.instance(b_idx).object_to_world, b)) scene_.set_transform(b_idx, b);
+    // Which transforms changed is found a batch at a time on all threads (a frame that moves nothing, such
+    // as the first after construction, is then all parallel); the changes are applied in index order, as
+    // one serial pass would.
+    std::vector<std::uint8_t> changed;
+    std::vector<AffineTransform> billboard(billboards_ ? std::min(count_, kInstanceBatch) : 0);  // not worked out twice
+    for (std::size_t first = 0; first < count_; first += kInstanceBatch) {
+        const std::size_t n = std::min(count_, first + kInstanceBatch) - first;
+        changed.assign(n, 0);
+        using Range = tbb::blocked_range<std::size_t>;
+        tbb::parallel_for(Range(0, n, 4096), [&](const Range& r) {
+            for (std::size_t k = r.begin(); k < r.end(); ++k) {
+                const std::size_t i = first + k;
+                const auto idx = static_cast<std::uint32_t>(i);
+                std::uint8_t c = !same(scene_.transform(idx), stand_in_transform(particles[i]));
+                if (billboards_) {
+                    const auto b_idx = static_cast<std::uint32_t>(count_ + i);
+                    billboard[k] = billboard_transform(particles[i], eye);
+                    c |= std::uint8_t(!same(scene_.transform(b_idx), billboard[k]) << 1);
+                }
+                changed[k] = c;
+            }
+        });
+        for (std::size_t k = 0; k < n; ++k) {
+            if (changed[k] == 0) continue;
+            const std::size_t i = first + k;
+            if (changed[k] & 1) scene_.set_transform(static_cast<std::uint32_t>(i), stand_in_transform(particles[i]));
+            if (changed[k] & 2) scene_.set_transform(static_cast<std::uint32_t>(count_ + i), billboard[k]);
         }
     }
     return scene_.commit();

@@ -53,7 +53,9 @@ inline double sah_term(const BvhNode& n, const SahCosts& costs) {
 inline constexpr double kRebuildSahRatio = 1.2;
 
 struct Bvh {
-    std::vector<BvhNode, AlignedAllocator<BvhNode, 64>> nodes;  // nodes[0] is the root
+    // nodes[0] is the root. Grown unwritten (the builder writes every node, in parallel): whoever grows
+    // the array writes each new node whole.
+    std::vector<BvhNode, UnwrittenAllocator<BvhNode, 64>> nodes;
     std::vector<std::uint32_t> prim_indices;                    // leaf ranges index into the input
 
     [[nodiscard]] bool empty() const { return nodes.empty(); }

@@ -43,6 +43,9 @@ struct BvhBuildSettings {
 inline constexpr std::size_t kMaxBvhGroups = 4;
 [[nodiscard]] Bvh build_grouped_bvh(std::span<const Aabb> prim_boxes, std::span<const std::uint32_t> group_of,
                                     const BvhBuildSettings& settings = {});
+// The same with byte-sized groups (the TLAS's instance masks), read where they lie.
+[[nodiscard]] Bvh build_grouped_bvh(std::span<const Aabb> prim_boxes, std::span<const std::uint8_t> group_of,
+                                    const BvhBuildSettings& settings = {});
 
 namespace detail {
 // The builder's binning arithmetic, for its test (docs/simd.md). bin_of: the bin of centroid coordinate c

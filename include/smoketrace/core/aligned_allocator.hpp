@@ -23,18 +23,20 @@ struct AlignedAllocator {
     bool operator==(const AlignedAllocator&) const { return true; }
 };
 
-// AlignedAllocator whose vectors leave the elements they grow by unwritten (default-initialised, not
-// value-initialised): for large arrays of a type without initialisers whose owner writes every element
-// itself, where zeroing them first was a serial pass over the whole array.
-template <class T, std::size_t Align>
-struct UninitialisedAlignedAllocator : AlignedAllocator<T, Align> {
-    UninitialisedAlignedAllocator() = default;
+// AlignedAllocator whose vectors leave the elements they grow by unwritten, for implicit-lifetime types
+// (trivially copyable and destructible, such as Aabb, BvhNode and InstanceRecord) whose owner writes every
+// element whole: their initialisers made growing an array of ten million boxes or nodes a serial pass over
+// fresh pages, where the owner's own (parallel) writes should be the first touch.
+template <class T, std::size_t Align = alignof(T)>
+struct UnwrittenAllocator : AlignedAllocator<T, Align> {
+    static_assert(std::is_trivially_copyable_v<T> && std::is_trivially_destructible_v<T>);
+    UnwrittenAllocator() = default;
     template <class U>
-    UninitialisedAlignedAllocator(const UninitialisedAlignedAllocator<U, Align>&) {}
+    UnwrittenAllocator(const UnwrittenAllocator<U, Align>&) {}
     template <class U>
-    struct rebind { using other = UninitialisedAlignedAllocator<U, Align>; };
+    struct rebind { using other = UnwrittenAllocator<U, Align>; };
     template <class U>
-    void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) { ::new (static_cast<void*>(p)) U; }
+    void construct(U*) noexcept {}
     template <class U, class... Args>
     void construct(U* p, Args&&... args) { ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...); }
 };

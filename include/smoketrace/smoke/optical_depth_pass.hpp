@@ -22,6 +22,7 @@
 // per-ray lists, kept in the buffer of the thread that traced the ray: no fixed K-slot arrays (the thesis's
 // limitation 6.1). resolve() turns them into optical path lengths where they lie; gather() copies them
 // into one flat buffer for callers that want the hits themselves.
+#include <smoketrace/core/aligned_allocator.hpp>
 #include <smoketrace/smoke/hit_resolver.hpp>
 #include <smoketrace/geometry/ray_bundle.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>
@@ -133,7 +134,9 @@ private:
         // hits than a block gets a block of its own size): a ray's hits stay contiguous and never move, and
         // the memory is what the hits need, where one growing vector held up to twice that and copied it
         // at every doubling. The blocks are kept, emptied, for the next trace().
-        std::vector<std::vector<PackedSurfaceHit>> blocks;
+        // Grown unwritten (UnwrittenAllocator): keep() writes each hit, where zeroing it first was a second
+        // pass over the pass's largest memory.
+        std::vector<std::vector<PackedSurfaceHit, UnwrittenAllocator<PackedSurfaceHit>>> blocks;
         std::size_t block = 0;  // the block being filled
         std::uint64_t kept = 0;  // hits kept in this trace()
         std::uint64_t warmed_in_trace = 0;  // the last trace() in which this thread prefetched the top level
@@ -153,15 +156,17 @@ private:
     // needs TBB. Reached once per task (its local()), never per ray; moving the pass keeps it where it is.
     struct ThreadScratch;
     std::unique_ptr<ThreadScratch> scratch_;
-    std::vector<glm::vec3> origins_;        // the rays' origins, in the order of `which`
+    // The arrays per ray below grow unwritten: trace() writes every element (at 10^7 particles their
+    // zeroing was a serial pass over fresh pages).
+    std::vector<glm::vec3, UnwrittenAllocator<glm::vec3>> origins_;  // the rays' origins, in the order of `which`
     std::vector<std::uint32_t> ray_order_;  // bundle_order() of origins_
     BundleOrderScratch order_scratch_;
     struct RayStart {
         glm::vec3 origin;
         float tmin;  // optical_depth_tmin() of the particle's radius
     };
-    std::vector<RayStart> starts_;          // [k]: the k-th ray traced's
-    std::vector<RayRecord> rays_;           // [k]: the k-th ray traced
+    std::vector<RayStart, UnwrittenAllocator<RayStart>> starts_;    // [k]: the k-th ray traced's
+    std::vector<RayRecord, UnwrittenAllocator<RayRecord>> rays_;    // [k]: the k-th ray traced
     std::vector<std::uint32_t> which_;      // the particles of the last trace()
     std::vector<DepthStatus> status_;       // [i]: the ray of which_[i]
     std::vector<std::uint32_t> hit_counts_;
