@@ -254,12 +254,11 @@ template <unsigned W>
 
 // finish_triangle_hit() for the lanes `keep` of a block that shear_lanes() kept, in lanes of doubles: the
 // same operations on the same numbers, so each lane gets the scalar function's t and facing, bit for bit
-// (its barycentrics: lane_barycentrics(), for the lanes that hit). The plane's distance n·(v0 − origin) is the
-// same for every ray of the tile (`n_dot_p`, formed as the scalar function forms it: TilePlane). Lanes with an
-// edge function or determinant of exactly 0 (or NaN: an overflow), where the tie-break decides, are returned
-// in `on_edge` for finish_triangle_hit() itself; `hit` holds the others whose t lies in [tmin, tmax] (the
-// tile's tmax of each ray, in double; the float t is checked by the caller, as the scalar function checks it
-// last).
+// (its barycentrics: lane_barycentrics(), for the lanes that hit). The plane's distance n·(v0 − origin) is the same for every ray of the tile (`n_dot_p`, formed
+// as the scalar function forms it). Lanes with an edge function or determinant of exactly 0 (or NaN: an
+// overflow), where the tie-break decides, are returned in `on_edge` for finish_triangle_hit() itself; `hit`
+// holds the others whose t lies in [tmin, tmax] (the tile's tmax of each ray, in double; the float t is
+// checked by the caller, as the scalar function checks it last).
 template <unsigned W>
 struct FinishedLanes {
     alignas(64) double t[W];
@@ -376,25 +375,6 @@ struct BlockLaneVertices {
     }
 };
 
-// A triangle's plane as a tile test finishes its hits: the first vertex, the normal and finish_triangle_hit()'s
-// n·(v0 − origin), the same for every ray of the tile. Formed for the first ray past the straddle test: most
-// triangles a tile tests are hit by none.
-struct TilePlane {
-    glm::vec3 v0;
-    glm::dvec3 normal;
-    double n_dot_p = 0.0;
-
-    template <class Vertices>
-    [[nodiscard]] static TilePlane of(const Vertices& vertices, const glm::vec3& eye) {
-        TilePlane plane;
-        plane.v0 = vertices.vertex(0);
-        plane.normal = triangle_normal(plane.v0, vertices.vertex(1), vertices.vertex(2));
-        const glm::dvec3 p = glm::dvec3(plane.v0) - glm::dvec3(eye);
-        plane.n_dot_p = plane.normal.x * p.x + plane.normal.y * p.y + plane.normal.z * p.z;
-        return plane;
-    }
-};
-
 // The whole test of one triangle against tile rays: for each row r of `rows` and each block of W lanes of
 // it, the lanes lanes_of(r, block) (a mask of W bits; asked just before the block is tested, so it may drop
 // rays whose search ended meanwhile) are sheared and finished together; on_hit(lane, hit) is called for each
@@ -407,7 +387,11 @@ template <unsigned W, class Vertices, class LanesOf, class OnHit>
                                                       OnHit&& on_hit) {
     const glm::vec3& eye = tile.origin();
     const RelativeTriangle rel = vertices.relative_to(rays, eye);
-    TilePlane plane;
+    // The plane (the normal and finish_triangle_hit()'s n·(v0 − origin), the same for every ray of the tile),
+    // formed when a first ray gets past the straddle test: most triangles a tile tests are hit by none.
+    glm::vec3 v0;
+    glm::dvec3 normal;
+    double n_dot_p = 0.0;
     bool plane_ready = false;
     const float* tmax = tile.tmax_data();
     for (TileLineSet rs = rows; rs != 0; rs &= rs - 1) {
@@ -420,11 +404,14 @@ template <unsigned W, class Vertices, class LanesOf, class OnHit>
             const unsigned keep = shear_lanes<W>(rays, first, lanes, rel, sheared);
             if (keep == 0) continue;
             if (!plane_ready) {
-                plane = TilePlane::of(vertices, eye);
+                v0 = vertices.vertex(0);
+                normal = triangle_normal(v0, vertices.vertex(1), vertices.vertex(2));
+                const glm::dvec3 p = glm::dvec3(v0) - glm::dvec3(eye);
+                n_dot_p = normal.x * p.x + normal.y * p.y + normal.z * p.z;
                 plane_ready = true;
             }
             FinishedLanes<W> done;
-            finish_lanes<W>(tile, first, keep, sheared, plane.normal, plane.n_dot_p, done);
+            finish_lanes<W>(tile, first, keep, sheared, normal, n_dot_p, done);
             for (unsigned m = done.hit; m != 0; m &= m - 1) {
                 const unsigned i = unsigned(std::countr_zero(m));
                 const unsigned lane = first + i;
@@ -440,8 +427,7 @@ template <unsigned W, class Vertices, class LanesOf, class OnHit>
                 const unsigned i = unsigned(std::countr_zero(m));
                 const unsigned lane = first + i;
                 TriangleHit th;
-                if (finish_triangle_hit(rays.ray(lane), sheared.lane(i), plane.v0, plane.normal, tmax[lane], th))
-                    on_hit(lane, th);
+                if (finish_triangle_hit(rays.ray(lane), sheared.lane(i), v0, normal, tmax[lane], th)) on_hit(lane, th);
             }
         }
     }
@@ -531,8 +517,10 @@ template <unsigned W, class Vertices>
     using DoubleMask = simd::Mask<double, D>;
     const glm::vec3& eye = tile.origin();
     const RelativeTriangle rel = vertices.relative_to(rays, eye);
-    TilePlane plane;
-    bool plane_ready = false;
+    glm::vec3 v0;
+    glm::dvec3 normal;
+    double n_dot_p = 0.0;
+    bool plane_ready = false;  // formed for the first ray past the straddle test, as in triangle_tile_hits()
     const Doubles tmin = Doubles::broadcast(double(tile.tmin()));
     for (unsigned first = 0; first < packed.count; first += W) {
         const unsigned lanes = lanes_of[first / W];
@@ -544,7 +532,10 @@ template <unsigned W, class Vertices>
         const unsigned keep = shear_lanes<W>(packed.sx + first, packed.sy + first, lanes, rel, sheared);
         if (keep == 0) continue;
         if (!plane_ready) {
-            plane = TilePlane::of(vertices, eye);
+            v0 = vertices.vertex(0);
+            normal = triangle_normal(v0, vertices.vertex(1), vertices.vertex(2));
+            const glm::dvec3 p = glm::dvec3(v0) - glm::dvec3(eye);
+            n_dot_p = normal.x * p.x + normal.y * p.y + normal.z * p.z;
             plane_ready = true;
         }
         FinishedLanes<W> done;
@@ -568,14 +559,13 @@ template <unsigned W, class Vertices>
             taken |= take << half.h;
         };
         finish_lanes<W>(packed.dx + first, packed.dy + first, packed.dz + first, packed.tmax + first, tile.tmin(),
-                        keep, sheared, plane.normal, plane.n_dot_p, done, take_hits);
+                        keep, sheared, normal, n_dot_p, done, take_hits);
         // Through an edge or a vertex: finish_triangle_hit() itself (the tie-break).
         for (unsigned m = done.on_edge; m != 0; m &= m - 1) {
             const unsigned i = unsigned(std::countr_zero(m));
             const unsigned j = first + i;
             TriangleHit th;
-            if (!finish_triangle_hit(rays.ray(packed.lane[j]), sheared.lane(i), plane.v0, plane.normal, packed.tmax[j],
-                                     th))
+            if (!finish_triangle_hit(rays.ray(packed.lane[j]), sheared.lane(i), v0, normal, packed.tmax[j], th))
                 continue;
             packed.tmax[j] = th.t;
             packed.hit_u[j] = sheared.u[i];
