@@ -2,9 +2,6 @@
 #include <smoketrace/accel/wide_bvh.hpp>
 #include <smoketrace/accel/wide_cut.hpp>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <stdexcept>
 
@@ -78,24 +75,20 @@ void WideBvh::collapse(const Bvh& binary, const std::vector<std::uint8_t>& node_
 void WideBvh::refit(const Bvh& binary, const std::vector<std::uint8_t>& node_masks) {
     if (binary.nodes.empty()) return;
     root_mask_ = node_masks[0];
-    // Each wide node copies its own slots and nothing else: the nodes are refit in parallel ranges. The binary
-    // nodes a wide node copies lie anywhere in the binary array: fetched kPrefetch wide nodes ahead, their
-    // misses overlap.
-    constexpr std::size_t kPrefetch = 8, kGrain = 2048;
-    using Range = tbb::blocked_range<std::size_t>;
-    tbb::parallel_for(Range(0, nodes_.size(), kGrain), [&](const Range& r) {
-        for (std::size_t k = r.begin(); k < r.end(); ++k) {
-            if (k + kPrefetch < r.end())
-                for (unsigned i = 0; i < kWideBvhWidth; ++i) {
-                    const std::uint32_t s = source_[(k + kPrefetch) * kWideBvhWidth + i];
-                    if (s != kUnused) __builtin_prefetch(&binary.nodes[s]);
-                }
+    // The binary nodes a wide node copies lie anywhere in the binary array: fetched kPrefetch wide nodes
+    // ahead, their misses overlap.
+    constexpr std::size_t kPrefetch = 8;
+    for (std::size_t k = 0; k < nodes_.size(); ++k) {
+        if (k + kPrefetch < nodes_.size())
             for (unsigned i = 0; i < kWideBvhWidth; ++i) {
-                const std::uint32_t s = source_[k * kWideBvhWidth + i];
-                if (s != kUnused) set_slot(nodes_[k], i, binary.nodes[s].bounds, node_masks[s]);
+                const std::uint32_t s = source_[(k + kPrefetch) * kWideBvhWidth + i];
+                if (s != kUnused) __builtin_prefetch(&binary.nodes[s]);
             }
+        for (unsigned i = 0; i < kWideBvhWidth; ++i) {
+            const std::uint32_t s = source_[k * kWideBvhWidth + i];
+            if (s != kUnused) set_slot(nodes_[k], i, binary.nodes[s].bounds, node_masks[s]);
         }
-    });
+    }
 }
 
 }  // namespace smoketrace
