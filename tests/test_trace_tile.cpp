@@ -165,6 +165,15 @@ struct AxisView {
     }
 };
 
+// A 256² camera at a random point within `reach` of the origin, looking a random way, with a random field of
+// view (5° to 120°).
+Camera random_camera(Pcg32& rng, float reach) {
+    const glm::vec3 eye = rng.uniform(0.0f, reach) * random_unit(rng);
+    const glm::vec3 at = eye + random_unit(rng);
+    const glm::vec3 up = std::abs(glm::normalize(at - eye).y) > 0.99f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0);
+    return Camera(eye, at, up, rng.uniform(5.0f, 120.0f), 256, 256);
+}
+
 // Every tile of the view, billboards (every candidate) and the opaque surface (closest hit).
 std::size_t check_smoke_view(const SmokeView& v, glm::vec2 offset) {
     std::size_t seen = 0;
@@ -508,10 +517,8 @@ TEST_CASE("Mesh BLAS tile query: a wide node's children are culled as outside() 
     Pcg32 rng(73);
     long visible = 0, culled = 0;
     for (int k = 0; k < 400; ++k) {
-        const glm::vec3 eye = rng.uniform(0.0f, 20.0f) * random_unit(rng);
-        const glm::vec3 at = eye + random_unit(rng);
-        const glm::vec3 up = std::abs(glm::normalize(at - eye).y) > 0.99f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0);
-        const Camera cam(eye, at, up, rng.uniform(5.0f, 120.0f), 256, 256);
+        const Camera cam = random_camera(rng, 20.0f);
+        const glm::vec3& eye = cam.position();
         const RayTile tile = cam.tile(int(rng.below(240)), int(rng.below(240)), 16, 16, glm::vec2(0.5f), 0.0f);
         float bounds[6][8];
         Aabb boxes[8];
@@ -659,10 +666,8 @@ TEST_CASE("ray tile: shadow_lanes() keeps every ray that meets the box", "[trace
     Pcg32 rng(31);
     long met = 0, narrow_shadows = 0;
     for (int k = 0; k < 2000; ++k) {
-        const glm::vec3 eye = rng.uniform(0.0f, 10.0f) * random_unit(rng);
-        const glm::vec3 at = eye + random_unit(rng);
-        const glm::vec3 up = std::abs(glm::normalize(at - eye).y) > 0.99f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0);
-        const Camera cam(eye, at, up, rng.uniform(5.0f, 120.0f), 256, 256);
+        const Camera cam = random_camera(rng, 10.0f);
+        const glm::vec3& eye = cam.position();
         const int columns = 1 + int(rng.below(kTileColumns)), rows = 1 + int(rng.below(kTileRows));
         const RayTile tile = cam.tile(int(rng.below(240)), int(rng.below(240)), columns, rows, glm::vec2(0.5f), 0.0f);
         // Around a ray of the grid (behind the eye too), of a size from a thousandth to twice its distance.
