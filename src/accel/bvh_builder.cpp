@@ -681,7 +681,6 @@ void leaf_order(const Bvh& top, std::uint32_t node, std::vector<std::uint32_t>& 
     leaf_order(top, n.first + 1, order);
 }
 
-
 template <class Group>
 Bvh build_grouped(std::span<const Aabb> prim_boxes, std::span<const Group> group_of, const BvhBuildSettings& settings) {
     if (group_of.size() != prim_boxes.size()) throw std::invalid_argument("build_grouped_bvh: one group per primitive");
