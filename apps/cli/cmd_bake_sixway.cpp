@@ -29,7 +29,8 @@ int run_bake_sixway(const Args& args) {
     reader.finish();
     const std::filesystem::path folder = out ? std::filesystem::path(*out) : find_assets(std::nullopt, "-o");
     std::error_code ec;
-    if (!std::filesystem::is_directory(folder, ec)) throw CliError("-o: '" + folder.string() + "' is not an existing folder");
+    if (!std::filesystem::is_directory(folder, ec))
+        throw CliError("-o: " + quoted_arg(folder.string()) + " is not an existing folder");
     // Before baking: each of the three files can be written (none is a folder, the folder takes new files).
     for (const std::string_view name : {kSixwayPositiveFile, kSixwayNegativeFile, kSixwayLayoutFile})
         (void)checked_output(folder / name, {});
@@ -38,10 +39,12 @@ int run_bake_sixway(const Args& args) {
     const SixwayBake bake = bake_sixway(settings);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     write_sixway_bake(folder, bake);
-    std::cout << "baked " << bake.grid.frames << " frames of " << settings.tile << "x" << settings.tile << " ("
+    // On standard error, as every command's "wrote": standard output is for what a command was asked to print.
+    std::cerr << "baked " << bake.grid.frames << " frames of " << settings.tile << "x" << settings.tile << " ("
               << bake.positive.width << "x" << bake.positive.height << " atlases) in " << seconds << " s\nwrote "
-              << (folder / kSixwayPositiveFile).string() << ", " << (folder / kSixwayNegativeFile).string() << ", "
-              << (folder / kSixwayLayoutFile).string() << "\n";
+              << shown_text((folder / kSixwayPositiveFile).string(), kMaxShownPathBytes) << ", "
+              << shown_text((folder / kSixwayNegativeFile).string(), kMaxShownPathBytes) << ", "
+              << shown_text((folder / kSixwayLayoutFile).string(), kMaxShownPathBytes) << "\n";
     return 0;
 }
 

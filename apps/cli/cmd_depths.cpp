@@ -2,6 +2,7 @@
 #include "arguments.hpp"
 #include "command.hpp"
 #include "output_arg.hpp"
+#include "progress_bar.hpp"
 #include "thread_limit.hpp"
 
 #include <smoketrace/io/depths_csv.hpp>
@@ -20,7 +21,7 @@ HitSort parse_sort(const std::string& s) {
     if (s == "adaptive") return HitSort::adaptive;
     if (s == "std") return HitSort::std_sort;
     if (s == "bubble") return HitSort::bubble;
-    throw CliError("--sort: '" + s + "' is not one of adaptive, std, bubble");
+    throw CliError("--sort: " + quoted_arg(s) + " is not one of adaptive, std, bubble");
 }
 
 int run_depths(const Args& args) {
@@ -40,7 +41,9 @@ int run_depths(const Args& args) {
     std::optional<StandInShape> shape;
     if (shape_arg) {
         shape = parse_stand_in_shape(*shape_arg);
-        if (!shape) throw CliError("--shape: '" + *shape_arg + "' is not sphere, icosahedron or icosphere:L (L = 1…4)");
+        if (!shape)
+            throw CliError("--shape: " + quoted_arg(*shape_arg) +
+                           " is not sphere, icosahedron or icosphere:L (L = 1…4)");
     }
     const HitSort sort = sort_arg ? parse_sort(*sort_arg) : HitSort::adaptive;
     const ThreadLimit limit(threads ? int(*threads) : 0);
@@ -49,6 +52,9 @@ int run_depths(const Args& args) {
     // With the CSV on standard output, the timings go to standard error.
     std::ostream& report = output.kind == OutputKind::standard_output ? std::cerr : std::cout;
 
+    ProgressBar progress(std::uint64_t(repeat ? *repeat : 1), "repeat");
+    WorkProgress* const work = progress.work();
+    if (work) work->begin("reading the scene", 0);
     StageClock read_clock;
     const SceneDescription desc = load_scene_file(scene_path);
     const double read_ms = read_clock.lap_ms();
@@ -57,6 +63,7 @@ int run_depths(const Args& args) {
     if (desc.ground) ground = GroundQuad{desc.ground->corners};
     OpticalDepthSettings settings;
     settings.cutoff = cutoff ? std::uint32_t(*cutoff) : desc.render.cutoff;
+    settings.progress = work;
     const std::vector<std::uint32_t> all = particle_group(particles.size(), 1, 0);
 
     std::vector<FrameTimings> runs;
@@ -64,6 +71,7 @@ int run_depths(const Args& args) {
     for (long long r = 0; r < (repeat ? *repeat : 1); ++r) {
         FrameTimings t;
         StageClock clock;
+        if (work) work->begin("TLAS build", 0);
         SmokeScene smoke(particles, shape ? *shape : desc.smoke.shape, ground, /*billboards=*/false);
         smoke.update(particles, desc.camera.position);
         t.tlas_update = clock.lap_ms();
@@ -71,14 +79,20 @@ int run_depths(const Args& args) {
         depths->update(smoke, particles, all, desc.light.direction, settings, sort, t);
         t.total = t.tlas_update + t.od_pass + t.resolve;
         runs.push_back(t);
+        progress.step();
     }
 
+    if (work) work->begin("writing the CSV", 0);
     StageClock write_clock;
     write_output(*out_path, [&](std::ostream& out) {
         for (const std::string& piece : format_depths_csv(depths->lengths(), depths->hit_counts(), depths->status()))
             out.write(piece.data(), std::streamsize(piece.size()));
     });
     const double write_ms = write_clock.lap_ms();
+    progress.finish();
+    std::cerr << (output.kind == OutputKind::standard_output ? std::string("wrote the CSV to standard output")
+                                                             : "wrote " + shown_text(*out_path, kMaxShownPathBytes))
+              << " (" << particles.size() << (particles.size() == 1 ? " particle)\n" : " particles)\n");
     // The stages, then reading the scene and writing the CSV (once each, whatever --repeat says).
     if (timings) report << format_timings(median(runs), false) << "read_scene=" << read_ms << "\nwrite_csv=" << write_ms
                         << '\n';

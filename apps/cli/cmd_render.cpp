@@ -27,7 +27,7 @@ RenderMode parse_mode(const std::string& s) {
     if (s == "basic") return RenderMode::basic;
     if (s == "simple-shadow") return RenderMode::simple_shadow;
     if (s == "full") return RenderMode::full;
-    throw CliError("--mode: '" + s + "' is not one of basic, simple-shadow, full");
+    throw CliError("--mode: " + quoted_arg(s) + " is not one of basic, simple-shadow, full");
 }
 
 // An existing file that is not a regular file or a folder (a FIFO, a device): a single frame streamed into it
@@ -63,7 +63,9 @@ FramesArg parse_frames(const std::optional<std::string>& text) {
     }
     const long long a = parse_integer(text->substr(0, colon), "--frames A:B: A", 0, kMaxSceneFrames - 1);
     const long long b = parse_integer(text->substr(colon + 1), "--frames A:B: B", 1, kMaxSceneFrames);
-    if (a >= b) throw CliError("--frames " + *text + ": A must be less than B (frames A … B-1 are rendered)");
+    if (a >= b)
+        throw CliError("--frames " + shown_text(*text, kMaxShownPathBytes) +
+                       ": A must be less than B (frames A … B-1 are rendered)");
     f.range = std::pair{std::uint32_t(a), std::uint32_t(b)};
     return f;
 }
@@ -93,10 +95,10 @@ int run_render(const Args& args) {
     // Checks that need no file read, before the scene is loaded; every frame's path is checked below.
     if (!to_stdout) {
         if (out.extension() != ".png" && !is_existing_stream(out))
-            throw CliError("-o: '" + out.string() + "' must end in .png");
+            throw CliError("-o: " + quoted_arg(out.string()) + " must end in .png");
         const std::filesystem::path out_dir = out.has_parent_path() ? out.parent_path() : ".";
         if (!std::filesystem::is_directory(out_dir))
-            throw CliError("-o: folder '" + out_dir.string() + "' does not exist");
+            throw CliError("-o: folder " + quoted_arg(out_dir.string()) + " does not exist");
     }
 
     const ThreadLimit limit(threads ? int(*threads) : 0);
@@ -126,19 +128,22 @@ int run_render(const Args& args) {
     if (cutoff) options.render.cutoff = std::uint32_t(*cutoff);
     if (shape_arg) {
         const auto s = parse_stand_in_shape(*shape_arg);
-        if (!s) throw CliError("--shape: '" + *shape_arg + "' is not sphere, icosahedron or icosphere:L (L = 1…4)");
+        if (!s)
+            throw CliError("--shape: " + quoted_arg(*shape_arg) +
+                           " is not sphere, icosahedron or icosphere:L (L = 1…4)");
         options.shape = *s;
     }
     if (compositing) {
         if (*compositing == "over") options.render.compositing = Compositing::over;
         else if (*compositing == "thesis") options.render.compositing = Compositing::thesis;
-        else throw CliError("--compositing: '" + *compositing + "' is not over or thesis");
+        else throw CliError("--compositing: " + quoted_arg(*compositing) + " is not over or thesis");
     }
     if (compositor) {
         if (*compositor == "tiled") options.compositor = CompositorKind::tiled;
         else if (*compositor == "one-traversal") options.compositor = CompositorKind::one_traversal;
         else if (*compositor == "retrace") options.compositor = CompositorKind::retrace;
-        else throw CliError("--compositor: '" + *compositor + "' is not one of tiled, one-traversal, retrace");
+        else throw CliError("--compositor: " + quoted_arg(*compositor) + " is not one of tiled, one-traversal, "
+                            "retrace");
     }
     if (spp) options.render.spp = std::uint32_t(*spp);
     const std::uint32_t frame_count = options.render.frames;
@@ -154,7 +159,7 @@ int run_render(const Args& args) {
         throw CliError("-o -: standard output takes one frame, not " + std::to_string(frame_count) +
                        " (--frames or the scene's render.frames); write a sequence with -o OUT.png");
     if (frame_count > 1 && out.extension() != ".png")
-        throw CliError("-o: '" + out.string() + "' must end in .png (it names the files of a sequence)");
+        throw CliError("-o: " + quoted_arg(out.string()) + " must end in .png (it names the files of a sequence)");
     if (assets && textures) throw CliError("--assets and --textures name the same folder: give one");
     const std::filesystem::path texture_dir =
         textures ? find_assets(textures, "--textures") : find_assets(assets, "--assets");
@@ -167,16 +172,21 @@ int run_render(const Args& args) {
         if (checked_output(frame_path(out, f, frame_count), inputs).kind == OutputKind::standard_output)
             timings_to_stderr = true;
     std::ostream& report = timings_to_stderr ? std::cerr : std::cout;
+    ProgressBar progress(end - first, "frame");
+    WorkProgress* const work = progress.work();
+    if (work) work->begin("reading the textures", 0);
     const SixwayTexture texture = load_sixway_texture(layout.positive, layout.negative, layout.grid);
 
+    if (work) work->begin("building the scene", 0);
     FrameRenderer renderer(scene, options, texture);
+    renderer.count_progress(work);
     renderer.skip_to(first);  // particles, light, TLAS and the groups' optical depths as the full run has them
-    ProgressBar progress(end - first);
     std::vector<FrameTimings> all;
     ImageRgba image;
     PngWriter png;  // one for the sequence: its memory is reused by every frame
     for (std::uint32_t f = first; f < end; ++f) {
         const FrameReport r = renderer.render(f, image);
+        if (work) work->begin("writing the PNG", 0);
         png.write_srgb(frame_path(out, f, frame_count), image);
         all.push_back(r.timings);
         if (timings) {
@@ -189,10 +199,11 @@ int run_render(const Args& args) {
     if (to_stdout)
         std::cerr << "wrote the PNG to standard output\n";
     else if (end - first == 1)
-        std::cerr << "wrote " << frame_path(out, first, frame_count).string() << "\n";
+        std::cerr << "wrote " << shown_text(frame_path(out, first, frame_count).string(), kMaxShownPathBytes) << "\n";
     else
-        std::cerr << "wrote " << end - first << " frames " << frame_path(out, first, frame_count).string() << " … "
-                  << frame_path(out, end - 1, frame_count).string() << "\n";
+        std::cerr << "wrote " << end - first << " frames "
+                  << shown_text(frame_path(out, first, frame_count).string(), kMaxShownPathBytes) << " … "
+                  << shown_text(frame_path(out, end - 1, frame_count).string(), kMaxShownPathBytes) << "\n";
     return 0;
 }
 
