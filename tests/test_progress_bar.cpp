@@ -38,9 +38,13 @@ struct TerminalRun {
     int exit_code = -1;
     std::string terminal;
 };
-TerminalRun run_on_terminal(const std::string& args) {
+// `columns`: the terminal's width (0: unknown).
+TerminalRun run_on_terminal(const std::string& args, unsigned short columns = 0) {
     int master = -1;
-    const pid_t child = ::forkpty(&master, nullptr, nullptr, nullptr);
+    struct winsize size{};
+    size.ws_col = columns;
+    size.ws_row = columns ? 24 : 0;
+    const pid_t child = ::forkpty(&master, nullptr, nullptr, &size);
     REQUIRE(child >= 0);
     if (child == 0) {
         const std::string command = "exec " + std::string(SMOKETRACE_CLI) + " " + args + " >/dev/null";
@@ -136,4 +140,23 @@ TEST_CASE("progress: render and depths show progress on a terminal and nothing i
         CHECK(logged.err.find('\033') == std::string::npos);
         CHECK_THAT(logged.err, Catch::StartsWith("wrote "));
     }
+}
+
+TEST_CASE("progress: a line never wraps on a narrow terminal", "[progress][cli]") {
+    const TempDir dir;
+    constexpr unsigned short kColumns = 40;
+    const TerminalRun r = run_on_terminal("render " + kScene + " --size 16x16 --frames 3 --assets " SMOKETRACE_ASSET_DIR
+                                          " -o " + (dir.path / "f.png").string(), kColumns);
+    INFO(r.terminal);
+    CHECK(r.exit_code == 0);
+    REQUIRE(r.terminal.find("] 1/3 frames") != std::string::npos);  // the bar narrowed to leave room for words
+    // Each redraw: "\r", at most kColumns - 1 characters, then "\033[K" (erase the rest of the row).
+    std::size_t drawn = 0;
+    for (std::size_t at = r.terminal.find('\r'); at != std::string::npos; at = r.terminal.find('\r', at + 1)) {
+        const std::size_t end = r.terminal.find("\033[K", at);
+        if (end == std::string::npos || r.terminal.find('\r', at + 1) < end) continue;  // not a bar's line
+        CHECK(end - at - 1 <= kColumns - 1u);
+        ++drawn;
+    }
+    CHECK(drawn >= 3);
 }

@@ -14,11 +14,20 @@
 #include <string>
 #include <thread>
 #include <vector>
+#include <sys/ioctl.h>
 #include <unistd.h>
 
 namespace smoketrace::cli {
 
 inline bool stderr_is_terminal() { return ::isatty(STDERR_FILENO) == 1; }
+
+// Columns of the terminal `out` is, 0 when unknown: a line longer than the terminal wraps, and "\r" then
+// returns only to the start of its last row, leaving the others behind.
+inline unsigned terminal_columns(std::FILE* out) {
+    struct winsize size{};
+    if (::ioctl(::fileno(out), TIOCGWINSZ, &size) != 0) return 0;
+    return size.ws_col;
+}
 
 // "12 s", "3 min 05 s", "2 h 04 min": the estimate's own precision.
 inline std::string shown_duration(double seconds) {
@@ -40,6 +49,9 @@ public:
     ProgressBar(std::uint64_t steps, const char* unit, bool on_terminal = stderr_is_terminal(), std::FILE* out = stderr)
         : steps_(steps), unit_(unit), enabled_(on_terminal), out_(out), start_(Clock::now()), step_end_(start_) {
         if (!enabled_) return;
+        columns_ = terminal_columns(out_);
+        // A quarter of a narrow terminal, so that the words after the bar still show.
+        if (columns_ > 0) width_ = std::clamp(int(columns_ / 4), kMinWidth, kMaxWidth);
         draw();
         redraw_ = std::thread([this] {
             std::unique_lock lock(mutex_);
@@ -78,7 +90,7 @@ private:
     using Clock = std::chrono::steady_clock;
     // Often enough to look alive, rarely enough to cost nothing.
     static constexpr auto kRedrawInterval = std::chrono::milliseconds(200);
-    static constexpr int kWidth = 30;
+    static constexpr int kMaxWidth = 30, kMinWidth = 8;
 
     static double seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
 
@@ -120,10 +132,11 @@ private:
         parts.push_back(shown_duration(seconds(now - start_)) + " so far");
 
         const double bar = steps_ > 1 ? double(done_) / double(steps_) : stage_fraction;
-        const int filled = int(kWidth * bar);
+        const int filled = int(width_ * bar);
         std::string line = "\r[";
-        line.append(std::size_t(filled), '#').append(std::size_t(kWidth - filled), ' ').append("] ");
+        line.append(std::size_t(filled), '#').append(std::size_t(width_ - filled), ' ').append("] ");
         for (std::size_t i = 0; i < parts.size(); ++i) line.append(i ? ", " : "").append(parts[i]);
+        if (columns_ > 1 && line.size() > columns_) line.resize(columns_);  // "\r" and columns_ - 1 characters
         line.append("\033[K");
         std::fputs(line.c_str(), out_);
         std::fflush(out_);
@@ -135,6 +148,8 @@ private:
     std::FILE* const out_;
     WorkProgress work_;
     const Clock::time_point start_;
+    unsigned columns_ = 0;
+    int width_ = kMaxWidth;  // of the bar
     std::mutex mutex_;
     std::condition_variable stop_;
     bool stopping_ = false;
