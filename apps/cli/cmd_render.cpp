@@ -185,13 +185,15 @@ int run_render(const Args& args) {
     ImageRgba image;
     PngWriter png;  // one for the sequence: its memory is reused by every frame
     for (std::uint32_t f = first; f < end; ++f) {
-        if (work) work->begin("moving the particles", 0);  // until render() names its next stage
         const FrameReport r = renderer.render(f, image);
         if (work) work->begin("writing the PNG", 0);
         png.write_srgb(frame_path(out, f, frame_count), image);
+        if (work) work->begin("moving the particles", 0);  // the next frame's, until render() names its stage
         all.push_back(r.timings);
         if (timings) {
+            progress.clear_line();
             report << "frame=" << f << " tlas=" << to_string(r.tlas) << "\n" << format_timings(r.timings, true);
+            report.flush();
         }
         progress.step();
     }

@@ -72,6 +72,14 @@ public:
         step_end_ = Clock::now();
         if (enabled_) draw_locked();
     }
+    // Clears the bar's line for a line of text (the next redraw brings the bar back below it): standard output
+    // and standard error are often the same terminal.
+    void clear_line() {
+        std::lock_guard lock(mutex_);
+        if (!enabled_) return;
+        std::fputs("\r\033[K", out_);
+        std::fflush(out_);
+    }
     // The run is over: the line is cleared, so that what the command prints next starts on a clean line.
     void finish() {
         {
