@@ -188,7 +188,8 @@ int run_render(const Args& args) {
         const FrameReport r = renderer.render(f, image);
         if (work) work->begin("writing the PNG", 0);
         png.write_srgb(frame_path(out, f, frame_count), image);
-        if (work) work->begin("moving the particles", 0);  // the next frame's, until render() names its stage
+        // The next frame's first stage, until render() names the next.
+        if (work && f + 1 < end) work->begin("moving the particles", 0);
         all.push_back(r.timings);
         if (timings) {
             progress.clear_line();

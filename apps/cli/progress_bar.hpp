@@ -123,7 +123,7 @@ private:
         if (steps_ > 1)
             parts.push_back(
                 std::to_string(done_).append("/").append(std::to_string(steps_)).append(" ").append(unit_).append("s"));
-        if (stage && done_ < steps_) {
+        if (stage) {
             parts.emplace_back(stage);
             if (total > 0) parts.back().append(" ").append(std::to_string(int(100.0 * stage_fraction))).append("%");
         }
