@@ -5,6 +5,7 @@
 #include <smoketrace/render/scene_description.hpp>
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
@@ -109,6 +110,11 @@ std::vector<Chord> chords_of(std::span<const StoryHit> hits) {
 
 std::string format_number(double v) {
     if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+    // Most of a story's numbers are floats: the shortest text that reads back as the float, as `depths` writes.
+    if (const float f = float(v); double(f) == v) {
+        char text[32];
+        return std::string(text, std::to_chars(text, text + sizeof text, f).ptr);
+    }
     return fmt("%.9g", v);
 }
 

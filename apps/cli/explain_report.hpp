@@ -11,7 +11,8 @@
 
 namespace smoketrace::cli {
 
-// Numbers as the text prints them: %.9g (a float read back is the same float; `depths` writes l alike).
+// Numbers as the text prints them: a float as the shortest text that reads back as it (`depths` writes l
+// alike), any other double as %.9g.
 std::string format_number(double v);
 
 // Positions are printed in world coordinates: `origin` (the scene's, SceneDescription::origin) plus the
