@@ -5,6 +5,7 @@
 #include <smoketrace/render/pixel_story.hpp>
 #include <smoketrace/smoke/optical_depth_story.hpp>
 
+#include <cstdint>
 #include <ostream>
 #include <span>
 #include <string>
@@ -21,9 +22,10 @@ void write_particle_text(std::ostream& out, const OpticalDepthStory& story, std:
                          const std::string& scene_name, const char* shape_name, const glm::dvec3& origin);
 void write_particle_svg(std::ostream& out, const OpticalDepthStory& story, const std::string& scene_name);
 
-// `rendered`: the pixel the frame's render_view() wrote, shown beside the explained one.
+// `rendered`: the pixel the frame's render_view() wrote, shown beside the explained one; `frame`: which frame
+// of the sequence the story is of.
 void write_pixel_text(std::ostream& out, const PixelStory& story, const glm::vec3& rendered,
-                      const std::string& scene_name, const glm::dvec3& origin);
-void write_pixel_svg(std::ostream& out, const PixelStory& story, const std::string& scene_name);
+                      const std::string& scene_name, std::uint64_t frame, const glm::dvec3& origin);
+void write_pixel_svg(std::ostream& out, const PixelStory& story, const std::string& scene_name, std::uint64_t frame);
 
 }  // namespace smoketrace::cli
