@@ -90,7 +90,7 @@ int run_explain(const Args& args) {
             throw CliError("--particle: " + std::to_string(*particle_arg) + " is out of range: " + scene_path +
                            " has " + std::to_string(particles.size()) + " particles, 0…" +
                            std::to_string(particles.size() - 1));
-        // What `smoketrace depths` traces: the scene's stand-ins and cutoff, frame 0's particles and light.
+        // What `smoketrace depths` traces with the same --shape and --cutoff: frame 0's particles and light.
         std::optional<GroundQuad> ground;
         if (desc.ground) ground = GroundQuad{desc.ground->corners};
         SmokeScene smoke(particles, options.shape, ground, /*billboards=*/false);
