@@ -5,11 +5,22 @@
 
 #include <smoketrace/io/output_path.hpp>
 
+#include <algorithm>
+#include <cctype>
 #include <filesystem>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace smoketrace::cli {
+
+// Whether `path` ends in `extension` (".png") in any case: out.PNG is what some systems and cameras write.
+inline bool has_extension(const std::filesystem::path& path, std::string_view extension) {
+    const std::string e = path.extension().string();
+    return std::equal(e.begin(), e.end(), extension.begin(), extension.end(), [](char a, char b) {
+        return std::tolower(static_cast<unsigned char>(a)) == std::tolower(static_cast<unsigned char>(b));
+    });
+}
 
 inline OutputTarget checked_output(const std::filesystem::path& path,
                                    const std::vector<std::filesystem::path>& inputs) {
