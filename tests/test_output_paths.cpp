@@ -547,6 +547,51 @@ TEST_CASE("output cli: an output that is an input is refused before any work, th
                                    "textures"});
 }
 
+TEST_CASE("output cli: the PLY point cloud a scene reads is an input too: -o onto it is refused, it is unchanged",
+          "[output][cli]") {
+    TempDir dir;
+    const std::string ply_text = "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n"
+                                 "property float z\nproperty float radius\nend_header\n0 0 0 0.5\n0.6 0.1 0 0.4\n";
+    const fs::path ply = dir.write("cloud.ply", ply_text);
+    const fs::path scene = dir.write("s.json", R"({ "light": { "direction": [0.3, 1, 0.2] },
+        "smoke": { "particles": "cloud.ply" } })");
+    // Other names of the same file, as the other commands' extensions want them.
+    fs::create_hard_link(ply, dir.path / "frame.png");
+    fs::create_hard_link(ply, dir.path / "seq_0001.png");
+    fs::create_hard_link(ply, dir.path / "story.svg");
+    fs::create_symlink("cloud.ply", dir.path / "link.csv");
+    struct Case {
+        std::string args;
+        fs::path out;
+    };
+    const Case cases[] = {
+        {"depths " + scene.string() + " --timings", ply},  // the issue's case: the CSV replaced the cloud
+        {"depths " + scene.string() + " --timings", dir.path / "link.csv"},
+        {"render " + scene.string() + " --size 8x8 --timings", dir.path / "frame.png"},
+        {"render " + scene.string() + " --size 8x8 --frames 2 --timings", dir.path / "seq.png"},
+        {"explain " + scene.string() + " --particle 0", dir.path / "story.svg"},
+    };
+    for (const Case& c : cases) {
+        INFO(c.args << " -o " << c.out);
+        const CliRun r = run_cli_stdout(c.args + " -o " + c.out.string());
+        INFO(r.err);
+        CHECK(r.exit_code == 2);
+        // Both paths named: the output as given, and the input as the scene names it.
+        CHECK(r.err.find("is the same file as the input '" + ply.string() + "'") != std::string::npos);
+        CHECK(r.err.find("-o: " + (c.out == dir.path / "seq.png" ? dir.path / "seq_0001.png" : c.out).string()) !=
+              std::string::npos);
+        CHECK(r.out.empty());  // nothing traced: no timings, no story
+        CHECK(file_bytes(ply) == ply_text);
+    }
+    CHECK(names_in(dir.path) ==
+          std::vector<std::string>{"cloud.ply", "frame.png", "link.csv", "s.json", "seq_0001.png", "story.svg"});
+    // The scene itself still renders: the refusal is about the output, not the cloud.
+    const CliRun ok = run_cli("depths " + scene.string() + " -o " + (dir.path / "d.csv").string());
+    INFO(ok.err);
+    CHECK(ok.exit_code == 0);
+    CHECK(file_bytes(dir.path / "d.csv").rfind(kCsvHeader, 0) == 0);
+}
+
 TEST_CASE("output cli: an output that is a folder is refused before any work", "[output][cli]") {
     TempDir dir;
     fs::create_directories(dir.path / "taken.csv");
