@@ -157,6 +157,10 @@ bool TemporaryFile::rename_to(const fs::path& target) {
 
 void rename_together(std::span<TemporaryFile* const> files, std::span<const fs::path> targets) {
     if (files.size() != targets.size()) throw std::invalid_argument("rename_together: one target per file");
+    // Everything that allocates comes first, so that nothing below throws while slots are busy.
+    std::vector<fs::path> names(files.size()), backups(files.size());
+    std::vector<bool> existed(files.size());
+    for (std::size_t i = 0; i < files.size(); ++i) names[i] = backup_name(targets[i]);
     HoldSignals hold;
     // Busy: a handler running in another thread now waits until the group is in place or rolled back.
     for (TemporaryFile* f : files) {
@@ -164,13 +168,10 @@ void rename_together(std::span<TemporaryFile* const> files, std::span<const fs::
         if (f->slot_ >= 0) g_slots[f->slot_].state.compare_exchange_strong(expected, kBusy);
     }
     // The old files stay reachable under a second name until every new one is in place.
-    std::vector<fs::path> backups(files.size());
-    std::vector<bool> existed(files.size());
     for (std::size_t i = 0; i < files.size(); ++i) {
         struct stat st{};
         existed[i] = ::lstat(targets[i].c_str(), &st) == 0;
-        const fs::path backup = backup_name(targets[i]);
-        if (existed[i] && ::link(targets[i].c_str(), backup.c_str()) == 0) backups[i] = backup;
+        if (existed[i] && ::link(targets[i].c_str(), names[i].c_str()) == 0) backups[i].swap(names[i]);
     }
     std::size_t done = 0;
     int error = 0;
@@ -200,8 +201,10 @@ void rename_together(std::span<TemporaryFile* const> files, std::span<const fs::
     for (const fs::path& b : backups)
         if (!b.empty()) ::unlink(b.c_str());
     // Renamed files leave the table; the rest are listed again, for their destructors to remove.
-    for (TemporaryFile* f : files)
-        if (f->slot_ >= 0) g_slots[f->slot_].state.store(f->renamed_ ? kFree : kListed);
+    for (TemporaryFile* f : files) {
+        int expected = kBusy;  // a slot the handler took before the group began stays taken
+        if (f->slot_ >= 0) g_slots[f->slot_].state.compare_exchange_strong(expected, f->renamed_ ? kFree : kListed);
+    }
     for (TemporaryFile* f : files)
         if (f->renamed_) f->slot_ = -1;
     if (error != 0)
