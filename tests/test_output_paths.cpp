@@ -729,15 +729,20 @@ TEST_CASE("output cli: a sequence killed at random moments leaves no temporary f
         REQUIRE(pid > 0);
         return pid;
     };
-    // A whole run, timed: the kills are spread over its length, so that they land before, between, during
-    // and after frame writes on any machine (a sanitizer build is many times slower).
-    const auto t0 = std::chrono::steady_clock::now();
+    // Whole runs, timed: the kills are spread over the length of the fastest, so that they land before,
+    // between, during and after frame writes on any machine (a sanitizer build is many times slower), and a
+    // run slowed by other work on the machine does not stretch the window past most runs' end.
+    auto run_us = std::chrono::microseconds::max();
     int status = 0;
-    const pid_t whole = start(dir.path);
-    REQUIRE(::waitpid(whole, &status, 0) == whole);
-    const auto run_us = std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now() - t0);
-    REQUIRE((WIFEXITED(status) ? WEXITSTATUS(status) : -1) == 0);
-    REQUIRE(names_in(dir.path).size() == std::size_t(kFrames));
+    for (int i = 0; i < 3; ++i) {
+        const auto t0 = std::chrono::steady_clock::now();
+        const pid_t whole = start(dir.path);
+        REQUIRE(::waitpid(whole, &status, 0) == whole);
+        run_us = std::min(run_us, std::chrono::duration_cast<std::chrono::microseconds>(
+                                      std::chrono::steady_clock::now() - t0));
+        REQUIRE((WIFEXITED(status) ? WEXITSTATUS(status) : -1) == 0);
+        REQUIRE(names_in(dir.path).size() == std::size_t(kFrames));
+    }
     std::uint64_t seed = 0x9E3779B97F4A7C15ull;
     int mid_sequence = 0;  // kills that found some frames written and some not: the case under test
     for (int k = 0; k < kKills; ++k) {
