@@ -23,8 +23,10 @@ namespace fs = std::filesystem;
 namespace {
 
 // The signals that end a program by default and that a user or a scheduler sends to stop a run (or that
-// a write itself raises: SIGPIPE, SIGXFSZ). SIGKILL cannot be caught: nothing can clean up after it.
-constexpr std::array kSignals{SIGHUP, SIGINT, SIGQUIT, SIGTERM, SIGPIPE, SIGXCPU, SIGXFSZ};
+// a write itself raises: SIGPIPE, SIGXFSZ), and those of a crash or an abort() (std::terminate, a failed
+// assertion): an error path too. SIGKILL cannot be caught: nothing can clean up after it.
+constexpr std::array kSignals{SIGHUP, SIGINT, SIGQUIT, SIGTERM, SIGPIPE, SIGXCPU, SIGXFSZ,
+                              SIGABRT, SIGBUS, SIGFPE, SIGILL, SIGSEGV};
 
 // More temporary files than the program ever has at once (one per output being written, three for a
 // six-way bake); a file that finds the table full is still removed on every error, only not on a signal.

@@ -52,9 +52,11 @@ void rename_together(std::span<TemporaryFile* const> files, std::span<const std:
 void remove_temporary_files() noexcept;
 
 // For a program (the command line calls it first; the library never does): for each of SIGHUP, SIGINT,
-// SIGQUIT, SIGTERM, SIGPIPE, SIGXCPU and SIGXFSZ whose disposition is the default, a handler that removes
-// the temporary files, restores the default and raises the signal again, so that the program ends as the
-// signal would have ended it (a shell sees status 128 + N). A signal the parent ignores stays ignored.
+// SIGQUIT, SIGTERM, SIGPIPE, SIGXCPU, SIGXFSZ and the signals of a crash or an abort() (SIGABRT, SIGBUS,
+// SIGFPE, SIGILL, SIGSEGV) whose disposition is the default, a handler that removes the temporary files,
+// restores the default and raises the signal again, so that the program ends as the signal would have
+// ended it (a shell sees status 128 + N). A signal the parent ignores stays ignored; one a sanitizer
+// catches stays the sanitizer's.
 void remove_temporary_files_on_signals();
 
 }  // namespace smoketrace
