@@ -193,7 +193,8 @@ void fill_temporary(TemporaryFile& tmp, const OutputTarget& target, const std::f
     struct stat old{};
     if (::stat(file.c_str(), &old) == 0 && S_ISREG(old.st_mode)) (void)::fchmod(tmp.fd(), old.st_mode & 0777);
     write_to(tmp.fd(), what, write);
-    if (tmp.close() != 0 && errno != EINTR) throw std::runtime_error(what + ": write failed (" + errno_text(errno) + ")");
+    if (tmp.close() != 0 && errno != EINTR)
+        throw std::runtime_error(what + ": write failed (" + errno_text(errno) + ")");
 }
 
 void write_replacing(const OutputTarget& target, const std::function<void(std::ostream&)>& write) {
