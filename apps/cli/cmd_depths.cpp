@@ -47,6 +47,7 @@ int run_depths(const Args& args) {
     StageClock read_clock;
     const SceneDescription desc = load_scene_file(scene_path);
     const double read_ms = read_clock.lap_ms();
+    check_output_not_input(output, scene_inputs(scene_path, desc));  // the PLY it names, now known
     const auto& particles = desc.smoke.particles;
     std::optional<GroundQuad> ground;
     if (desc.ground) ground = GroundQuad{desc.ground->corners};
@@ -70,7 +71,7 @@ int run_depths(const Args& args) {
     }
 
     StageClock write_clock;
-    write_output(*out_path, [&](std::ostream& out) {
+    write_output(output, [&](std::ostream& out) {
         for (const std::string& piece : format_depths_csv(depths->lengths(), depths->hit_counts(), depths->status()))
             out.write(piece.data(), std::streamsize(piece.size()));
     });

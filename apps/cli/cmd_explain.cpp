@@ -81,6 +81,7 @@ int run_explain(const Args& args) {
 
     const SceneDescription desc = load_scene_file(scene_path);
     const RenderOptions options = overrides.render_options(desc);
+    if (target) check_output_not_input(*target, scene_inputs(scene_path, desc));  // the PLY it names
     const std::string scene_name = std::filesystem::path(scene_path).filename().string();
     std::ostringstream svg;
     if (particle_arg) {
@@ -116,7 +117,7 @@ int run_explain(const Args& args) {
                            ", y 0…" + std::to_string(options.height - 1) +
                            "; --size, else the scene's camera.width and height)");
         const SixwayLayout layout = read_sixway_layout(*texture_dir / kSixwayLayoutFile);
-        if (target) check_not_an_input(*target, {layout.positive, layout.negative});
+        if (target) check_output_not_input(*target, {layout.positive, layout.negative});
         const SixwayTexture texture = load_sixway_texture(layout.positive, layout.negative, layout.grid);
         // The frame as `render` draws it with the same options (mode, compositing, spp, size, groups, cutoff,
         // shape), brought there as render --frames A:B brings it, then that frame's pixel.

@@ -88,8 +88,8 @@ int run_render(const Args& args) {
         textures ? find_assets(textures, "--textures") : find_assets(assets, "--assets");
     const SixwayLayout layout = read_sixway_layout(texture_dir / kSixwayLayoutFile);
     // Before any work: no frame may be written onto an input, a folder or into a missing folder.
-    const std::vector<std::filesystem::path> inputs{scene_path, texture_dir / kSixwayLayoutFile, layout.positive,
-                                                    layout.negative};
+    std::vector<std::filesystem::path> inputs = scene_inputs(scene_path, scene);
+    inputs.insert(inputs.end(), {texture_dir / kSixwayLayoutFile, layout.positive, layout.negative});
     bool timings_to_stderr = false;  // the PNG is on standard output: nothing else may go there
     for (std::uint32_t f = first; f < end; ++f)
         if (checked_output(frame_path(out, f, frame_count), inputs).kind == OutputKind::standard_output)
