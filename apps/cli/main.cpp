@@ -3,6 +3,8 @@
 #include "assets.hpp"
 #include "command.hpp"
 
+#include <smoketrace/io/temporary_file.hpp>
+
 #include <algorithm>
 #include <cerrno>
 #include <cstdio>
@@ -115,6 +117,8 @@ int checked_standard_output(std::string_view name, int code) {
 
 int run(int argc, char** argv) {
     using namespace smoketrace::cli;
+    // ^C or a scheduler's SIGTERM while a file is being written must not leave its temporary file behind.
+    smoketrace::remove_temporary_files_on_signals();
     if (argc < 2) return command_error("missing command (usage: smoketrace <command> [arguments])");
     const std::string name = argv[1];
     if (name == "--version" || name == "-V") {
