@@ -10,6 +10,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -188,4 +189,69 @@ TEST_CASE("cli assets: beside the binary, from SMOKETRACE_ASSETS or --assets, el
         fs::copy_file(fs::path(SMOKETRACE_ASSET_DIR) / f, share / f);
     CHECK(run(render).exit_code == 0);
     CHECK(fs::exists(png));
+}
+
+TEST_CASE("cli help: a mistyped or missing command gets one line and the list of commands, not every option", "[cli]") {
+    for (const std::string& args : {std::string("rendr"), std::string("")}) {
+        INFO("smoketrace " << args);
+        const Run r = cli(args);
+        INFO(r.err);
+        CHECK(r.exit_code == 2);
+        CHECK(r.out.empty());
+        CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 2);
+        CHECK_THAT(r.err, Catch::Contains("\ncommands: bake-sixway, depths, explain, render ("));
+        CHECK_THAT(r.err, !Catch::Contains("--size"));
+    }
+    CHECK_THAT(cli("rendr").err, Catch::StartsWith("smoketrace: unknown command 'rendr' (did you mean render?)\n"));
+    CHECK_THAT(cli("").err, Catch::StartsWith("smoketrace: missing command"));
+    CHECK_THAT(cli("frobnicate").err, !Catch::Contains("did you mean"));  // nothing is two edits from it
+}
+
+TEST_CASE("cli help: help help says what help does", "[cli]") {
+    for (const char* args : {"help help", "help --help"}) {
+        const Run r = cli(args);
+        CHECK(r.exit_code == 0);
+        CHECK_THAT(r.out, Catch::StartsWith("usage: smoketrace help [command]"));
+        CHECK(r.err.empty());
+    }
+}
+
+TEST_CASE("cli: standard output that cannot be written is an error for every command, not exit 0", "[cli]") {
+    if (!fs::exists("/dev/full")) {
+        WARN("no /dev/full here: skipped");
+        return;
+    }
+    const TempDir dir;
+    const fs::path err = dir.path / "err";
+    for (const std::string& args :
+         {std::string("--help"), std::string("--version"), std::string("help render"), std::string("render --help"),
+          std::string("help help"), "explain " + kScene + " --particle 0", "depths " + kScene + " -o -"}) {
+        INFO("smoketrace " << args);
+        const int status =
+            std::system((std::string(SMOKETRACE_CLI) + " " + args + " >/dev/full 2>" + err.string()).c_str());
+        const std::string message = read_text(err);
+        INFO(message);
+        CHECK(WIFEXITED(status));
+        CHECK(WEXITSTATUS(status) != 0);
+        CHECK_THAT(message, Catch::Contains("standard output"));
+    }
+}
+
+TEST_CASE("cli: every command says what it wrote, on standard error", "[cli]") {
+    const TempDir dir;
+    struct Writes {
+        std::string args, wrote;
+    };
+    const std::string csv = (dir.path / "d.csv").string(), png = (dir.path / "r.png").string();
+    for (const Writes& w : {Writes{"depths " + kScene + " -o " + csv, "wrote " + csv + " (5 particles)\n"},
+                            Writes{"depths " + kScene + " -o -", "wrote the CSV to standard output (5 particles)\n"},
+                            Writes{"render " + kScene + " --size 8x8 -o " + png, "wrote " + png + "\n"},
+                            Writes{"bake-sixway --frames 1 --tile 4 -o " + dir.path.string(),
+                                   "wrote " + (dir.path / "sixway_pos.png").string()}}) {
+        INFO("smoketrace " << w.args);
+        const Run r = run(std::string(SMOKETRACE_CLI) + " " + w.args, "env SMOKETRACE_ASSETS=" SMOKETRACE_ASSET_DIR);
+        CHECK(r.exit_code == 0);
+        CHECK_THAT(r.err, Catch::Contains(w.wrote));
+        if (w.args.find("-o -") == std::string::npos) CHECK(r.out.empty());
+    }
 }

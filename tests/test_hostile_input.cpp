@@ -13,6 +13,7 @@
 
 #include <smoketrace/render/camera.hpp>
 #include <smoketrace/core/memory_budget.hpp>
+#include <smoketrace/core/shown_text.hpp>
 #include <smoketrace/smoke/optical_depth_pass.hpp>
 #include <smoketrace/io/png_io.hpp>
 #include <smoketrace/io/scene_file.hpp>
@@ -516,4 +517,93 @@ TEST_CASE("hostile cli: output paths that cannot be written", "[hostile][cli]") 
         }
     }
     fs::permissions(ro, fs::perms::owner_all, fs::perm_options::replace);
+}
+
+// ---- Messages a terminal can trust (issue 31) --------------------------------------------------------------
+
+namespace {
+
+// Bytes a terminal acts on: C0 controls but the newline that ends a message, DEL, and C1's CSI (0x9B).
+bool has_terminal_control(const std::string& message) {
+    for (std::size_t i = 0; i < message.size(); ++i) {
+        const auto c = static_cast<unsigned char>(message[i]);
+        if ((c < 0x20 && c != '\n') || c == 0x7F || c == 0x9B) return true;
+        if (c == 0xC2 && i + 1 < message.size() && static_cast<unsigned char>(message[i + 1]) == 0x9B) return true;
+    }
+    return false;
+}
+
+// A scene with a light and `rest`.
+std::string lit(const std::string& rest) {
+    return std::string("{").append(kLight).append(", ").append(rest).append("}");
+}
+
+}  // namespace
+
+TEST_CASE("hostile scene: keys and values are shown escaped and capped, never raw", "[hostile]") {
+    // An escape sequence that would clear the screen, and a NUL that cut the message short.
+    const std::string key = error_of(lit(R"("smoke": {"particles": [], "\u001b[2J\u0000after": 1})"));
+    INFO(key);
+    CHECK_FALSE(has_terminal_control(key));
+    CHECK(key.find(R"(/smoke/\u001b[2J\u0000after: unknown key)") != std::string::npos);
+    // A C1 CSI in a string value (valid UTF-8, which nlohmann's dump() passes through) and a tab.
+    const std::string value = error_of(lit(R"("smoke": {"particles": [], "shape": "\u009b31m\tx"})"));
+    INFO(value);
+    CHECK_FALSE(has_terminal_control(value));
+    CHECK(value.find(R"(unknown shape "\u009b31m\tx")") != std::string::npos);
+    // A key of 100 000 characters is shown by its first kMaxShownValueBytes, not whole; a value too.
+    const std::string long_key =
+        error_of(lit(R"("smoke": {"particles": [], ")" + std::string(100000, 'k') + R"(": 1})"));
+    CHECK(long_key.size() < 300);
+    CHECK(long_key.find(std::string(kMaxShownValueBytes - 3, 'k') + "...") != std::string::npos);
+    const std::string long_value =
+        error_of(lit(R"("smoke": {"particles": [], "shape": ")" + std::string(100000, 'v') + R"("})"));
+    CHECK(long_value.size() < 400);
+    // The file's own name is shown too: it came from the user.
+    const std::string named = error_of(lit(R"("smoke": 1)"), "a\x1b]0;title\x07.json");
+    CHECK_FALSE(has_terminal_control(named));
+    CHECK(named.rfind(R"(a\u001b]0;title\u0007.json: /smoke: )", 0) == 0);
+}
+
+TEST_CASE("hostile cli: arguments and paths are shown escaped and capped, never raw", "[hostile][cli]") {
+    const TempDir dir;
+    // sh's printf makes the bytes: ESC, BEL, an invalid UTF-8 byte.
+    const std::vector<Case> cases = {
+        {"render " + kScene + " -o x.png --mode \"$(printf 'a\\033[2Jb')\"", R"(--mode: 'a\u001b[2Jb')"},
+        {"depths \"$(printf 'no\\033]0;t\\007such\\377.json')\" -o " + (dir.path / "x.csv").string(),
+         R"(no\u001b]0;t\u0007such\xff.json)"},
+        {"depths " + kScene + " -o x.csv \"--$(printf '\\033[31m')\"", R"(unknown option '--\u001b[31m')"},
+        {"\"$(printf 'rend\\033[2Jer')\"", R"(unknown command 'rend\u001b[2Jer')"},
+    };
+    require_clean_failures(cases, dir, {});
+    for (const Case& c : cases) CHECK_FALSE(has_terminal_control(run_cli(c.args).err));
+    // An argument of 100 000 bytes is shown by its start.
+    const CliRun r = run_cli("render " + kScene + " -o x.png --mode " + std::string(100000, 'm'));
+    CHECK(r.exit_code == 2);
+    CHECK(r.err.size() < kMaxShownPathBytes + 200);
+}
+
+TEST_CASE("hostile scene: a value of the wrong type is named in JSON's words", "[hostile]") {
+    const std::string null_direction = error_of(R"({"light": {"direction": null}})");
+    INFO(null_direction);
+    CHECK(null_direction.find("/light/direction: must be an array of 3 numbers (got null)") != std::string::npos);
+    const auto alpha_error = [](const std::string& value) {
+        return error_of(lit(R"("smoke": {"particles": [], "alpha": )" + value + "}"));
+    };
+    CHECK_THAT(alpha_error("[1, 2]"),
+               Catch::Contains("/smoke/alpha: must be a number (got an array of 2 elements, [1,2])"));
+    CHECK_THAT(alpha_error(R"({"a": 1})"), Catch::Contains(R"((got an object, {"a":1}))"));
+    CHECK_THAT(alpha_error("[]"), Catch::Contains("(got an empty array)"));
+    CHECK_THAT(alpha_error("false"), Catch::Contains("(got false)"));
+    // 1e-400 is below the smallest double: it reads as 0, which the message must not show as the file's "0.0".
+    for (const char* list : {R"([{"center": [0, 0, 0], "radius": 1e-400}])",                  // the fast reader's list
+                             R"([{"center": [0, 0, 0], "radius": 1e-400, "spin": "x"}])"}) {  // the reference reader
+        const std::string tiny = error_of(lit(R"("smoke": {"particles": )" + std::string(list) + "}"));
+        INFO(tiny);
+        CHECK(tiny.find("/smoke/particles/0/radius: ") != std::string::npos);
+        CHECK(tiny.find("(got 1e-400, a number too close to 0 for a double, which reads as 0)") != std::string::npos);
+    }
+    const std::string huge = error_of(lit(R"("smoke": {"particles": [], "sigma_t": 1e999})"));
+    CHECK(huge.find("/smoke/sigma_t: must be finite (got 1e999, a number out of range for a double)") !=
+          std::string::npos);
 }

@@ -57,9 +57,10 @@ long long parse_integer(const std::string& text, const std::string& what, long l
     char* end = nullptr;
     const long long v = std::strtoll(text.c_str(), &end, 10);
     if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE)
-        throw CliError(what + ": '" + text + "' is not a whole number");
+        throw CliError(what + ": " + quoted_arg(text) + " is not a whole number");
     if (v < min || v > max)
-        throw CliError(what + ": " + text + " is out of range [" + std::to_string(min) + ", " + std::to_string(max) + "]");
+        throw CliError(what + ": " + shown_text(text, kMaxShownPathBytes) + " is out of range [" + std::to_string(min) +
+                       ", " + std::to_string(max) + "]");
     return v;
 }
 
@@ -68,10 +69,11 @@ double parse_number(const std::string& text, const std::string& what, double min
     char* end = nullptr;
     const double v = std::strtod(text.c_str(), &end);
     if (text.empty() || end != text.c_str() + text.size())
-        throw CliError(what + ": '" + text + "' is not a number");
-    if (!std::isfinite(v)) throw CliError(what + ": '" + text + "' is not finite");
+        throw CliError(what + ": " + quoted_arg(text) + " is not a number");
+    if (!std::isfinite(v)) throw CliError(what + ": " + quoted_arg(text) + " is not finite");
     if (v < min || v > max)
-        throw CliError(what + ": " + text + " is out of range [" + std::to_string(min) + ", " + std::to_string(max) + "]");
+        throw CliError(what + ": " + shown_text(text, kMaxShownPathBytes) + " is out of range [" + std::to_string(min) +
+                       ", " + std::to_string(max) + "]");
     return v;
 }
 
@@ -91,7 +93,7 @@ std::optional<std::pair<int, int>> ArgReader::size(const std::string& flag, int 
     auto v = take_value(flag);
     if (!v) return std::nullopt;
     const auto x = v->find('x');
-    if (x == std::string::npos) throw CliError(flag + ": '" + *v + "' is not of the form WxH");
+    if (x == std::string::npos) throw CliError(flag + ": " + quoted_arg(*v) + " is not of the form WxH");
     const auto w = parse_integer(v->substr(0, x), flag + " width", 1, max_side);
     const auto h = parse_integer(v->substr(x + 1), flag + " height", 1, max_side);
     return std::pair<int, int>{int(w), int(h)};
@@ -103,9 +105,9 @@ void ArgReader::finish() const {
         if (args_[i].size() > 1 && args_[i][0] == '-') {
             std::string known;
             for (const std::string& f : asked_) known += (known.empty() ? "" : ", ") + f;
-            throw CliError("unknown option '" + args_[i] + "' (the options: " + known + ")");
+            throw CliError("unknown option " + quoted_arg(args_[i]) + " (the options: " + known + ")");
         }
-        throw CliError("unexpected argument '" + args_[i] + "'");
+        throw CliError("unexpected argument " + quoted_arg(args_[i]));
     }
 }
 

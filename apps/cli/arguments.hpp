@@ -1,5 +1,7 @@
 #pragma once
 // Strict command-line parsing: every value is checked, and an error names the flag and the problem.
+#include <smoketrace/core/shown_text.hpp>
+
 #include <cstdint>
 #include <optional>
 #include <stdexcept>
@@ -39,6 +41,14 @@ private:
     std::vector<bool> used_;
     std::vector<std::string> asked_;  // every flag looked for, in order: the known options
 };
+
+// A command-line argument or a path in a message: 'TEXT', shown as shown_text.hpp says (escaped, capped).
+inline std::string quoted_arg(std::string_view text) {
+    std::string quoted(1, '\'');  // appended, not "'" + …: GCC 12 warns falsely (-Wrestrict) on that
+    quoted += shown_text(text, kMaxShownPathBytes);
+    quoted += '\'';
+    return quoted;
+}
 
 // Parses a whole string as a number; throws CliError naming `what` otherwise.
 long long parse_integer(const std::string& text, const std::string& what, long long min, long long max);

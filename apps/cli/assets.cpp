@@ -16,7 +16,7 @@ namespace fs = std::filesystem;
 fs::path checked_folder(const std::string& folder, std::string_view source) {
     std::error_code ec;
     if (!fs::is_directory(folder, ec))
-        throw CliError(std::string(source) + ": '" + folder + "' is not a folder (an assets folder holds " +
+        throw CliError(std::string(source) + ": " + quoted_arg(folder) + " is not a folder (an assets folder holds " +
                        std::string(kSixwayLayoutFile) + " and the PNGs it names)");
     return folder;
 }

@@ -29,22 +29,25 @@ int run_bake_sixway(const Args& args) {
     reader.finish();
     const std::filesystem::path folder = out ? std::filesystem::path(*out) : std::filesystem::path(".");
     std::error_code ec;
-    if (!std::filesystem::is_directory(folder, ec)) throw CliError("-o: '" + folder.string() + "' is not an existing folder");
+    if (!std::filesystem::is_directory(folder, ec))
+        throw CliError("-o: " + quoted_arg(folder.string()) + " is not an existing folder");
     // Before baking: each of the three files can be replaced (none is a folder or a stream, the folder takes
     // new files), as the three must be for write_sixway_bake() to put them in place together.
     for (const std::string_view name : {kSixwayPositiveFile, kSixwayNegativeFile, kSixwayLayoutFile})
         if (checked_output(folder / name, {}).kind != OutputKind::replace)
-            throw CliError("-o: " + (folder / name).string() + ": is not a regular file; the three files of a bake "
+            throw CliError("-o: " + quoted_arg((folder / name).string()) + ": is not a regular file; the three files of a bake "
                            "are replaced together, which a FIFO or a device cannot be");
 
     const auto start = std::chrono::steady_clock::now();
     const SixwayBake bake = bake_sixway(settings);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     write_sixway_bake(folder, bake);
-    std::cout << "baked " << bake.grid.frames << " frames of " << settings.tile << "x" << settings.tile << " ("
+    // On standard error, as every command's "wrote": standard output is for what a command was asked to print.
+    std::cerr << "baked " << bake.grid.frames << " frames of " << settings.tile << "x" << settings.tile << " ("
               << bake.positive.width << "x" << bake.positive.height << " atlases) in " << seconds << " s\nwrote "
-              << (folder / kSixwayPositiveFile).string() << ", " << (folder / kSixwayNegativeFile).string() << ", "
-              << (folder / kSixwayLayoutFile).string() << "\n";
+              << shown_text((folder / kSixwayPositiveFile).string(), kMaxShownPathBytes) << ", "
+              << shown_text((folder / kSixwayNegativeFile).string(), kMaxShownPathBytes) << ", "
+              << shown_text((folder / kSixwayLayoutFile).string(), kMaxShownPathBytes) << "\n";
     return 0;
 }
 

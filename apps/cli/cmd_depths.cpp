@@ -2,6 +2,7 @@
 #include "arguments.hpp"
 #include "command.hpp"
 #include "output_arg.hpp"
+#include "progress_bar.hpp"
 #include "scene_overrides.hpp"
 #include "thread_limit.hpp"
 
@@ -21,7 +22,7 @@ HitSort parse_sort(const std::string& s) {
     if (s == "adaptive") return HitSort::adaptive;
     if (s == "std") return HitSort::std_sort;
     if (s == "bubble") return HitSort::bubble;
-    throw CliError("--sort: '" + s + "' is not one of adaptive, std, bubble");
+    throw CliError("--sort: " + quoted_arg(s) + " is not one of adaptive, std, bubble");
 }
 
 int run_depths(const Args& args) {
@@ -44,6 +45,9 @@ int run_depths(const Args& args) {
     // With the CSV on standard output, the timings go to standard error.
     std::ostream& report = output.kind == OutputKind::standard_output ? std::cerr : std::cout;
 
+    ProgressBar progress(std::uint64_t(repeat ? *repeat : 1), "repeat");
+    WorkProgress* const work = progress.work();
+    if (work) work->begin("reading the scene", 0);
     StageClock read_clock;
     const SceneDescription desc = load_scene_file(scene_path);
     const double read_ms = read_clock.lap_ms();
@@ -54,6 +58,7 @@ int run_depths(const Args& args) {
     const RenderOptions options = overrides.render_options(desc);
     OpticalDepthSettings settings;
     settings.cutoff = options.render.cutoff;
+    settings.progress = work;
     const std::vector<std::uint32_t> all = particle_group(particles.size(), 1, 0);
 
     std::vector<FrameTimings> runs;
@@ -61,6 +66,7 @@ int run_depths(const Args& args) {
     for (long long r = 0; r < (repeat ? *repeat : 1); ++r) {
         FrameTimings t;
         StageClock clock;
+        if (work) work->begin("TLAS build", 0);
         SmokeScene smoke(particles, options.shape, ground, /*billboards=*/false);
         smoke.update(particles, desc.camera.position);
         t.tlas_update = clock.lap_ms();
@@ -68,14 +74,20 @@ int run_depths(const Args& args) {
         depths->update(smoke, particles, all, desc.light.direction, settings, sort, t);
         t.total = t.tlas_update + t.od_pass + t.resolve;
         runs.push_back(t);
+        progress.step();
     }
 
+    if (work) work->begin("writing the CSV", 0);
     StageClock write_clock;
     write_output(output, [&](std::ostream& out) {
         for (const std::string& piece : format_depths_csv(depths->lengths(), depths->hit_counts(), depths->status()))
             out.write(piece.data(), std::streamsize(piece.size()));
     });
     const double write_ms = write_clock.lap_ms();
+    progress.finish();
+    std::cerr << (output.kind == OutputKind::standard_output ? std::string("wrote the CSV to standard output")
+                                                             : "wrote " + shown_text(*out_path, kMaxShownPathBytes))
+              << " (" << particles.size() << (particles.size() == 1 ? " particle)\n" : " particles)\n");
     // The stages, then reading the scene and writing the CSV (once each, whatever --repeat says).
     if (timings) report << format_timings(median(runs), false) << "read_scene=" << read_ms << "\nwrite_csv=" << write_ms
                         << '\n';

@@ -27,7 +27,8 @@ namespace {
 // "X,Y": two whole numbers >= 0; the image's size is checked once the scene is read.
 std::pair<int, int> parse_pixel(const std::string& text) {
     const auto comma = text.find(',');
-    if (comma == std::string::npos) throw CliError("--pixel: '" + text + "' is not of the form X,Y (e.g. 256,300)");
+    if (comma == std::string::npos)
+        throw CliError("--pixel: " + quoted_arg(text) + " is not of the form X,Y (e.g. 256,300)");
     const long long x = parse_integer(text.substr(0, comma), "--pixel: X", 0, 1 << 30);
     const long long y = parse_integer(text.substr(comma + 1), "--pixel: Y", 0, 1 << 30);
     return {int(x), int(y)};
@@ -64,7 +65,7 @@ int run_explain(const Args& args) {
         struct stat st {};
         const bool stream = ::stat(out->c_str(), &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode);
         if (*out != kStandardOutputPath && !has_extension(*out, ".svg") && !stream)
-            throw CliError("-o: '" + out->string() + "' must end in .svg");
+            throw CliError("-o: " + quoted_arg(out->string()) + " must end in .svg");
     }
     const ThreadLimit limit(threads ? int(*threads) : 0);
     std::vector<std::filesystem::path> inputs{scene_path};
@@ -82,15 +83,16 @@ int run_explain(const Args& args) {
     const SceneDescription desc = load_scene_file(scene_path);
     const RenderOptions options = overrides.render_options(desc);
     if (target) check_output_not_input(*target, scene_inputs(scene_path, desc));  // the PLY it names
-    const std::string scene_name = std::filesystem::path(scene_path).filename().string();
+    const std::string scene_name =
+        shown_text(std::filesystem::path(scene_path).filename().string(), kMaxShownPathBytes);
     std::ostringstream svg;
     if (particle_arg) {
         const auto& particles = desc.smoke.particles;
-        if (particles.empty()) throw CliError("--particle: " + scene_path + " has no particles");
+        if (particles.empty()) throw CliError("--particle: " + quoted_arg(scene_path) + " has no particles");
         if (std::uint64_t(*particle_arg) >= particles.size())
-            throw CliError("--particle: " + std::to_string(*particle_arg) + " is out of range: " + scene_path +
-                           " has " + std::to_string(particles.size()) + " particles, 0…" +
-                           std::to_string(particles.size() - 1));
+            throw CliError("--particle: " + std::to_string(*particle_arg) +
+                           " is out of range: " + quoted_arg(scene_path) + " has " + std::to_string(particles.size()) +
+                           " particles, 0…" + std::to_string(particles.size() - 1));
         // What `smoketrace depths` traces with the same --shape and --cutoff: frame 0's particles and light.
         std::optional<GroundQuad> ground;
         if (desc.ground) ground = GroundQuad{desc.ground->corners};
@@ -112,9 +114,9 @@ int run_explain(const Args& args) {
                            std::to_string(first) + "…" + std::to_string(end - 1) +
                            " (--frames, else the scene's render.frames)");
         if (pixel->first >= options.width || pixel->second >= options.height)
-            throw CliError("--pixel: " + *pixel_arg + " is outside the " + std::to_string(options.width) + "x" +
-                           std::to_string(options.height) + " image (x 0…" + std::to_string(options.width - 1) +
-                           ", y 0…" + std::to_string(options.height - 1) +
+            throw CliError("--pixel: " + shown_text(*pixel_arg, kMaxShownPathBytes) + " is outside the " +
+                           std::to_string(options.width) + "x" + std::to_string(options.height) + " image (x 0…" +
+                           std::to_string(options.width - 1) + ", y 0…" + std::to_string(options.height - 1) +
                            "; --size, else the scene's camera.width and height)");
         const SixwayLayout layout = read_sixway_layout(*texture_dir / kSixwayLayoutFile);
         if (target) check_output_not_input(*target, {layout.positive, layout.negative});
@@ -132,8 +134,9 @@ int run_explain(const Args& args) {
     }
     if (target) {
         write_output(*target, [&](std::ostream& o) { o << svg.str(); });
-        std::cerr << (target->kind == OutputKind::standard_output ? std::string("wrote the SVG to standard output")
-                                                                  : "wrote " + out->string())
+        std::cerr << (target->kind == OutputKind::standard_output
+                          ? std::string("wrote the SVG to standard output")
+                          : "wrote " + shown_text(out->string(), kMaxShownPathBytes))
                   << "\n";
     }
     return 0;

@@ -61,10 +61,10 @@ int run_render(const Args& args) {
     // Checks that need no file read, before the scene is loaded; every frame's path is checked below.
     if (!to_stdout) {
         if (!has_extension(out, ".png") && !is_existing_stream(out))
-            throw CliError("-o: '" + out.string() + "' must end in .png");
+            throw CliError("-o: " + quoted_arg(out.string()) + " must end in .png");
         const std::filesystem::path out_dir = out.has_parent_path() ? out.parent_path() : ".";
         if (!std::filesystem::is_directory(out_dir))
-            throw CliError("-o: folder '" + out_dir.string() + "' does not exist");
+            throw CliError("-o: folder " + quoted_arg(out_dir.string()) + " does not exist");
     }
 
     const ThreadLimit limit(threads ? int(*threads) : 0);
@@ -74,7 +74,8 @@ int run_render(const Args& args) {
         if (*compositor == "tiled") options.compositor = CompositorKind::tiled;
         else if (*compositor == "one-traversal") options.compositor = CompositorKind::one_traversal;
         else if (*compositor == "retrace") options.compositor = CompositorKind::retrace;
-        else throw CliError("--compositor: '" + *compositor + "' is not one of tiled, one-traversal, retrace");
+        else throw CliError("--compositor: " + quoted_arg(*compositor) + " is not one of tiled, one-traversal, "
+                            "retrace");
     }
     const std::uint32_t frame_count = options.render.frames;
     const auto [first, end] = overrides.frame_range(options);
@@ -82,7 +83,7 @@ int run_render(const Args& args) {
         throw CliError("-o -: standard output takes one frame, not " + std::to_string(frame_count) +
                        " (--frames or the scene's render.frames); write a sequence with -o OUT.png");
     if (frame_count > 1 && !has_extension(out, ".png"))
-        throw CliError("-o: '" + out.string() + "' must end in .png (it names the files of a sequence)");
+        throw CliError("-o: " + quoted_arg(out.string()) + " must end in .png (it names the files of a sequence)");
     if (assets && textures) throw CliError("--assets and --textures name the same folder: give one");
     const std::filesystem::path texture_dir =
         textures ? find_assets(textures, "--textures") : find_assets(assets, "--assets");
@@ -95,20 +96,29 @@ int run_render(const Args& args) {
         if (checked_output(frame_path(out, f, frame_count), inputs).kind == OutputKind::standard_output)
             timings_to_stderr = true;
     std::ostream& report = timings_to_stderr ? std::cerr : std::cout;
+    ProgressBar progress(end - first, "frame");
+    WorkProgress* const work = progress.work();
+    if (work) work->begin("reading the textures", 0);
     const SixwayTexture texture = load_sixway_texture(layout.positive, layout.negative, layout.grid);
 
+    if (work) work->begin("building the scene", 0);
     FrameRenderer renderer(scene, options, texture);
+    renderer.count_progress(work);
     renderer.skip_to(first);  // particles, light, TLAS and the groups' optical depths as the full run has them
-    ProgressBar progress(end - first);
     std::vector<FrameTimings> all;
     ImageRgba image;
     PngWriter png;  // one for the sequence: its memory is reused by every frame
     for (std::uint32_t f = first; f < end; ++f) {
         const FrameReport r = renderer.render(f, image);
+        if (work) work->begin("writing the PNG", 0);
         png.write_srgb(frame_path(out, f, frame_count), image);
+        // The next frame's first stage, until render() names the next.
+        if (work && f + 1 < end) work->begin("moving the particles", 0);
         all.push_back(r.timings);
         if (timings) {
+            progress.clear_line();
             report << "frame=" << f << " tlas=" << to_string(r.tlas) << "\n" << format_timings(r.timings, true);
+            report.flush();
         }
         progress.step();
     }
@@ -117,10 +127,11 @@ int run_render(const Args& args) {
     if (to_stdout)
         std::cerr << "wrote the PNG to standard output\n";
     else if (end - first == 1)
-        std::cerr << "wrote " << frame_path(out, first, frame_count).string() << "\n";
+        std::cerr << "wrote " << shown_text(frame_path(out, first, frame_count).string(), kMaxShownPathBytes) << "\n";
     else
-        std::cerr << "wrote " << end - first << " frames " << frame_path(out, first, frame_count).string() << " … "
-                  << frame_path(out, end - 1, frame_count).string() << "\n";
+        std::cerr << "wrote " << end - first << " frames "
+                  << shown_text(frame_path(out, first, frame_count).string(), kMaxShownPathBytes) << " … "
+                  << shown_text(frame_path(out, end - 1, frame_count).string(), kMaxShownPathBytes) << "\n";
     return 0;
 }
 

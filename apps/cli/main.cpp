@@ -5,11 +5,15 @@
 
 #include <smoketrace/io/temporary_file.hpp>
 
+#include <algorithm>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <exception>
 #include <iostream>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace smoketrace::cli {
 std::vector<Command>& command_registry() {
@@ -55,22 +59,67 @@ const Command* find_command(std::string_view name) {
     return nullptr;
 }
 
-int unknown_command(std::string_view name) {
-    std::cerr << "smoketrace: unknown command '" << name << "'\n";
-    print_usage(std::cerr);
+// Edits (insertions, deletions, substitutions) that turn `a` into `b`: for "did you mean".
+std::size_t edit_distance(std::string_view a, std::string_view b) {
+    std::vector<std::size_t> row(b.size() + 1);
+    for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+    for (std::size_t i = 1; i <= a.size(); ++i) {
+        std::size_t diagonal = row[0];
+        row[0] = i;
+        for (std::size_t j = 1; j <= b.size(); ++j) {
+            const std::size_t above = row[j];
+            row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+            diagonal = above;
+        }
+    }
+    return row[b.size()];
+}
+
+// A wrong or missing command gets one line saying so and one listing the commands, not every option of every
+// command: the user needs the name, and `help` is one word away.
+int command_error(const std::string& problem) {
+    std::string names;
+    for (const auto& c : smoketrace::cli::command_registry())
+        names += (names.empty() ? "" : ", ") + std::string(c.name);
+    std::cerr << "smoketrace: " << problem << "\ncommands: " << names
+              << " (smoketrace help COMMAND: its options; smoketrace help: all of them)\n";
     return 2;
 }
 
-}  // namespace
+int unknown_command(std::string_view name) {
+    // Two edits reach every slip of one key or two swapped letters, and no other command's name.
+    constexpr std::size_t kMaxSuggestionEdits = 2;
+    std::string problem = "unknown command " + smoketrace::cli::quoted_arg(name);
+    for (const auto& c : smoketrace::cli::command_registry())
+        if (edit_distance(name, c.name) <= kMaxSuggestionEdits) {
+            problem += " (did you mean " + std::string(c.name) + "?)";
+            break;
+        }
+    return command_error(problem);
+}
 
-int main(int argc, char** argv) {
+constexpr std::string_view kHelpForHelp =
+    "usage: smoketrace help [command]  (also: smoketrace --help, smoketrace <command> --help)\n"
+    "  every command with its options and their defaults, or one command's\n";
+
+// What a command wrote to standard output must have reached it: `explain ... > /dev/full` or a closed pipe
+// fails here (at the flush of stdio's buffer) instead of exiting 0 with the output lost.
+int checked_standard_output(std::string_view name, int code) {
+    errno = 0;
+    std::cout.flush();  // (std::cout writes through stdout: this flushes stdio's buffer)
+    const bool flushed = std::fflush(stdout) == 0 && !std::cout.fail();
+    const int error = errno;  // the flush's, when it failed; a write that failed earlier left no errno to trust
+    if (flushed && !std::ferror(stdout)) return code;
+    std::cerr << "smoketrace" << (name.empty() ? "" : " ") << name << ": cannot write to standard output"
+              << (!flushed && error != 0 ? std::string(" (") + std::strerror(error) + ")" : std::string()) << "\n";
+    return code == 0 ? 1 : code;
+}
+
+int run(int argc, char** argv) {
     using namespace smoketrace::cli;
     // ^C or a scheduler's SIGTERM while a file is being written must not leave its temporary file behind.
     smoketrace::remove_temporary_files_on_signals();
-    if (argc < 2) {
-        print_usage(std::cerr);
-        return 2;
-    }
+    if (argc < 2) return command_error("missing command (usage: smoketrace <command> [arguments])");
     const std::string name = argv[1];
     if (name == "--version" || name == "-V") {
         std::cout << "smoketrace " << SMOKETRACE_VERSION << "\n";
@@ -85,8 +134,13 @@ int main(int argc, char** argv) {
             std::cerr << "smoketrace help: give one command name\n";
             return 2;
         }
-        const Command* c = find_command(argv[2]);
-        if (!c) return unknown_command(argv[2]);
+        const std::string_view topic = argv[2];
+        if (topic == "help" || topic == "--help" || topic == "-h") {
+            std::cout << kHelpForHelp;
+            return 0;
+        }
+        const Command* c = find_command(topic);
+        if (!c) return unknown_command(topic);
         print_command_help(std::cout, *c);
         return 0;
     }
@@ -97,13 +151,25 @@ int main(int argc, char** argv) {
             print_command_help(std::cout, *c);
             return 0;
         }
+    // A message repeats paths and values the user gave: shown (shown_text.hpp) where it was put together,
+    // and the whole once more here, for any part that came from elsewhere (a library's text, a PLY header).
     try {
         return c->run(Args(argv + 2, argv + argc));
     } catch (const CliError& e) {
-        std::cerr << "smoketrace " << name << ": " << e.what() << "\n";
+        std::cerr << "smoketrace " << name << ": " << smoketrace::shown_text(e.what(), smoketrace::kShownUncapped)
+                  << "\n";
         return 2;
     } catch (const std::exception& e) {
-        std::cerr << "smoketrace " << name << ": " << e.what() << "\n";
+        std::cerr << "smoketrace " << name << ": " << smoketrace::shown_text(e.what(), smoketrace::kShownUncapped)
+                  << "\n";
         return 1;
     }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    const int code = run(argc, argv);
+    const bool known = argc >= 2 && find_command(argv[1]) != nullptr;
+    return checked_standard_output(known ? std::string_view(argv[1]) : std::string_view(), code);
 }

@@ -13,7 +13,7 @@ RenderMode parse_mode(const std::string& s) {
     if (s == "basic") return RenderMode::basic;
     if (s == "simple-shadow") return RenderMode::simple_shadow;
     if (s == "full") return RenderMode::full;
-    throw CliError("--mode: '" + s + "' is not one of basic, simple-shadow, full");
+    throw CliError("--mode: " + quoted_arg(s) + " is not one of basic, simple-shadow, full");
 }
 
 FramesArg parse_frames(const std::optional<std::string>& text) {
@@ -26,14 +26,17 @@ FramesArg parse_frames(const std::optional<std::string>& text) {
     }
     const long long a = parse_integer(text->substr(0, colon), "--frames A:B: A", 0, kMaxSceneFrames - 1);
     const long long b = parse_integer(text->substr(colon + 1), "--frames A:B: B", 1, kMaxSceneFrames);
-    if (a >= b) throw CliError("--frames " + *text + ": A must be less than B (frames A … B-1 are rendered)");
+    if (a >= b)
+        throw CliError("--frames " + shown_text(*text, kMaxShownPathBytes) +
+                       ": A must be less than B (frames A … B-1 are rendered)");
     f.range = std::pair{std::uint32_t(a), std::uint32_t(b)};
     return f;
 }
 
 StandInShape parse_shape(const std::string& text) {
     const auto s = parse_stand_in_shape(text);
-    if (!s) throw CliError("--shape: '" + text + "' is not sphere, icosahedron or icosphere:L (L = 1…4)");
+    if (!s)
+        throw CliError("--shape: " + quoted_arg(text) + " is not sphere, icosahedron or icosphere:L (L = 1…4)");
     return *s;
 }
 
@@ -54,7 +57,7 @@ SceneOverrides SceneOverrides::read(ArgReader& in, OverrideSet set) {
     if (set == OverrideSet::frame) {
         o.compositing = in.string("--compositing");
         if (o.compositing && *o.compositing != "over" && *o.compositing != "thesis")
-            throw CliError("--compositing: '" + *o.compositing + "' is not over or thesis");
+            throw CliError("--compositing: " + quoted_arg(*o.compositing) + " is not over or thesis");
         o.spp = in.integer("--spp", 1, kMaxSpp);
     }
     return o;

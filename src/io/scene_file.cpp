@@ -11,6 +11,7 @@
 #include <smoketrace/render/camera.hpp>
 #include <smoketrace/render/pixel_samples.hpp>
 #include <smoketrace/core/memory_budget.hpp>
+#include <smoketrace/core/shown_text.hpp>
 
 #include <nlohmann/json.hpp>
 #include <simdjson.h>
@@ -28,6 +29,7 @@
 #include <fstream>
 #include <initializer_list>
 #include <limits>
+#include <map>
 #include <set>
 #include <span>
 #include <sstream>
@@ -63,11 +65,14 @@ constexpr double kMinDefaultFramingRadius = 1e-6;
 constexpr double kRadiansPerDegree = 3.14159265358979323846 / 180.0;
 
 constexpr std::uint32_t kMaxGroups = 1u << 20;     // one update spread over 2^20 frames is ~5 h at 60 fps
-constexpr std::size_t kMaxShownValueChars = 60;    // "(got …)" shows at most this much of a value
+// Number literals that read as 0 though they are not (1e-400) whose text is kept for messages: the first
+// ones are the ones a message names, and a hostile file of millions must not grow a map of millions.
+constexpr std::size_t kMaxNotedUnderflows = 1024;
 
 // ---- Paths and messages ------------------------------------------------------------------------------
 
-// A JSON pointer token (RFC 6901): "~" → "~0", "/" → "~1".
+// A JSON pointer token (RFC 6901): "~" → "~0", "/" → "~1"; paths are for messages only, so the key is also
+// shown as a message may repeat it (shown_text.hpp: escaped, at most kMaxShownValueBytes).
 std::string pointer_token(std::string_view key) {
     std::string out;
     for (char c : key) {
@@ -75,18 +80,49 @@ std::string pointer_token(std::string_view key) {
         else if (c == '/') out += "~1";
         else out += c;
     }
-    return out;
+    return shown_text(out, kMaxShownValueBytes);
 }
 
 std::string shown_path(const std::string& path) { return path.empty() ? "(document root)" : path; }
 
 // The value as the file wrote it (nlohmann prints numbers round-trip), shortened.
 std::string shown_value(const json& j) {
-    if (j.is_number_float() && !std::isfinite(j.get<double>()))
-        return "a number beyond the double range";
-    std::string s = j.dump();
-    if (s.size() > kMaxShownValueChars) s = s.substr(0, kMaxShownValueChars - 3) + "...";
-    return s;
+    if (j.is_number_float() && !std::isfinite(j.get<double>())) return "a number out of range for a double";
+    return shown_text(j.dump(), kMaxShownValueBytes);
+}
+
+// What a value of the wrong type is, in JSON's words, with the value as the file wrote it: "null", "true",
+// "a string, \"abc\"", "an array of 2 elements, [1,2]", "an object, {…}", "a number, 5".
+std::string described_value(const json& j) {
+    switch (j.type()) {
+        case json::value_t::null:
+            return "null";
+        case json::value_t::boolean:
+            return j.get<bool>() ? "true" : "false";
+        case json::value_t::string:
+            return "a string, " + shown_value(j);
+        case json::value_t::array:
+            return j.empty() ? "an empty array"
+                             : "an array of " + std::to_string(j.size()) +
+                                   (j.size() == 1 ? " element, " : " elements, ") + shown_value(j);
+        case json::value_t::object:
+            return j.empty() ? "an empty object" : "an object, " + shown_value(j);
+        default:
+            return "a number, " + shown_value(j);
+    }
+}
+
+// Whether a number literal is nonzero as written though it reads as 0, below the smallest double ("1e-400").
+bool reads_as_zero(std::string_view literal, double value) {
+    if (value != 0.0) return false;
+    for (const char c : literal) {
+        if (c == 'e' || c == 'E') break;
+        if (c >= '1' && c <= '9') return true;
+    }
+    return false;
+}
+std::string shown_underflow(std::string_view literal) {
+    return shown_text(literal, kMaxShownValueBytes) + ", a number too close to 0 for a double, which reads as 0";
 }
 
 std::string shown_number(double v) {
@@ -146,10 +182,12 @@ constexpr Bounds kColor{0.0, false, kMaxSceneColor, false, true};
 // when a check fails, never on the good path, so that a list of a million particles builds no path string.
 // The value checks below take a number and a site, one implementation whatever the value came from (a JSON
 // tree, the fast particle reader, a PLY file).
+class Reader;
 struct NodeSite {
+    const Reader& reader;
     const Node& node;
     [[nodiscard]] std::string path() const { return node.path; }
-    [[nodiscard]] std::string shown() const { return shown_value(*node.value); }
+    [[nodiscard]] std::string shown() const;
 };
 
 class Reader {
@@ -158,12 +196,27 @@ public:
 
     [[nodiscard]] const std::string& source() const { return source_; }
 
+    // The path's keys and the values in `problem` were shown (shown_text.hpp) where they were put in; the
+    // whole is shown again, which leaves them as they are and catches any other text from the file (a PLY
+    // header's words, a PLY file's name).
     [[noreturn]] void fail(const std::string& path, const std::string& problem) const {
-        throw SceneFileError(source_ + ": " + shown_path(path) + ": " + problem);
+        throw SceneFileError(shown_text(source_, kMaxShownPathBytes) + ": " +
+                             shown_text(shown_path(path), kMaxShownPathBytes) + ": " +
+                             shown_text(problem, kShownUncapped));
     }
     [[noreturn]] void fail(const Node& n, const std::string& problem) const { fail(n.path, problem); }
     [[noreturn]] void wrong_type(const Node& n, std::string_view expected) const {
-        fail(n, "must be " + std::string(expected) + " (got " + n.value->type_name() + " " + shown_value(*n.value) + ")");
+        fail(n, "must be " + std::string(expected) + " (got " + described_value(*n.value) + ")");
+    }
+
+    // A number the scan found written nonzero but read as 0 (1e-400), at JSON pointer `path`.
+    void note_underflow(const std::string& path, std::string_view literal) const {
+        if (underflows_.size() < kMaxNotedUnderflows) underflows_.emplace(path, literal);
+    }
+    // The value at `n` as the file wrote it.
+    [[nodiscard]] std::string shown(const Node& n) const {
+        if (const auto u = underflows_.find(n.path); u != underflows_.end()) return shown_underflow(u->second);
+        return shown_value(*n.value);
     }
     [[noreturn]] void unknown_key(const std::string& parent_path, std::string_view key,
                                   std::initializer_list<std::string_view> allowed) const {
@@ -189,7 +242,7 @@ public:
 
     [[nodiscard]] double number(const Node& n) const {
         if (!n.value->is_number()) wrong_type(n, "a number");
-        return finite(n.value->get<double>(), NodeSite{n});
+        return finite(n.value->get<double>(), NodeSite{*this, n});
     }
 
     // ---- The value checks, on a number and its site ----
@@ -235,7 +288,7 @@ public:
         return f;
     }
     [[nodiscard]] float real(const Node& n, const Bounds& bounds = kAny) const {
-        return real(number(n), bounds, NodeSite{n});
+        return real(number(n), bounds, NodeSite{*this, n});
     }
 
     // A particle radius: a float in `bounds` and at least kMinParticleRadius, the smallest normal float.
@@ -251,7 +304,7 @@ public:
         return r;
     }
     [[nodiscard]] float radius(const Node& n, const Bounds& bounds) const {
-        return radius(number(n), bounds, NodeSite{n});
+        return radius(number(n), bounds, NodeSite{*this, n});
     }
 
     // One component of a position in world coordinates: within ±kMaxSceneCoordinate, kept in double.
@@ -279,7 +332,7 @@ public:
             const Node c = n.element(a);
             d[int(a)] = number(c);
             if (std::abs(d[int(a)]) > static_cast<double>(std::numeric_limits<float>::max()))
-                fail(c, "too large for single precision (got " + shown_value(*c.value) + ")");
+                fail(c, "too large for single precision (got " + shown(c) + ")");
         }
         // Scaled to its largest component first: |d|² of [1e-200, 1e-200, 0] underflows even in double.
         const double largest = std::max({std::abs(d.x), std::abs(d.y), std::abs(d.z)});
@@ -294,7 +347,7 @@ public:
         glm::dvec3 p(0.0);
         for (std::size_t a = 0; a < 3; ++a) {
             const Node c = n.element(a);
-            p[int(a)] = coordinate(number(c), NodeSite{c});
+            p[int(a)] = coordinate(number(c), NodeSite{*this, c});
         }
         return p;
     }
@@ -311,12 +364,12 @@ public:
                                       : "must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
         if (n.value->is_number_unsigned()) {
             const auto v = n.value->get<std::uint64_t>();
-            if (v < lo || v > hi) fail(n, range + " (got " + shown_value(*n.value) + ")");
+            if (v < lo || v > hi) fail(n, range + " (got " + shown(n) + ")");
             return v;
         }
         const auto v = n.value->get<std::int64_t>();  // a signed integer in nlohmann is always negative
         if (v < 0 || static_cast<std::uint64_t>(v) < lo || static_cast<std::uint64_t>(v) > hi)
-            fail(n, range + " (got " + shown_value(*n.value) + ")");
+            fail(n, range + " (got " + shown(n) + ")");
         return static_cast<std::uint64_t>(v);
     }
     [[nodiscard]] std::uint32_t u32(const Node& n, std::uint32_t lo, std::uint32_t hi) const {
@@ -335,7 +388,10 @@ public:
 
 private:
     std::string source_;
+    mutable std::map<std::string, std::string> underflows_;  // filled by the scan, before any value is read
 };
+
+std::string NodeSite::shown() const { return reader.shown(node); }
 
 // ---- The scene's origin -------------------------------------------------------------------------------
 
@@ -418,7 +474,10 @@ public:
     bool boolean(bool) { return value(); }
     bool number_integer(json::number_integer_t) { return value(); }
     bool number_unsigned(json::number_unsigned_t) { return value(); }
-    bool number_float(json::number_float_t, const json::string_t&) { return value(); }
+    bool number_float(json::number_float_t v, const json::string_t& literal) {
+        if (reads_as_zero(literal, v)) reader_.note_underflow(path_of_next_value(), literal);
+        return value();
+    }
     bool string(json::string_t&) { return value(); }
     bool binary(json::binary_t&) { return value(); }
 
@@ -526,7 +585,8 @@ json parse_json(std::string_view text, const Reader& reader, const std::string& 
         std::string literal = e.what();
         const auto open = literal.find('\''), close = literal.rfind('\'');
         literal = open != std::string::npos && close > open ? literal.substr(open + 1, close - open - 1) : "?";
-        reader.fail(scan.path_of_next_value(), "must be finite (got " + literal + ", beyond the double range)");
+        reader.fail(scan.path_of_next_value(),
+                    "must be finite (got " + shown_text(literal) + ", a number out of range for a double)");
     }
 }
 
@@ -615,7 +675,7 @@ std::string shown_3_digits(double v) {
 // blamed on camera.up).
 void check_fov_resolution(const Reader& r, const Node& n, float fov_deg, std::uint32_t height) {
     if (const std::string problem = pixel_angle_problem(fov_deg, height); !problem.empty())
-        r.fail(n, "too small for a usable camera (got " + shown_value(*n.value) + "): " + problem);
+        r.fail(n, "too small for a usable camera (got " + r.shown(n) + "): " + problem);
 }
 
 // The default camera must stand within ±kMaxDefaultCameraCoordinate of the world's 0. `path`:
@@ -790,9 +850,11 @@ struct ListValueSite {
     }
     [[nodiscard]] std::string shown() const {
         try {
-            return shown_value(json::parse(token));
+            const json value = json::parse(token);
+            if (value.is_number_float() && reads_as_zero(token, value.get<double>())) return shown_underflow(token);
+            return shown_value(value);
         } catch (const json::exception&) {
-            return std::string(token);
+            return shown_text(token);
         }
     }
 };
@@ -1038,7 +1100,9 @@ SmokeDescription read_smoke(const Reader& r, const Node& n, std::optional<glm::d
     if (auto v = Reader::optional(n, "shape")) {
         const std::string text = r.string(*v);
         const auto shape = parse_stand_in_shape(text);
-        if (!shape) r.fail(*v, "unknown shape \"" + text + "\" (use \"sphere\", \"icosahedron\" or \"icosphere:1\"…\"icosphere:4\")");
+        if (!shape)
+            r.fail(*v, "unknown shape " + shown_value(*v->value) +
+                           " (use \"sphere\", \"icosahedron\" or \"icosphere:1\"…\"icosphere:4\")");
         smoke.shape = *shape;
     }
     return smoke;
@@ -1159,7 +1223,8 @@ RenderSettings read_render(const Reader& r, const Node& n) {
         if (m == "basic") s.mode = RenderMode::basic;
         else if (m == "simple-shadow") s.mode = RenderMode::simple_shadow;
         else if (m == "full") s.mode = RenderMode::full;
-        else r.fail(*v, "unknown mode \"" + m + "\" (use \"basic\", \"simple-shadow\" or \"full\")");
+        else
+            r.fail(*v, "unknown mode " + shown_value(*v->value) + " (use \"basic\", \"simple-shadow\" or \"full\")");
     }
     if (auto v = Reader::optional(n, "cutoff")) s.cutoff = r.u32(*v, 0, std::numeric_limits<std::uint32_t>::max());
     if (auto v = Reader::optional(n, "groups")) s.groups = r.u32(*v, 1, kMaxGroups);
@@ -1171,7 +1236,8 @@ RenderSettings read_render(const Reader& r, const Node& n) {
         const std::string c = r.string(*v);
         if (c == "over") s.compositing = Compositing::over;
         else if (c == "thesis") s.compositing = Compositing::thesis;
-        else r.fail(*v, "unknown compositing \"" + c + "\" (use \"over\" or \"thesis\")");
+        else
+            r.fail(*v, "unknown compositing " + shown_value(*v->value) + " (use \"over\" or \"thesis\")");
     }
     if (auto v = Reader::optional(n, "spp")) s.spp = r.u32(*v, 1, std::uint32_t(kMaxSpp));
     return s;

@@ -51,6 +51,7 @@ ViewSettings FrameRenderer::view_settings(std::uint64_t frame) const {
     if (desc_.ground) v.ground_color = desc_.ground->color;
     v.flipbook_frame = int(frame % std::uint64_t(texture_.frame_count()));
     v.spp = int(options_.render.spp);
+    v.progress = progress_;
     return v;
 }
 
@@ -73,6 +74,7 @@ bool FrameRenderer::advance_to(std::uint64_t frame, bool trace_depths, FrameRepo
     const bool still = !first && !moved && !light_turned;
     if (still) return true;
 
+    if (progress_) progress_->begin("TLAS update", 0);
     report.tlas = smoke_.update(particles_.particles(), camera_.position());
     t.tlas_update = clock.lap_ms();
     if (trace_depths && options_.render.mode != RenderMode::basic) {
@@ -82,6 +84,7 @@ bool FrameRenderer::advance_to(std::uint64_t frame, bool trace_depths, FrameRepo
         const auto which = particle_group(particles_.size(), groups, frame);
         OpticalDepthSettings ods;
         ods.cutoff = options_.render.cutoff;
+        ods.progress = progress_;
         depths_.update(smoke_, particles_.particles(), which, light, ods, options_.sort, t);
         report.depths_updated = which.size();
     }

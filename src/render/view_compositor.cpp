@@ -43,10 +43,13 @@ void render_view(const SmokeScene& scene, std::span<const Particle> particles, s
     tbb::enumerable_thread_specific<Scratch> scratch;
     const int blocks_x = (camera.width() + kBlockColumns - 1) / kBlockColumns;
     const int blocks_y = (camera.height() + kBlockRows - 1) / kBlockRows;
+    if (settings.progress) settings.progress->begin("view", std::uint64_t(camera.width()) * camera.height());
     tbb::parallel_for(0, blocks_x * blocks_y, [&](int block) {
         Scratch& local = scratch.local();
         const int x0 = (block % blocks_x) * kBlockColumns, y0 = (block / blocks_x) * kBlockRows;
         const int x1 = std::min(x0 + kBlockColumns, camera.width()), y1 = std::min(y0 + kBlockRows, camera.height());
+        // Counted as the block begins, once per block of 16x16 pixels: the count is for a display.
+        if (settings.progress) settings.progress->add(std::uint64_t(x1 - x0) * std::uint64_t(y1 - y0));
         if (settings.compositor == CompositorKind::tiled) {
             if (!local.tiled) local.tiled = std::make_unique<view::TiledViewScratch>();
             view::render_tile(shader, camera, samples, x0, y0, x1 - x0, y1 - y0, image, *local.tiled);

@@ -145,6 +145,7 @@ void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> 
     tbb::enumerable_thread_specific<Scratch>& threads = scratch_->threads;
     for (Scratch& sc : threads) sc.clear();
     const std::uint64_t trace_id = ++traces_;
+    if (settings.progress) settings.progress->begin("optical depths", n);
 
     tbb::parallel_for(
         tbb::blocked_range<std::size_t>(0, chunk_count, 1),
@@ -183,6 +184,8 @@ void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> 
                 kept_before = sc.kept;
                 if (kept.fetch_add(task_hits, std::memory_order_relaxed) + task_hits > budget)
                     over_budget(budget);  // TBB cancels the other tasks and rethrows in trace()'s caller
+                // Counted where the budget is, once per task of kParticlesPerChunk particles.
+                if (settings.progress) settings.progress->add(end - c * kParticlesPerChunk);
             }
         },
         tbb::simple_partitioner());

@@ -14,6 +14,7 @@ void OpticalPathLengths::update(const SmokeScene& scene, std::span<const Particl
     // The hits resolved where the pass kept them: gathering them into one buffer first (pass_.gather(),
     // then resolve_optical_path_lengths()) gives the same lengths after copying every hit once more.
     group_lengths_.resize(which.size());
+    if (settings.progress) settings.progress->begin("resolve", 0);
     pass_.resolve(sort, group_lengths_);
     for (std::size_t i = 0; i < which.size(); ++i) {
         lengths_[which[i]] = group_lengths_[i];

@@ -9,6 +9,7 @@
 #include <smoketrace/render/camera.hpp>
 #include <smoketrace/core/frame_timings.hpp>
 #include <smoketrace/core/image.hpp>
+#include <smoketrace/core/work_progress.hpp>
 #include <smoketrace/smoke/optical_path_lengths.hpp>
 #include <smoketrace/smoke/particle_system.hpp>
 #include <smoketrace/render/scene_description.hpp>
@@ -50,6 +51,9 @@ public:
     // whose values are still in use at `frame` (each group's last update). From a fresh renderer or after
     // the last frame rendered; frame >= the next frame.
     void skip_to(std::uint64_t frame);
+    // Where render() and skip_to() count their stages' work (TLAS update, optical depths, view) for a progress
+    // display; null (the default): nowhere. The images are the same either way.
+    void count_progress(WorkProgress* progress) { progress_ = progress; }
 
     [[nodiscard]] const OpticalPathLengths& depths() const { return depths_; }
     [[nodiscard]] const ParticleSystem& particles() const { return particles_; }
@@ -76,6 +80,7 @@ private:
     std::int64_t last_frame_ = -1;
     glm::vec3 last_light_{0.0f};
     int last_flipbook_frame_ = -1;  // the flipbook frame of the image last drawn
+    WorkProgress* progress_ = nullptr;
 };
 
 }  // namespace smoketrace

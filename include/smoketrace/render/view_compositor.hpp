@@ -18,6 +18,7 @@
 //    just behind it, until the ground, the sky or the threshold.
 #include <smoketrace/render/camera.hpp>
 #include <smoketrace/core/image.hpp>
+#include <smoketrace/core/work_progress.hpp>
 #include <smoketrace/render/scene_description.hpp>
 #include <smoketrace/render/sixway_texture.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>
@@ -46,6 +47,7 @@ struct ViewSettings {
     glm::vec3 ground_color{0.8f, 0.1f, 0.1f};
     int flipbook_frame = 0;                       // animation frame of the six-way flipbook
     int spp = 1;                                  // samples per pixel, 1…kMaxSpp (pixel_samples.hpp)
+    WorkProgress* progress = nullptr;             // where the pixels drawn are counted (a display); null: nowhere
 };
 
 // Renders one image. `lengths` holds each particle's optical path length (ignored in basic mode).

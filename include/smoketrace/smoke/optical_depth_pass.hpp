@@ -23,6 +23,7 @@
 // limitation 6.1). resolve() turns them into optical path lengths where they lie; gather() copies them
 // into one flat buffer for callers that want the hits themselves.
 #include <smoketrace/core/aligned_allocator.hpp>
+#include <smoketrace/core/work_progress.hpp>
 #include <smoketrace/smoke/hit_resolver.hpp>
 #include <smoketrace/geometry/ray_bundle.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>
@@ -61,6 +62,8 @@ struct OpticalDepthSettings {
     // the hits grow with the square of the particle density (n particles in a fixed volume: each ray
     // crosses ~n of them), so a dense scene can ask for more memory than the machine has.
     std::uint64_t max_total_hits = 0;
+    // Where the pass counts the particles it has traced, for a progress display; null: nowhere.
+    WorkProgress* progress = nullptr;
 };
 
 // Thrown by OpticalDepthPass::run when the hits would exceed the budget: the message says how many, how
