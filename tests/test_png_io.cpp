@@ -526,3 +526,50 @@ TEST_CASE("APNG errors: a sequence that fails half-way leaves no file", "[png][a
     CHECK(read_bytes(p) == std::vector<std::uint8_t>(old.begin(), old.end()));  // the old file, untouched
     CHECK(dir.entries().size() == 1);                                          // no temporary file
 }
+
+// The reader above is the only judge of the chunk rules: each rule it holds is broken here once, in a
+// file that is otherwise right (CRCs recomputed), and must be caught.
+TEST_CASE("APNG: the test's reader catches a bad CRC, a sequence number out of order and a miscount", "[png][apng]") {
+    std::ostringstream out;
+    ApngWriter apng(out, "a.apng", 6, 3, 3, 24);
+    for (int k = 0; k < 3; ++k) apng.add_srgb(apng_test_frame(6, 3, k));
+    apng.finish();
+    const std::string good = out.str();
+    REQUIRE_NOTHROW(read_apng(good));
+    // The byte offset of the first chunk of `type`'s data, and its length.
+    const auto find_chunk = [&](const std::string& bytes, const std::string& type) {
+        std::size_t at = 8;
+        while (bytes.compare(at + 4, 4, type) != 0) at += 12 + apng_detail::be32(reinterpret_cast<const std::uint8_t*>(&bytes[at]));
+        return std::pair{at + 8, std::size_t(apng_detail::be32(reinterpret_cast<const std::uint8_t*>(&bytes[at])))};
+    };
+    const auto reseal = [&](std::string& bytes, const std::string& type) {  // a right CRC for the change
+        const auto [data, length] = find_chunk(bytes, type);
+        const std::uint32_t crc = std::uint32_t(
+            crc32(crc32(0L, Z_NULL, 0), reinterpret_cast<const Bytef*>(&bytes[data - 4]), uInt(length + 4)));
+        for (int k = 0; k < 4; ++k) bytes[data + length + std::size_t(k)] = char(crc >> (24 - 8 * k));
+    };
+    const auto message = [](const std::string& bytes) { return message_of([&] { (void)read_apng(bytes); }); };
+    {
+        std::string bad = good;
+        bad[find_chunk(bad, "fdAT").first + 6] ^= 1;  // a data byte, CRC left as it was
+        CHECK_THAT(message(bad), Catch::Contains("CRC mismatch in chunk fdAT"));
+    }
+    {
+        std::string bad = good;
+        bad[find_chunk(bad, "fdAT").first + 3] += 1;  // the first fdAT's sequence number, 2 → 3
+        reseal(bad, "fdAT");
+        CHECK_THAT(message(bad), Catch::Contains("fdAT sequence number out of order"));
+    }
+    {
+        std::string bad = good;
+        bad[find_chunk(bad, "acTL").first + 3] = 4;  // num_frames 3 → 4
+        reseal(bad, "acTL");
+        CHECK_THAT(message(bad), Catch::Contains("acTL announces 4 frames, the file has 3"));
+    }
+    {
+        std::string bad = good;
+        bad[find_chunk(bad, "IDAT").first + 5] ^= 0x40;  // the first frame's zlib data
+        reseal(bad, "IDAT");
+        CHECK_THAT(message(bad), Catch::Contains("zlib stream"));
+    }
+}
