@@ -377,8 +377,9 @@ void ApngWriter::add_srgb(const ImageRgba& frame) {
     be32(&control[4], std::uint32_t(width_));
     be32(&control[8], std::uint32_t(height_));
     // [12..19]: x and y offset 0, every frame covers the whole image
-    control[20] = 0, control[21] = 1;  // delay_num = 1 …
-    control[22] = std::uint8_t(fps_ >> 8), control[23] = std::uint8_t(fps_);  // … over delay_den = fps: 1/fps s
+    control[21] = 1;  // delay_num 1 over delay_den fps: each frame shows for 1/fps s
+    control[22] = std::uint8_t(fps_ >> 8);
+    control[23] = std::uint8_t(fps_);
     // [24], [25]: dispose_op none and blend_op source: each frame replaces the whole image
     chunks_.clear();
     append_chunk(chunks_, "fcTL", control.data(), control.size());
