@@ -1,27 +1,39 @@
 #!/usr/bin/env bash
 # Installs the Debian packages smoketrace needs, only those that are missing. Safe to run twice.
+#   scripts/setup.sh          everything: the library, the command line, the tests, benchmark plots, fuzzing
+#   scripts/setup.sh --demo   the library and the command line alone (what scripts/demo.sh builds and runs)
 set -euo pipefail
 
-packages=(
+demo_packages=(
   build-essential cmake pkg-config
   libglm-dev          # vector maths
   libstb-dev          # stb_image (PNG in)
   zlib1g-dev          # deflate for PNG out (src/io/png_io.cpp: our PNG encoder over zlib)
-  catch2              # Catch2 2.13, the test framework
   libtbb-dev          # oneTBB: parallel passes and builds
-  libembree-dev       # Embree 3: reference for tests and benchmarks only
   nlohmann-json3-dev  # scene files
   libsimdjson-dev     # scene files: the fast reader of large particle lists (src/io/scene_file.cpp)
+)
+test_packages=(
+  catch2              # Catch2 2.13, the test framework
+  libembree-dev       # Embree 3: reference for tests and benchmarks only
   gnuplot-nox         # benchmark plots (scripts/plot.sh)
   clang               # scripts/fuzz.sh: libFuzzer needs clang
   libclang-rt-dev     # libFuzzer and the sanitizer runtimes for clang
 )
 
+case "${1:-}" in
+  "") packages=("${demo_packages[@]}" "${test_packages[@]}") ;;
+  --demo) packages=("${demo_packages[@]}") ;;
+  *) echo "setup: unknown option '$1' (use --demo, or nothing for every package)" >&2; exit 2 ;;
+esac
+
+# One dpkg-query for all of them: "ii" marks an installed package; one dpkg has never heard of makes it
+# fail, and is then simply missing.
+installed=" $({ dpkg-query -W -f='${db:Status-Abbrev}=${Package}\n' "${packages[@]}" 2>/dev/null || true; } |
+  sed -n 's/^ii *=//p' | tr '\n' ' ') "
 missing=()
 for p in "${packages[@]}"; do
-  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
-    missing+=("$p")
-  fi
+  [[ "$installed" == *" $p "* ]] || missing+=("$p")
 done
 
 if [ ${#missing[@]} -eq 0 ]; then

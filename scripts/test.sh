@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Set-up, build, and every test (unit tests and the Embree comparisons) through ctest.
+# Set-up, build, and every test (unit tests and the Embree comparisons) through ctest: every package and
+# every target, the tests, the benchmark and the examples included (scripts/demo.sh builds only what it runs).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 "$root/scripts/setup.sh"

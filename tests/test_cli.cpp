@@ -1,4 +1,5 @@
 // The command line as a user meets it: bad input gets a clear message, a non-zero exit, and no output.
+#include "support/apng_reader.hpp"
 #include "support/cli_runner.hpp"
 #include "support/fixtures.hpp"
 
@@ -395,4 +396,59 @@ TEST_CASE("cli: a ground wound either way is lit on the side the camera sees", "
         return image.pixels[(std::size_t(image.height / 2) * std::size_t(image.width) + std::size_t(image.width / 2)) * 4];
     };
     CHECK(int(red(lit)) > int(red(back)) + 50);
+}
+
+// render -o OUT.apng writes the sequence as one animated PNG: every frame the numbered PNGs hold, in order,
+// shown for 1/render.fps s; the same bytes for any thread count; --frames A:B takes those frames alone.
+TEST_CASE("cli: render -o OUT.apng writes the sequence as one animated PNG", "[cli][apng]") {
+    TempDir dir;
+    std::string text = file_bytes(std::string(SMOKETRACE_ASSET_DIR) + "/scenes/two_tubes_sequence.json");
+    const auto at = text.find("\"render\"");
+    REQUIRE(at != std::string::npos);
+    text.replace(at, text.find('}', at) + 1 - at, R"("render": { "mode": "full", "groups": 2, "frames": 4, "fps": 12 })");
+    const fs::path scene = dir.write("seq.json", text);
+    const auto render = [&](const std::string& out, const std::string& options) {
+        const CliRun r = run_cli("render " + scene.string() + " -o " + (dir.path / out).string() + " --size 24x16" +
+                                 options);
+        INFO(r.err);
+        REQUIRE(r.exit_code == 0);
+        return r;
+    };
+    fs::create_directories(dir.path / "frames");
+    render("frames/f.png", " --threads 2");
+    const CliRun r = render("one.apng", " --threads 1");
+    CHECK_THAT(r.err, Catch::Contains("one.apng (4 frames at 12 per second)"));
+    render("three.apng", " --threads 3");
+    render("part.apng", " --threads 2 --frames 1:3");
+    CHECK(file_bytes(dir.path / "one.apng") == file_bytes(dir.path / "three.apng"));
+
+    const auto check_frames = [&](const std::string& file, std::uint32_t first, std::uint32_t count) {
+        INFO(file);
+        const test::Apng apng = test::read_apng(file_bytes(dir.path / file));  // throws on a broken chunk rule
+        REQUIRE(apng.frames.size() == count);
+        for (std::uint32_t k = 0; k < count; ++k) {
+            char name[32];
+            std::snprintf(name, sizeof name, "frames/f_%04u.png", first + k);
+            INFO(name);
+            const Rgba8Image png = read_png_rgba8(dir.path / name, 24, 16);
+            std::vector<std::uint8_t> rgb;
+            for (std::size_t i = 0; i < png.pixels.size(); i += 4) rgb.insert(rgb.end(), &png.pixels[i], &png.pixels[i + 3]);
+            CHECK(apng.frames[k].rgb == rgb);
+            CHECK((apng.frames[k].delay_num == 1 && apng.frames[k].delay_den == 12));
+        }
+    };
+    check_frames("one.apng", 0, 4);
+    check_frames("part.apng", 1, 2);
+    CHECK(file_bytes(dir.path / "frames/f_0000.png") != file_bytes(dir.path / "frames/f_0003.png"));
+
+    // A bad frame rate is the scene's error: nothing written.
+    text.replace(text.find("\"fps\": 12"), 9, "\"fps\": 0");
+    const fs::path bad = dir.write("bad.json", text);
+    const CliRun e = run_cli("render " + bad.string() + " -o " + (dir.path / "bad.apng").string() + " --size 24x16");
+    CHECK(e.exit_code != 0);
+    CHECK_THAT(e.err, Catch::Contains("/render/fps"));
+    CHECK_FALSE(fs::exists(dir.path / "bad.apng"));
+    std::size_t entries = 0;  // the files above and no temporary file
+    for ([[maybe_unused]] const auto& entry : fs::directory_iterator(dir.path)) ++entries;
+    CHECK(entries == 6);  // seq.json, bad.json, frames/, one, three, part
 }

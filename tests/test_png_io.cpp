@@ -1,11 +1,13 @@
 // PNG in and out, and the sRGB transfer function: exact values, round trips, and every failure a user can
 // cause (missing, not a PNG, truncated, corrupt, wrong size, unwritable destination) giving a message that
-// names the file and leaving no output behind.
+// names the file and leaving no output behind; animated PNGs read back by an independent decoder.
+#include "support/apng_reader.hpp"
 #include "support/fixtures.hpp"
 
 #include <catch2/catch.hpp>
 
 #include <smoketrace/core/image.hpp>
+#include <smoketrace/io/output_path.hpp>
 #include <smoketrace/io/png_io.hpp>
 
 #include <atomic>
@@ -16,6 +18,7 @@
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -389,4 +392,184 @@ TEST_CASE("PNG errors: bad sizes and buffers are refused before writing", "[png]
     wrong.pixels.pop_back();
     CHECK_THAT(message_of([&] { write_png_rgba8(p, wrong); }), Catch::Contains(p.string()));
     CHECK(dir.entries().empty());
+}
+
+namespace {
+
+// A frame whose every pixel differs from its neighbours and from the same pixel of the other frames, with
+// values below 0 and above 1 (clamped) and a ramp through the sRGB curve: frame k of a test sequence.
+ImageRgba apng_test_frame(int w, int h, int k) {
+    ImageRgba im(w, h);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const float t = float((x * 7 + y * 13 + k * 29) % 97) / 80.0f - 0.1f;
+            im.pixels[std::size_t(y) * std::size_t(w) + std::size_t(x)] = {t, 1.0f - t, float(k) / 3.0f, 1.0f};
+        }
+    return im;
+}
+
+// The 8-bit RGB a frame must decode to: each component through the sRGB transfer function, alpha dropped.
+std::vector<std::uint8_t> expected_rgb(const ImageRgba& im) {
+    std::vector<std::uint8_t> rgb;
+    for (const glm::vec4& p : im.pixels)
+        for (int c = 0; c < 3; ++c) rgb.push_back(linear_to_srgb8(p[c]));
+    return rgb;
+}
+
+}  // namespace
+
+TEST_CASE("APNG: frames written one by one follow the chunk rules and decode to their pixels", "[png][apng]") {
+    constexpr int kW = 13, kH = 7;
+    for (const std::uint32_t frames : {1u, 2u, 5u}) {
+        INFO(frames << " frames");
+        std::ostringstream out;
+        ApngWriter apng(out, "seq.apng", kW, kH, frames, 30);
+        std::vector<ImageRgba> written;
+        for (std::uint32_t k = 0; k < frames; ++k) {
+            written.push_back(apng_test_frame(kW, kH, int(k)));
+            apng.add_srgb(written.back());
+        }
+        apng.finish();
+        const Apng back = read_apng(out.str());  // throws on any broken chunk rule
+        CHECK(back.width == std::uint32_t(kW));
+        CHECK(back.height == std::uint32_t(kH));
+        CHECK(back.num_frames == frames);
+        CHECK(back.num_plays == 0u);  // loops for ever
+        REQUIRE(back.frames.size() == frames);
+        for (std::uint32_t k = 0; k < frames; ++k) {
+            INFO("frame " << k);
+            const ApngFrame& f = back.frames[k];
+            CHECK(f.in_idat == (k == 0));  // the first frame is what a still viewer shows
+            CHECK((f.width == std::uint32_t(kW) && f.height == std::uint32_t(kH) && f.x_offset == 0 && f.y_offset == 0));
+            CHECK((f.delay_num == 1 && f.delay_den == 30));  // 1/30 s
+            CHECK((f.dispose_op == 0 && f.blend_op == 0));   // each frame replaces the image
+            CHECK(f.rgb == expected_rgb(written[k]));
+        }
+        if (frames > 1) CHECK(back.frames[0].rgb != back.frames[1].rgb);
+        // The order of the chunks, IDAT carrying the first frame and fdAT the others.
+        std::vector<std::string> order{"IHDR", "acTL", "fcTL", "IDAT"};
+        for (std::uint32_t k = 1; k < frames; ++k) order.insert(order.end(), {"fcTL", "fdAT"});
+        order.push_back("IEND");
+        CHECK(back.chunk_types == order);
+    }
+}
+
+TEST_CASE("APNG: a PNG reader that does not animate reads the first frame", "[png][apng]") {
+    TempDir dir;
+    const fs::path p = dir.path / "seq.apng";
+    const ImageRgba first = apng_test_frame(9, 4, 0);
+    write_output(p, [&](std::ostream& out) {
+        ApngWriter apng(out, p, 9, 4, 3, 24);
+        for (int k = 0; k < 3; ++k) apng.add_srgb(apng_test_frame(9, 4, k));
+        apng.finish();
+    });
+    const Rgba8Image still = read_png_rgba8(p, 9, 4);  // stb_image: no APNG support
+    const std::vector<std::uint8_t> rgb = expected_rgb(first);
+    for (std::size_t i = 0; i < std::size_t(9 * 4); ++i) {
+        INFO("pixel " << i);
+        REQUIRE((still.pixels[4 * i] == rgb[3 * i] && still.pixels[4 * i + 1] == rgb[3 * i + 1] &&
+                 still.pixels[4 * i + 2] == rgb[3 * i + 2] && still.pixels[4 * i + 3] == 255));
+    }
+}
+
+TEST_CASE("APNG: the same frames give the same bytes, whatever the writer wrote before", "[png][apng]") {
+    const auto write = [](int first_frame) {
+        std::ostringstream out;
+        ApngWriter apng(out, "a.apng", 16, 9, 3, 12);
+        for (int k = 0; k < 3; ++k) apng.add_srgb(apng_test_frame(16, 9, first_frame + k));
+        apng.finish();
+        return out.str();
+    };
+    CHECK(write(0) == write(0));
+    CHECK(write(0) != write(1));
+}
+
+TEST_CASE("APNG errors: wrong frames, counts and settings are refused naming the file", "[png][apng]") {
+    std::ostringstream out;
+    CHECK_THAT(message_of([&] { ApngWriter(out, "a.apng", 0, 4, 2, 24); }), Catch::Contains("a.apng"));
+    CHECK_THAT(message_of([&] { ApngWriter(out, "a.apng", 4, 4, 0, 24); }), Catch::Contains("at least one frame"));
+    CHECK_THAT(message_of([&] { ApngWriter(out, "a.apng", 4, 4, 2, 0); }), Catch::Contains("outside [1, 65535]"));
+    {
+        ApngWriter apng(out, "a.apng", 4, 4, 2, 24);
+        CHECK_THAT(message_of([&] { apng.add_srgb(apng_test_frame(4, 5, 0)); }), Catch::Contains("frame 0 is 4x5"));
+        ImageRgba bad = apng_test_frame(4, 4, 0);
+        bad.pixels[5].y = std::numeric_limits<float>::quiet_NaN();
+        CHECK_THAT(message_of([&] { apng.add_srgb(bad); }), Catch::Contains("pixel (1, 1) is not finite"));
+        apng.add_srgb(apng_test_frame(4, 4, 0));
+        CHECK_THAT(message_of([&] { apng.finish(); }), Catch::Contains("announces 2 frames, 1 were written"));
+        apng.add_srgb(apng_test_frame(4, 4, 1));
+        CHECK_THAT(message_of([&] { apng.add_srgb(apng_test_frame(4, 4, 2)); }),
+                   Catch::Contains("more frames than the 2"));
+        apng.finish();
+    }
+    // A stream that fails (a full disk) stops the sequence at the frame that could not be written.
+    std::ostream broken(nullptr);
+    CHECK_THAT(message_of([&] { ApngWriter(broken, "full.apng", 4, 4, 2, 24); }),
+               Catch::Contains("full.apng") && Catch::Contains("write failed"));
+}
+
+TEST_CASE("APNG errors: a sequence that fails half-way leaves no file", "[png][apng]") {
+    TempDir dir;
+    const fs::path p = dir.path / "seq.apng";
+    std::string old = "an older file";
+    write_bytes(p, std::vector<std::uint8_t>(old.begin(), old.end()));
+    const std::string msg = message_of([&] {
+        write_output(p, [&](std::ostream& out) {
+            ApngWriter apng(out, p, 4, 4, 3, 24);
+            apng.add_srgb(apng_test_frame(4, 4, 0));
+            ImageRgba bad = apng_test_frame(4, 4, 1);
+            bad.pixels[0].x = std::numeric_limits<float>::infinity();
+            apng.add_srgb(bad);
+        });
+    });
+    CHECK_THAT(msg, Catch::Contains(p.string()) && Catch::Contains("not finite"));
+    CHECK(read_bytes(p) == std::vector<std::uint8_t>(old.begin(), old.end()));  // the old file, untouched
+    CHECK(dir.entries().size() == 1);                                          // no temporary file
+}
+
+// The reader above is the only judge of the chunk rules: each rule it holds is broken here once, in a
+// file that is otherwise right (CRCs recomputed), and must be caught.
+TEST_CASE("APNG: the test's reader catches a bad CRC, a sequence number out of order and a miscount", "[png][apng]") {
+    std::ostringstream out;
+    ApngWriter apng(out, "a.apng", 6, 3, 3, 24);
+    for (int k = 0; k < 3; ++k) apng.add_srgb(apng_test_frame(6, 3, k));
+    apng.finish();
+    const std::string good = out.str();
+    REQUIRE_NOTHROW(read_apng(good));
+    // The byte offset of the first chunk of `type`'s data, and its length.
+    const auto find_chunk = [&](const std::string& bytes, const std::string& type) {
+        std::size_t at = 8;
+        while (bytes.compare(at + 4, 4, type) != 0) at += 12 + apng_detail::be32(reinterpret_cast<const std::uint8_t*>(&bytes[at]));
+        return std::pair{at + 8, std::size_t(apng_detail::be32(reinterpret_cast<const std::uint8_t*>(&bytes[at])))};
+    };
+    const auto reseal = [&](std::string& bytes, const std::string& type) {  // a right CRC for the change
+        const auto [data, length] = find_chunk(bytes, type);
+        const std::uint32_t crc = std::uint32_t(
+            crc32(crc32(0L, Z_NULL, 0), reinterpret_cast<const Bytef*>(&bytes[data - 4]), uInt(length + 4)));
+        for (int k = 0; k < 4; ++k) bytes[data + length + std::size_t(k)] = char(crc >> (24 - 8 * k));
+    };
+    const auto message = [](const std::string& bytes) { return message_of([&] { (void)read_apng(bytes); }); };
+    {
+        std::string bad = good;
+        bad[find_chunk(bad, "fdAT").first + 6] ^= 1;  // a data byte, CRC left as it was
+        CHECK_THAT(message(bad), Catch::Contains("CRC mismatch in chunk fdAT"));
+    }
+    {
+        std::string bad = good;
+        bad[find_chunk(bad, "fdAT").first + 3] += 1;  // the first fdAT's sequence number, 2 → 3
+        reseal(bad, "fdAT");
+        CHECK_THAT(message(bad), Catch::Contains("fdAT sequence number out of order"));
+    }
+    {
+        std::string bad = good;
+        bad[find_chunk(bad, "acTL").first + 3] = 4;  // num_frames 3 → 4
+        reseal(bad, "acTL");
+        CHECK_THAT(message(bad), Catch::Contains("acTL announces 4 frames, the file has 3"));
+    }
+    {
+        std::string bad = good;
+        bad[find_chunk(bad, "IDAT").first + 5] ^= 0x40;  // the first frame's zlib data
+        reseal(bad, "IDAT");
+        CHECK_THAT(message(bad), Catch::Contains("zlib stream"));
+    }
 }

@@ -118,6 +118,7 @@ TEST_CASE("the defaults of every optional key", "[scene]") {
     CHECK(s.render.transmittance_threshold == 1.0f / 255.0f);
     CHECK(s.render.compositing == Compositing::over);
     CHECK(s.render.spp == 1u);
+    CHECK(s.render.fps == 24u);
     CHECK(s.camera.width == 512u);
     CHECK(s.camera.height == 512u);
     CHECK(s.camera.fov_deg == 45.0f);
@@ -141,7 +142,8 @@ TEST_CASE("every optional key is read", "[scene]") {
     j["camera"] = {{"position", {1, 2, 3}}, {"look_at", {0, 0, -1}}, {"up", {0, 0, 1}},
                    {"fov_deg", 60}, {"width", 640}, {"height", 480}};
     j["render"] = {{"mode", "simple-shadow"}, {"cutoff", 60}, {"groups", 4}, {"frames", 32},
-                   {"softness", 0}, {"transmittance_threshold", 0.5}, {"compositing", "thesis"}, {"spp", 16}};
+                   {"softness", 0}, {"transmittance_threshold", 0.5}, {"compositing", "thesis"}, {"spp", 16},
+                   {"fps", 30}};
     const SceneDescription s = parse_scene(j.dump(), "all.json");
     CHECK(s.light.color == glm::vec3(0.9f, 0.8f, 0.7f));
     CHECK(s.light.rotation_per_frame_deg == -2.5f);
@@ -170,6 +172,7 @@ TEST_CASE("every optional key is read", "[scene]") {
     CHECK(s.render.transmittance_threshold == 0.5f);
     CHECK(s.render.compositing == Compositing::thesis);
     CHECK(s.render.spp == 16u);
+    CHECK(s.render.fps == 30u);
 }
 
 TEST_CASE("a light direction of any length is stored normalised", "[scene]") {
@@ -557,6 +560,23 @@ TEST_CASE("error: render.spp outside [1, kMaxSpp] or not an integer", "[scene][s
     CHECK(parse_scene(j.dump(), "ok.json").render.spp == 64u);
     j["render"] = {{"spp", 1}};
     CHECK(parse_scene(j.dump(), "ok.json").render.spp == 1u);
+}
+
+TEST_CASE("error: render.fps outside [1, kMaxSceneFps] or not an integer", "[scene][apng]") {
+    REQUIRE(kMaxSceneFps == 60);  // the messages below name the range
+    json j = minimal();
+    j["render"] = {{"fps", 0}};
+    require_error(j, "/render/fps", "must be in [1, 60] (got 0)");
+    j["render"] = {{"fps", 61}};
+    require_error(j, "/render/fps", "must be in [1, 60] (got 61)");
+    j["render"] = {{"fps", 23.976}};
+    require_error(j, "/render/fps", "must be an integer (got a number, 23.976)");
+    j["render"] = {{"fps", "24"}};
+    require_error(j, "/render/fps", "must be an integer (got a string, \"24\")");
+    j["render"] = {{"fps", 60}};  // the bounds themselves are accepted
+    CHECK(parse_scene(j.dump(), "ok.json").render.fps == 60u);
+    j["render"] = {{"fps", 1}};
+    CHECK(parse_scene(j.dump(), "ok.json").render.fps == 1u);
 }
 
 TEST_CASE("error: integers written as decimals", "[scene]") {

@@ -19,6 +19,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <optional>
 #include <sys/stat.h>
 
 namespace smoketrace::cli {
@@ -58,10 +59,13 @@ int run_render(const Args& args) {
     if (!out_arg) throw CliError("missing -o OUT.png");
     const std::filesystem::path out(*out_arg);
     const bool to_stdout = out == kStandardOutputPath;
+    // One file that plays the whole sequence, where a browser can watch it; the name says which is wanted.
+    const bool animated = has_extension(out, ".apng");
     // Checks that need no file read, before the scene is loaded; every frame's path is checked below.
     if (!to_stdout) {
-        if (!has_extension(out, ".png") && !is_existing_stream(out))
-            throw CliError("-o: " + quoted_arg(out.string()) + " must end in .png");
+        if (!has_extension(out, ".png") && !animated && !is_existing_stream(out))
+            throw CliError("-o: " + quoted_arg(out.string()) +
+                           " must end in .png (or .apng: the sequence as one animated PNG)");
         const std::filesystem::path out_dir = out.has_parent_path() ? out.parent_path() : ".";
         if (!std::filesystem::is_directory(out_dir))
             throw CliError("-o: folder " + quoted_arg(out_dir.string()) + " does not exist");
@@ -81,9 +85,10 @@ int run_render(const Args& args) {
     const auto [first, end] = overrides.frame_range(options);
     if (to_stdout && frame_count > 1)
         throw CliError("-o -: standard output takes one frame, not " + std::to_string(frame_count) +
-                       " (--frames or the scene's render.frames); write a sequence with -o OUT.png");
-    if (frame_count > 1 && !has_extension(out, ".png"))
-        throw CliError("-o: " + quoted_arg(out.string()) + " must end in .png (it names the files of a sequence)");
+                       " (--frames or the scene's render.frames); write a sequence with -o OUT.png or OUT.apng");
+    if (frame_count > 1 && !has_extension(out, ".png") && !animated)
+        throw CliError("-o: " + quoted_arg(out.string()) +
+                       " must end in .png (it names the files of a sequence) or .apng (one animated PNG)");
     if (assets && textures) throw CliError("--assets and --textures name the same folder: give one");
     const std::filesystem::path texture_dir =
         textures ? find_assets(textures, "--textures") : find_assets(assets, "--assets");
@@ -92,9 +97,15 @@ int run_render(const Args& args) {
     std::vector<std::filesystem::path> inputs = scene_inputs(scene_path, scene);
     inputs.insert(inputs.end(), {texture_dir / kSixwayLayoutFile, layout.positive, layout.negative});
     bool timings_to_stderr = false;  // the PNG is on standard output: nothing else may go there
-    for (std::uint32_t f = first; f < end; ++f)
-        if (checked_output(frame_path(out, f, frame_count), inputs).kind == OutputKind::standard_output)
-            timings_to_stderr = true;
+    std::optional<OutputTarget> animation;
+    if (animated) {
+        animation = checked_output(out, inputs);
+        timings_to_stderr = animation->kind == OutputKind::standard_output;
+    } else {
+        for (std::uint32_t f = first; f < end; ++f)
+            if (checked_output(frame_path(out, f, frame_count), inputs).kind == OutputKind::standard_output)
+                timings_to_stderr = true;
+    }
     std::ostream& report = timings_to_stderr ? std::cerr : std::cout;
     ProgressBar progress(end - first, "frame");
     WorkProgress* const work = progress.work();
@@ -107,24 +118,44 @@ int run_render(const Args& args) {
     renderer.skip_to(first);  // particles, light, TLAS and the groups' optical depths as the full run has them
     std::vector<FrameTimings> all;
     ImageRgba image;
-    PngWriter png;  // one for the sequence: its memory is reused by every frame
-    for (std::uint32_t f = first; f < end; ++f) {
+    const auto render_frame = [&](std::uint32_t f) {
         const FrameReport r = renderer.render(f, image);
-        if (work) work->begin("writing the PNG", 0);
-        png.write_srgb(frame_path(out, f, frame_count), image);
-        // The next frame's first stage, until render() names the next.
-        if (work && f + 1 < end) work->begin("moving the particles", 0);
         all.push_back(r.timings);
         if (timings) {
             progress.clear_line();
             report << "frame=" << f << " tlas=" << to_string(r.tlas) << "\n" << format_timings(r.timings, true);
             report.flush();
         }
-        progress.step();
+        if (work) work->begin(animation ? "compressing the frame" : "writing the PNG", 0);
+    };
+    if (animation) {
+        // Each frame is compressed and written to the temporary file as it is rendered: one frame's memory.
+        write_output(*animation, [&](std::ostream& file) {
+            ApngWriter apng(file, out, options.width, options.height, end - first, options.render.fps);
+            for (std::uint32_t f = first; f < end; ++f) {
+                render_frame(f);
+                apng.add_srgb(image);
+                progress.step();
+                // The next frame's first stage, until render() names the next.
+                if (work && f + 1 < end) work->begin("moving the particles", 0);
+            }
+            apng.finish();
+        });
+    } else {
+        PngWriter png;  // one for the sequence: its memory is reused by every frame
+        for (std::uint32_t f = first; f < end; ++f) {
+            render_frame(f);
+            png.write_srgb(frame_path(out, f, frame_count), image);
+            progress.step();
+            if (work && f + 1 < end) work->begin("moving the particles", 0);
+        }
     }
     progress.finish();
     if (timings && end - first > 1) report << "median\n" << format_timings(median(all), true);
-    if (to_stdout)
+    if (animation)
+        std::cerr << "wrote " << shown_text(out.string(), kMaxShownPathBytes) << " (" << end - first
+                  << " frames at " << options.render.fps << " per second)\n";
+    else if (to_stdout)
         std::cerr << "wrote the PNG to standard output\n";
     else if (end - first == 1)
         std::cerr << "wrote " << shown_text(frame_path(out, first, frame_count).string(), kMaxShownPathBytes) << "\n";
@@ -136,8 +167,10 @@ int run_render(const Args& args) {
 }
 
 constexpr OptionHelp kOptions[] = {
-    {"-o", "OUT.png|-", "", "the PNG to write (8-bit sRGB; -: standard output, one frame); with N > 1 frames "
-                            "OUT_0000.png, OUT_0001.png, … (the digits of the last frame's number, at least 4)"},
+    {"-o", "OUT.png|OUT.apng|-", "", "the PNG to write (8-bit sRGB; -: standard output, one frame); with N > 1 "
+                                     "frames OUT_0000.png, OUT_0001.png, … (the digits of the last frame's number, "
+                                     "at least 4); OUT.apng: every frame in one animated PNG, played at the scene's "
+                                     "render.fps (24)"},
     kModeHelp,
     kSizeHelp,
     {"--frames", "N|A:B", "the scene's render.frames (1)",
@@ -161,10 +194,11 @@ constexpr OptionHelp kOptions[] = {
 
 const RegisterCommand registration{
     {"render",
-     "render SCENE.json -o OUT.png|- [--mode basic|simple-shadow|full] [--size WxH] [--frames N|A:B] [--groups G] "
+     "render SCENE.json -o OUT.png|OUT.apng|- [--mode basic|simple-shadow|full] [--size WxH] [--frames N|A:B] [--groups G] "
      "[--cutoff K] [--shape S] [--threads T] [--timings] [--compositing over|thesis] "
      "[--compositor tiled|one-traversal|retrace] [--spp N] [--assets DIR]",
-     "render a frame (-o -: on standard output), or N frames OUT_0000.png …, of the smoke scene", &run_render,
+     "render a frame (-o -: on standard output), or N frames OUT_0000.png … or one animated OUT.apng, of the smoke "
+     "scene", &run_render,
      kOptions}};
 
 }  // namespace

@@ -16,6 +16,7 @@
 #include <stdexcept>
 #include <string>
 #include <system_error>
+#include <utility>
 #include <vector>
 
 #include <fcntl.h>
@@ -152,6 +153,30 @@ void append_chunk(std::string& out, const char (&type)[5], const std::uint8_t* d
     append_be32(out, crc32_update(0xFFFF'FFFFu, typed, 4 + size) ^ 0xFFFF'FFFFu);
 }
 
+// The signature and the IHDR chunk of a `width` x `height` image of `channels` 8-bit samples per pixel.
+void append_png_start(std::string& out, int width, int height, int channels) {
+    static constexpr std::uint8_t kColourType[5] = {0, 0, 4, 2, 6};  // by channel count
+    out.append(reinterpret_cast<const char*>(kPngSignature.data()), kPngSignature.size());
+    std::array<std::uint8_t, 13> header{};
+    for (int k = 0; k < 4; ++k) {
+        header[std::size_t(k)] = std::uint8_t(std::uint32_t(width) >> (24 - 8 * k));
+        header[std::size_t(4 + k)] = std::uint8_t(std::uint32_t(height) >> (24 - 8 * k));
+    }
+    header[8] = 8;  // bits per sample
+    header[9] = kColourType[channels];
+    // [10..12]: compression 0 (zlib), filter method 0 (the five adaptive filters), no interlace
+    append_chunk(out, "IHDR", header.data(), header.size());
+}
+
+void check_finite(const fs::path& path, const ImageRgba& image) {
+    for (std::size_t i = 0; i < image.pixels.size(); ++i) {
+        const glm::vec4 p = image.pixels[i];
+        if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z) || !std::isfinite(p.w))
+            write_error(path, "pixel (" + std::to_string(i % std::size_t(image.width)) + ", " +
+                                  std::to_string(i / std::size_t(image.width)) + ") is not finite");
+    }
+}
+
 }  // namespace
 
 // The writer's working memory (see PngWriter): reused from one image to the next, grown when an image
@@ -184,9 +209,11 @@ struct PngWriter::Buffers {
         if (z_ready) deflateEnd(&z);
     }
 
-    // The PNG file of `data` (rows top to bottom, `channels` 8-bit samples per pixel: 1 grey, 2 grey and
-    // alpha, 3 RGB, 4 RGBA) into `png`. The same bytes for the same pixels on every run, whatever the
-    // writer encoded before.
+    // The zlib stream of `data`'s filtered rows (rows top to bottom, `channels` 8-bit samples per pixel: 1
+    // grey, 2 grey and alpha, 3 RGB, 4 RGBA) into `compressed`; returns its size. The same bytes for the
+    // same pixels on every run, whatever the writer encoded before.
+    std::size_t deflate_rows(const fs::path& path, int width, int height, int channels, const std::uint8_t* data);
+    // The PNG file of `data` (as above) into `png`.
     void encode(const fs::path& path, int width, int height, int channels, const std::uint8_t* data);
     void write(const fs::path& path, int width, int height, int channels, const std::uint8_t* data) {
         encode(path, width, height, channels, data);
@@ -194,8 +221,8 @@ struct PngWriter::Buffers {
     }
 };
 
-void PngWriter::Buffers::encode(const fs::path& path, int width, int height, int channels, const std::uint8_t* data) {
-    static constexpr std::uint8_t kColourType[5] = {0, 0, 4, 2, 6};  // by channel count
+std::size_t PngWriter::Buffers::deflate_rows(const fs::path& path, int width, int height, int channels,
+                                             const std::uint8_t* data) {
     // zlib counts in 32 bits: the largest image, with its filter bytes, must fit (1 GiB does).
     static_assert(std::uint64_t(kMaxImageSide) * (std::uint64_t(kMaxImageSide) * 4 + 1) < (std::uint64_t(1) << 31));
     const std::size_t stride = std::size_t(width) * std::size_t(channels);
@@ -230,20 +257,15 @@ void PngWriter::Buffers::encode(const fs::path& path, int width, int height, int
     z.next_out = stream;
     z.avail_out = uInt(bound);
     const int status = deflate(&z, Z_FINISH);  // one call: the output has deflateBound's room
-    const std::size_t compressed_size = z.total_out;
     if (status != Z_STREAM_END) write_error(path, "PNG encoding failed: zlib status " + std::to_string(status));
+    return z.total_out;
+}
 
-    png.assign(reinterpret_cast<const char*>(kPngSignature.data()), kPngSignature.size());
-    std::array<std::uint8_t, 13> header{};
-    for (int k = 0; k < 4; ++k) {
-        header[std::size_t(k)] = std::uint8_t(std::uint32_t(width) >> (24 - 8 * k));
-        header[std::size_t(4 + k)] = std::uint8_t(std::uint32_t(height) >> (24 - 8 * k));
-    }
-    header[8] = 8;  // bits per sample
-    header[9] = kColourType[channels];
-    // [10..12]: compression 0 (zlib), filter method 0 (the five adaptive filters), no interlace
-    append_chunk(png, "IHDR", header.data(), header.size());
-    append_chunk(png, "IDAT", stream, compressed_size);
+void PngWriter::Buffers::encode(const fs::path& path, int width, int height, int channels, const std::uint8_t* data) {
+    const std::size_t compressed_size = deflate_rows(path, width, height, channels, data);
+    png.clear();
+    append_png_start(png, width, height, channels);
+    append_chunk(png, "IDAT", compressed.data.get(), compressed_size);
     append_chunk(png, "IEND", nullptr, 0);
 }
 
@@ -312,15 +334,86 @@ void PngWriter::write_srgb(const fs::path& path, const ImageRgba& image, PngChan
     if (image.pixels.size() != std::size_t(image.width) * std::size_t(image.height))
         write_error(path, "pixel buffer size does not match " + std::to_string(image.width) + "x" +
                               std::to_string(image.height));
-    for (std::size_t i = 0; i < image.pixels.size(); ++i) {
-        const glm::vec4 p = image.pixels[i];
-        if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z) || !std::isfinite(p.w))
-            write_error(path, "pixel (" + std::to_string(i % std::size_t(image.width)) + ", " +
-                                  std::to_string(i / std::size_t(image.width)) + ") is not finite");
-    }
+    check_finite(path, image);
     Buffers& b = buffers();
     to_srgb8(image, int(channels), b.samples);
     b.write(path, image.width, image.height, int(channels), b.samples.data());
+}
+
+// APNG specification 1.0 (https://wiki.mozilla.org/APNG_Specification): acTL before the first IDAT; each
+// frame an fcTL then its data, the first frame's in IDAT, the others' in fdAT chunks that start with their
+// sequence number; sequence numbers count fcTL and fdAT chunks together from 0, with no gap.
+ApngWriter::ApngWriter(std::ostream& out, fs::path path, int width, int height, std::uint32_t frames,
+                       std::uint32_t fps)
+    : out_(out), path_(std::move(path)), width_(width), height_(height), frames_(frames), fps_(fps) {
+    check_png_size(path_, width, height);
+    if (frames < 1) write_error(path_, "an animated PNG needs at least one frame");
+    if (fps < 1 || fps > 0xFFFFu) write_error(path_, "frame rate " + std::to_string(fps) + " is outside [1, 65535]");
+    chunks_.clear();
+    append_png_start(chunks_, width, height, 3);
+    std::array<std::uint8_t, 8> control{};
+    for (int k = 0; k < 4; ++k) control[std::size_t(k)] = std::uint8_t(frames >> (24 - 8 * k));  // num_frames
+    // [4..7]: num_plays 0, loop for ever
+    append_chunk(chunks_, "acTL", control.data(), control.size());
+    put(chunks_);
+}
+
+void ApngWriter::put(const std::string& bytes) {
+    out_.write(bytes.data(), std::streamsize(bytes.size()));
+    if (!out_) write_error(path_, "write failed");
+}
+
+void ApngWriter::add_srgb(const ImageRgba& frame) {
+    if (added_ == frames_)
+        write_error(path_, "more frames than the " + std::to_string(frames_) + " the animated PNG announces");
+    if (frame.width != width_ || frame.height != height_ ||
+        frame.pixels.size() != std::size_t(frame.width) * std::size_t(frame.height))
+        write_error(path_, "frame " + std::to_string(added_) + " is " + std::to_string(frame.width) + "x" +
+                               std::to_string(frame.height) + ", the animated PNG " + std::to_string(width_) + "x" +
+                               std::to_string(height_));
+    check_finite(path_, frame);
+    PngWriter::Buffers& b = encoder_.buffers();
+    to_srgb8(frame, 3, b.samples);
+    const std::size_t size = b.deflate_rows(path_, width_, height_, 3, b.samples.data());
+
+    const auto be32 = [](std::uint8_t* p, std::uint32_t v) {
+        for (int k = 0; k < 4; ++k) p[k] = std::uint8_t(v >> (24 - 8 * k));
+    };
+    std::array<std::uint8_t, 26> control{};
+    be32(&control[0], sequence_++);
+    be32(&control[4], std::uint32_t(width_));
+    be32(&control[8], std::uint32_t(height_));
+    // [12..19]: x and y offset 0, every frame covers the whole image
+    control[21] = 1;  // delay_num 1 over delay_den fps: each frame shows for 1/fps s
+    control[22] = std::uint8_t(fps_ >> 8);
+    control[23] = std::uint8_t(fps_);
+    // [24], [25]: dispose_op none and blend_op source: each frame replaces the whole image
+    chunks_.clear();
+    append_chunk(chunks_, "fcTL", control.data(), control.size());
+    if (added_ == 0) {
+        append_chunk(chunks_, "IDAT", b.compressed.data.get(), size);
+    } else {
+        // fdAT's data is its sequence number, then the frame's zlib stream as an IDAT would hold it.
+        std::uint8_t* const stream = b.compressed.data.get();
+        b.filtered.reserve(size + 4);  // the rows are compressed: their buffer holds the chunk's data
+        std::uint8_t* const data = b.filtered.data.get();
+        be32(data, sequence_++);
+        std::memcpy(data + 4, stream, size);
+        append_chunk(chunks_, "fdAT", data, size + 4);
+    }
+    put(chunks_);
+    ++added_;
+}
+
+void ApngWriter::finish() {
+    if (added_ != frames_)
+        write_error(path_, "the animated PNG announces " + std::to_string(frames_) + " frames, " +
+                               std::to_string(added_) + " were written");
+    chunks_.clear();
+    append_chunk(chunks_, "IEND", nullptr, 0);
+    put(chunks_);
+    out_.flush();
+    if (!out_) write_error(path_, "write failed");
 }
 
 void write_png_rgba8(const fs::path& path, int width, int height, const std::uint8_t* rgba) {

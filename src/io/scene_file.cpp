@@ -1216,7 +1216,7 @@ CameraDescription read_camera(const Reader& r, const Node& n, const SceneDescrip
 
 RenderSettings read_render(const Reader& r, const Node& n) {
     r.require_object(n, {"mode", "cutoff", "groups", "frames", "softness", "transmittance_threshold", "compositing",
-                         "spp"});
+                         "spp", "fps"});
     RenderSettings s;
     if (auto v = Reader::optional(n, "mode")) {
         const std::string m = r.string(*v);
@@ -1240,6 +1240,7 @@ RenderSettings read_render(const Reader& r, const Node& n) {
             r.fail(*v, "unknown compositing " + shown_value(*v->value) + " (use \"over\" or \"thesis\")");
     }
     if (auto v = Reader::optional(n, "spp")) s.spp = r.u32(*v, 1, std::uint32_t(kMaxSpp));
+    if (auto v = Reader::optional(n, "fps")) s.fps = r.u32(*v, 1, kMaxSceneFps);
     return s;
 }
 

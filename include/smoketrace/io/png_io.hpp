@@ -1,5 +1,5 @@
 #pragma once
-// PNG files in (stb_image) and out (our encoder over zlib, png_io.cpp).
+// PNG files in (stb_image) and out (our encoder over zlib, png_io.cpp), and animated PNGs out.
 //
 // The PNG is encoded in memory, then handed to write_output() (output_path.hpp): a regular file is
 // replaced whole or not at all (temporary file beside it, renamed over it), a symbolic link is followed,
@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <ostream>
 #include <string>
 
 namespace smoketrace {
@@ -36,9 +37,41 @@ public:
     [[nodiscard]] const std::string& encode_rgba8(const std::filesystem::path& path, const Rgba8Image& image);
 
 private:
+    friend class ApngWriter;  // encodes its frames with a writer's buffers
     struct Buffers;
     Buffers& buffers();
     std::unique_ptr<Buffers> buffers_;
+};
+
+// An animated PNG (APNG: the acTL, fcTL and fdAT chunks of the PNG extension that browsers play), written
+// frame by frame to a stream: each frame is compressed and written as it comes, so a sequence costs one
+// frame's memory, not the sequence's. The first frame is also the file's ordinary image (IDAT), which a
+// viewer that does not animate shows. Frames are 8-bit sRGB RGB, encoded as write_png_srgb() encodes a
+// frame, shown for 1/fps s each and looped for ever. The bytes depend on the frames' pixels only.
+// Errors throw std::runtime_error naming `path`; the stream is then incomplete, and write_output()
+// (output_path.hpp) discards it.
+class ApngWriter {
+public:
+    // Writes the signature, IHDR and acTL to `out`. Throws unless the size is within [1, kMaxImageSide],
+    // frames >= 1 and fps within [1, 65535] (the fcTL's 16-bit delay denominator).
+    ApngWriter(std::ostream& out, std::filesystem::path path, int width, int height, std::uint32_t frames,
+               std::uint32_t fps);
+    // Writes the next frame. Throws on a frame of another size, a non-finite pixel, a frame beyond the
+    // count given, or a stream that failed (a full disk stops the sequence at that frame).
+    void add_srgb(const ImageRgba& frame);
+    // Writes IEND. Throws unless every frame announced was added.
+    void finish();
+
+private:
+    void put(const std::string& bytes);
+    std::ostream& out_;
+    std::filesystem::path path_;
+    int width_, height_;
+    std::uint32_t frames_, fps_;
+    std::uint32_t added_ = 0;
+    std::uint32_t sequence_ = 0;  // fcTL and fdAT chunks share one count, from 0 (APNG specification)
+    PngWriter encoder_;
+    std::string chunks_;
 };
 
 // Linear image -> 8-bit sRGB PNG (RGB through the sRGB transfer function, alpha stored linearly when

@@ -53,6 +53,9 @@ inline constexpr double kMaxDefaultCameraCoordinate = 1e17;
 inline constexpr double kMinPixelAngle = 0x1.0p-20;
 // render.frames: ~4.6 h at 60 fps; anything more is a typo.
 inline constexpr std::uint32_t kMaxSceneFrames = 1'000'000;
+// render.fps, the frame rate an animated PNG plays at: a screen shows at most one frame per refresh (60 Hz
+// on most), and browsers play a frame of 10 ms or less for 100 ms, so more would play slower, not faster.
+inline constexpr std::uint32_t kMaxSceneFps = 60;
 // Colour components: the image clamps at 1, so 10^6 is far beyond any meaningful intensity, and products
 // of three colours summed over layers (c_base·(c_light + c_amb), front-to-back sums) stay finite; light and
 // ambient of 3·10^38 used to render infinite pixels, which the PNG writer then refused.

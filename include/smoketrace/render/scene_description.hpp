@@ -62,6 +62,7 @@ struct RenderSettings {
     float transmittance_threshold = 1.0f / 255.0f;
     Compositing compositing = Compositing::over;
     std::uint32_t spp = 1;  // samples per pixel, 1…kMaxSpp (pixel_samples.hpp); 1 = the pixel's centre
+    std::uint32_t fps = 24;  // frames per second of an animated PNG of the sequence (the film rate)
 };
 
 struct SceneDescription {
