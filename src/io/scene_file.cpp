@@ -7,6 +7,7 @@
 // value checks (Reader's, on a number and a lazily described site) and local_particle().
 #include <smoketrace/io/scene_file.hpp>
 
+#include <smoketrace/io/json_text_file.hpp>
 #include <smoketrace/io/ply_points.hpp>
 #include <smoketrace/render/camera.hpp>
 #include <smoketrace/render/pixel_samples.hpp>
@@ -1287,24 +1288,15 @@ SceneDescription parse_scene(std::string_view json_text, std::string_view source
 
 SceneDescription load_scene_file(const std::filesystem::path& path) {
     const std::string name = path.string();
-    std::error_code ec;
-    if (std::filesystem::is_directory(path, ec)) throw SceneFileError(name + ": is a directory, not a scene file");
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw SceneFileError(name + ": cannot open the file for reading");
-    if (std::filesystem::is_regular_file(path, ec)) {
-        // Straight into simdjson's padded buffer: the text is held once, however large the file.
-        const auto size = std::filesystem::file_size(path, ec);
-        if (!ec) {
-            simdjson::padded_string text{std::size_t(size)};
-            in.read(text.data(), std::streamsize(size));
-            if (in.bad() || std::size_t(in.gcount()) != size) throw SceneFileError(name + ": read error");
-            return parse_scene_text(text, name, SceneJsonReader::automatic);
-        }
+    std::string text;
+    try {
+        // Padded for simdjson, so that the text is held once however large the file.
+        text = read_json_object_text(path, kMaxSceneFileBytes, simdjson::SIMDJSON_PADDING);
+    } catch (const JsonTextFileError& e) {
+        throw SceneFileError(name + ": " + e.what());
     }
-    std::ostringstream text;  // a FIFO or a device: read to its end
-    text << in.rdbuf();
-    if (in.bad()) throw SceneFileError(name + ": read error");
-    return parse_scene(text.str(), name);
+    return parse_scene_text(simdjson::padded_string_view(text.data(), text.size(), text.capacity()), name,
+                            SceneJsonReader::automatic);
 }
 
 }  // namespace smoketrace
