@@ -390,14 +390,16 @@ TEST_CASE("hostile scene: files that cannot be a JSON object are refused at thei
     const fs::path sparse = dir.path / "sparse.json";
     std::ofstream(sparse).close();
     fs::resize_file(sparse, std::uintmax_t(1) << 30);
-    CHECK(message_of(sparse) == sparse.string() + ": byte 1 is a NUL byte, which JSON text never holds (is it a binary file?)");
+    CHECK(message_of(sparse) ==
+          sparse.string() + ": byte 1 is a NUL byte, which JSON text never holds (is it a binary file?)");
     // A NUL further in: named by its byte.
     const fs::path late = dir.write("late.json", "{" + std::string(99999, ' ') + std::string(1, '\0') + "}");
     CHECK_THAT(message_of(late), Catch::StartsWith(late.string() + ": byte 100001 is a NUL byte"));
     // Valid JSON, but not an object: refused without parsing what follows.
     const fs::path list = dir.write("list.json", " \r\n\t[1, 2, 3]");
     CHECK(message_of(list) ==
-          list.string() + ": not a JSON object: its first non-blank byte, byte 5, is '[' (a JSON object begins with '{')");
+          list.string() +
+              ": not a JSON object: its first non-blank byte, byte 5, is '[' (a JSON object begins with '{')");
     // A FIFO that would go on for 64 MiB of zeros: the reader stops after its first read.
     const fs::path fifo = dir.path / "zeros.json";
     REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
@@ -406,7 +408,8 @@ TEST_CASE("hostile scene: files that cannot be a JSON object are refused at thei
     CHECK_THAT(message_of(fifo), Catch::StartsWith(fifo.string() + ": byte 1 is a NUL byte"));
     CHECK(zeros.written() < kStreamBytes);
     // A byte-order mark before the object is still read, as JSON readers do.
-    const fs::path bom = dir.write("bom.json", std::string("\xEF\xBB\xBF\n{") + kLight + R"(, "smoke": { "particles": [] } })");
+    const fs::path bom =
+        dir.write("bom.json", std::string("\xEF\xBB\xBF\n{") + kLight + R"(, "smoke": { "particles": [] } })");
     CHECK(message_of(bom) == "(no error)");
 }
 

@@ -343,7 +343,8 @@ TEST_CASE("PLY particles: header values that overflow, a second vertex element, 
     REQUIRE(extremes.smoke.particles.size() == 2);
     CHECK(extremes.smoke.particles[0].radius == 255.0f);
     CHECK(double(extremes.smoke.particles[0].center.x) + extremes.origin.x == -32768.0);
-    dir.write("c.ply", replaced(good, "end_header", "element extra 2\nproperty float q\nend_header") + std::string(8, '\0'));
+    dir.write("c.ply",
+              replaced(good, "end_header", "element extra 2\nproperty float q\nend_header") + std::string(8, '\0'));
     CHECK(load_scene_file(scene).smoke.particles.size() == 3);
     std::string filler;
     while (good.size() + filler.size() + 1000 < kMaxPlyHeaderBytes) filler += "comment " + std::string(990, 'y') + "\n";

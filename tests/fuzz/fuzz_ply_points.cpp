@@ -50,7 +50,8 @@ const std::filesystem::path& folder() {
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
     const std::filesystem::path cloud = folder() / "cloud.ply";
-    std::ofstream(cloud, std::ios::binary | std::ios::trunc).write(reinterpret_cast<const char*>(data), std::streamsize(size));
+    std::ofstream(cloud, std::ios::binary | std::ios::trunc)
+        .write(reinterpret_cast<const char*>(data), std::streamsize(size));
     try {
         PlyPointReader reader(cloud, std::string(kName));
         const bool binary = std::string_view(reinterpret_cast<const char*>(data), size).find("format ascii") ==
