@@ -314,6 +314,11 @@ TEST_CASE("PLY particles: header values that overflow, a second vertex element, 
          ply + ": after the last vertex the file has 1 more non-blank lines, where the header's elements after "
                "vertex give 0"},
         {"trailing text (ascii)", ascii + "42\n", "after the last vertex the file has 1 more non-blank lines"},
+        // Refused at the first read, before the scene file reserves memory for the count.
+        {"a vertex count the text cannot hold (ascii)", hand_made("float", "0", "float", "1").replace(
+                                                            std::strlen("ply\nformat ascii 1.0\nelement vertex "), 1, "9"),
+         ply + ": truncated: the header declares 9 vertices of 4 values, more than the 16 bytes after it can hold as "
+               "text"},
         {"a uchar radius of 300 (ascii)", hand_made("float", "0", "uchar", "300"),
          ply + ": vertex 0, property radius: out of range for uchar (0 to 255) (got \"300\")"},
         {"a uchar radius of 0.5 (ascii)", hand_made("float", "0", "uchar", "0.5"),

@@ -295,6 +295,20 @@ void PlyPointReader::check_binary_layout() {
         fail("cannot seek to the first vertex (byte " + std::to_string(*vertex_start_) + ")");
 }
 
+void PlyPointReader::check_ascii_room() {
+    // Each value is at least one character and a separator: a count the rest of the file cannot hold is
+    // refused before a caller sizes anything by it.
+    struct stat info{};
+    const auto at = std::ftell(file_);
+    if (::fstat(fileno(file_), &info) != 0 || at < 0) fail("cannot read the file");
+    const std::uint64_t left = std::uint64_t(info.st_size) - std::min(std::uint64_t(info.st_size), std::uint64_t(at));
+    const std::optional<std::uint64_t> values = checked_product(vertex_count_, vertex_properties_);
+    if (!values || *values > left / 2 + 1)
+        fail("truncated: the header declares " + std::to_string(vertex_count_) + " vertices of " +
+             std::to_string(vertex_properties_) + " values, more than the " + std::to_string(left) +
+             " bytes after it can hold as text");
+}
+
 void PlyPointReader::check_ascii_end() {
     // What follows the last vertex: the lines of the elements after it, then only white space.
     std::uint64_t lines = 0;
@@ -317,7 +331,8 @@ void PlyPointReader::check_ascii_end() {
 std::size_t PlyPointReader::read(std::span<PlyPoint> out) {
     if (!started_) {
         started_ = true;
-        if (format_ != Format::ascii) check_binary_layout();
+        if (format_ == Format::ascii) check_ascii_room();
+        else check_binary_layout();
     }
     out = out.first(std::size_t(std::min<std::uint64_t>(out.size(), vertex_count_ - next_vertex_)));
     const std::size_t done = out.empty() ? 0 : format_ == Format::ascii ? read_ascii(out) : read_binary(out);

@@ -721,10 +721,13 @@ std::string read_ply_particles(const Reader& r, const Node& list, const std::fil
         PlyPointReader ply(path, name);
         if (const std::string problem = particle_count_problem(ply.vertex_count(), false); !problem.empty())
             r.fail(list.path + ": " + name + ": element vertex", problem);
-        particles.reserve(std::size_t(ply.vertex_count()));
         std::vector<PlyPoint> batch(kPlyBatch);
         std::uint64_t index = 0;
-        while (const std::size_t count = ply.read(batch)) {
+        std::size_t count = ply.read(batch);
+        // Only now: the first read() has held the count against the file's size, so a header that lies
+        // costs no memory.
+        particles.reserve(std::size_t(ply.vertex_count()));
+        for (; count != 0; count = ply.read(batch)) {
             for (const PlyPoint& p : std::span(batch).first(count)) {
                 ParticleValues v;
                 v.center = {r.coordinate(p.x, PlyValueSite{name, index, "x", p.x}),

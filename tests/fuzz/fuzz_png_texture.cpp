@@ -56,7 +56,7 @@ std::uint32_t read_be32(const std::uint8_t* p) {
 
 // Every complete chunk after the signature gets the CRC of its type and data.
 void fix_crcs(std::vector<std::uint8_t>& png) {
-    for (std::size_t at = 8; png.size() - at >= 12;) {
+    for (std::size_t at = 8; at <= png.size() && png.size() - at >= 12;) {
         const std::uint64_t length = read_be32(&png[at]);
         if (length > png.size() - at - 12) return;
         const auto crc = std::uint32_t(crc32(0, &png[at + 4], uInt(4 + length)));

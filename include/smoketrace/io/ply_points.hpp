@@ -51,8 +51,10 @@ public:
 
     // Fills `out` with the next vertices; returns how many (fewer than out.size() only at the last vertex,
     // 0 after it). Throws PlyError when the data ends early, when more data follows than the header declares
-    // (binary: checked from the file's size before the first vertex; ascii: when the last vertex is read), or
-    // when an ascii value is not a number its declared type holds (a uchar of 300 or 0.5).
+    // (binary: checked from the file's size before the first vertex; ascii: when the last vertex is read),
+    // when the file is too short for the vertex count (checked at the first call, so that vertex_count() can
+    // be trusted to size a buffer after it), or when an ascii value is not a number its declared type holds
+    // (a uchar of 300 or 0.5).
     std::size_t read(std::span<PlyPoint> out);
 
 private:
@@ -66,6 +68,7 @@ private:
     void read_header();
     void skip_elements_before_vertex();
     void check_binary_layout();
+    void check_ascii_room();
     void check_ascii_end();
     [[noreturn]] void fail(const std::string& problem) const;
     [[noreturn]] void truncated(std::uint64_t vertex) const;
