@@ -7,7 +7,8 @@
 //  * a file it reads gives exactly vertex_count() vertices, and read() then returns 0;
 //  * a binary file it reads holds at least 4 bytes (x, y, z, radius of the smallest type) per vertex it
 //    declares: a header count cannot make the reader invent vertices the file does not hold;
-//  * the scene file that names the cloud either loads or throws SceneFileError naming the scene file.
+//  * the scene file that names a cloud the reader read either loads or throws SceneFileError naming the
+//    scene file (a cloud the reader refuses, the scene refuses with the reader's message: not run again).
 //
 // The reader takes a path (it reads the file in batches), so each input is written to a file of this
 // process's own in the temporary folder first.
@@ -70,6 +71,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     } catch (const PlyError& e) {
         if (std::string_view(e.what()).rfind(std::string(kName) + ": ", 0) != 0)
             violated("error message without the file name:", e.what());
+        return 0;
     }
     const std::string scene =
         R"({ "light": { "direction": [0, 1, 0] }, "smoke": { "particles": "cloud.ply" } })";
