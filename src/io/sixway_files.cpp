@@ -7,12 +7,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include <cerrno>
 #include <charconv>
 #include <cstdlib>
-#include <cstring>
-#include <fstream>
-#include <sstream>
+#include <ostream>
 #include <stdexcept>
 #include <string>
 
