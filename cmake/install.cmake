@@ -6,6 +6,7 @@
 #                                                           command line relative to its own path
 #   lib/cmake/smoketrace/                                   find_package(smoketrace CONFIG) →
 #                                                           smoketrace::smoketrace
+#   lib/pkgconfig/smoketrace.pc                             pkg-config --cflags --libs smoketrace
 #   share/doc/smoketrace/LICENSE
 # Nothing of the build machine goes into the package: -march=native (SMOKETRACE_NATIVE) and the warnings
 # are directory options of this project, not usage requirements of the target.
@@ -32,3 +33,10 @@ write_basic_package_version_file(${PROJECT_BINARY_DIR}/smoketraceConfigVersion.c
   COMPATIBILITY SameMinorVersion)
 install(FILES ${PROJECT_BINARY_DIR}/smoketraceConfig.cmake ${PROJECT_BINARY_DIR}/smoketraceConfigVersion.cmake
   DESTINATION ${SMOKETRACE_INSTALL_CMAKEDIR})
+# For a build without CMake. Its flags are the target's usage requirements above (GLM_FORCE_XYZW_ONLY,
+# -ffp-contract=off: the watertight triangle test inlined into the caller needs it); its prefix is found from
+# where the file lies, so that the tree can be moved as the CMake package can.
+file(RELATIVE_PATH SMOKETRACE_PC_TO_PREFIX "${CMAKE_INSTALL_FULL_LIBDIR}/pkgconfig" "${CMAKE_INSTALL_PREFIX}")
+string(REGEX REPLACE "/$" "" SMOKETRACE_PC_TO_PREFIX "${SMOKETRACE_PC_TO_PREFIX}")
+configure_file(${CMAKE_CURRENT_LIST_DIR}/smoketrace.pc.in ${PROJECT_BINARY_DIR}/smoketrace.pc @ONLY)
+install(FILES ${PROJECT_BINARY_DIR}/smoketrace.pc DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig)

@@ -2,12 +2,14 @@
 #include "support/cli_runner.hpp"
 #include "support/fixtures.hpp"
 
+#include <smoketrace/io/png_io.hpp>
 #include <smoketrace/smoke/optical_path_lengths.hpp>
 #include <smoketrace/io/scene_file.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -298,4 +300,99 @@ TEST_CASE("cli: render --frames A:B writes the full run's frames A to B-1", "[cl
     CHECK(file_bytes(dir.path / "tubes" / name(4)) != file_bytes(dir.path / "tubes" / name(5)));
     render(still, "still", "");
     check_range(still, "still", 2, 4, 4);
+}
+
+// One limit for --frames N, --frames A:B and render.frames (kMaxSceneFrames), and frame names with the digits of
+// the last frame's number (at least 4), so that `ls` and a glob list them in frame order for any length.
+TEST_CASE("cli: --frames has one limit, and frame names sort in frame order", "[cli][frames]") {
+    TempDir dir;
+    const std::string most = std::to_string(kMaxSceneFrames);
+    // Accepted up to the limit: the check after it (standard output takes one frame) is what refuses this run.
+    CliRun r = run_cli("render " + kScene + " -o - --frames " + most);
+    CHECK(r.exit_code == 2);
+    CHECK(r.err.find("-o -: standard output takes one frame, not " + most) != std::string::npos);
+    r = run_cli("render " + kScene + " -o " + (dir.path / "x.png").string() + " --frames " +
+                std::to_string(kMaxSceneFrames + 1));
+    CHECK(r.exit_code == 2);
+    CHECK(r.err.find("--frames: " + std::to_string(kMaxSceneFrames + 1) + " is out of range [1, " + most + "]") !=
+          std::string::npos);
+
+    // The still minimal scene with a sequence of `frames`; the last two frames written (cheap: nothing moves).
+    const auto names = [&](std::uint32_t frames, const std::string& range) {
+        std::string text = file_bytes(kScene);
+        text.insert(text.rfind('}'), ", \"render\": { \"frames\": " + std::to_string(frames) + " } ");
+        const fs::path folder = dir.path / std::to_string(frames);
+        fs::create_directories(folder);
+        const fs::path scene = dir.write("s" + std::to_string(frames) + ".json", text);
+        const CliRun run = run_cli("render " + scene.string() + " -o " + (folder / "f.png").string() +
+                                   " --size 4x4 --frames " + range);
+        INFO(run.err);
+        REQUIRE(run.exit_code == 0);
+        std::vector<std::string> found;
+        for (const auto& e : fs::directory_iterator(folder)) found.push_back(e.path().filename().string());
+        std::sort(found.begin(), found.end());
+        return found;
+    };
+    CHECK(names(10000, "9998:10000") == std::vector<std::string>{"f_9998.png", "f_9999.png"});  // 4 digits, as before
+    CHECK(names(10001, "9999:10001") == std::vector<std::string>{"f_09999.png", "f_10000.png"});
+    CHECK(names(100001, "99999:100001") == std::vector<std::string>{"f_099999.png", "f_100000.png"});
+    // --frames N names the same way: N frames numbered 0 … N-1.
+    CHECK(names(1, "3") == std::vector<std::string>{"f_0000.png", "f_0001.png", "f_0002.png"});
+}
+
+// An extension in any case names the same kind of file: out.PNG is a PNG, a sequence keeps the case.
+TEST_CASE("cli: -o takes .png and .svg in any case", "[cli][output]") {
+    TempDir dir;
+    const fs::path png = dir.path / "out.PNG";
+    CliRun r = run_cli("render " + kScene + " -o " + png.string() + " --size 8x8");
+    INFO(r.err);
+    CHECK(r.exit_code == 0);
+    CHECK(file_bytes(png).rfind("\x89PNG\r\n\x1a\n", 0) == 0);
+    r = run_cli("render " + kScene + " -o " + (dir.path / "seq.Png").string() + " --size 8x8 --frames 2");
+    CHECK(r.exit_code == 0);
+    CHECK(fs::exists(dir.path / "seq_0000.Png"));
+    CHECK(fs::exists(dir.path / "seq_0001.Png"));
+    r = run_cli("explain " + kScene + " --particle 0 -o " + (dir.path / "story.SVG").string());
+    CHECK(r.exit_code == 0);
+    CHECK(file_bytes(dir.path / "story.SVG").find("<svg") != std::string::npos);
+    // Still refused: another extension, and none.
+    CHECK(run_cli("render " + kScene + " -o " + (dir.path / "out.jpg").string()).exit_code == 2);
+    CHECK(run_cli("render " + kScene + " -o " + (dir.path / "png").string()).exit_code == 2);
+    CHECK_FALSE(fs::exists(dir.path / "out.jpg"));
+    CHECK_FALSE(fs::exists(dir.path / "png"));
+}
+
+// A ground quad is lit on the face the camera sees, whichever way its corners are wound: the same quad wound
+// the other way gives the same image, byte for byte (it used to show its unlit back: ambient only). Seen from
+// below, with the light above, it is the back that the camera sees: dark in either winding.
+TEST_CASE("cli: a ground wound either way is lit on the side the camera sees", "[cli][ground]") {
+    TempDir dir;
+    const auto scene = [&](const std::string& name, const std::string& corners, const std::string& camera_y) {
+        return dir.write(name, R"({ "light": { "direction": [0.3, 1, 0.2] },
+            "smoke": { "particles": [ { "center": [0, 0, 0], "radius": 0.5 } ] },
+            "ground": { "corners": )" + corners + R"( },
+            "camera": { "position": [0, )" + camera_y + R"(, 8], "look_at": [0, -3, 0], "width": 24, "height": 24 } })");
+    };
+    const std::string ccw = "[[-5,-3,-5], [-5,-3,5], [5,-3,5], [5,-3,-5]]";  // counter-clockwise from above
+    const std::string cw = "[[-5,-3,-5], [5,-3,-5], [5,-3,5], [-5,-3,5]]";
+    const auto render = [&](const fs::path& s) {
+        const fs::path out = dir.path / (s.stem().string() + ".png");
+        const CliRun r = run_cli("render " + s.string() + " -o " + out.string());
+        INFO(r.err);
+        REQUIRE(r.exit_code == 0);
+        return file_bytes(out);
+    };
+    const std::string above_ccw = render(scene("above_ccw.json", ccw, "4"));
+    CHECK(render(scene("above_cw.json", cw, "4")) == above_ccw);
+    const std::string below_ccw = render(scene("below_ccw.json", ccw, "-9"));
+    CHECK(render(scene("below_cw.json", cw, "-9")) == below_ccw);
+    // The lit face and the unlit one differ (the checks above could not pass with a ground that is never lit).
+    CHECK(load_scene_file(dir.path / "above_cw.json").ground->normal == glm::vec3(0.0f, 1.0f, 0.0f));
+    CHECK(load_scene_file(dir.path / "below_ccw.json").ground->normal == glm::vec3(0.0f, -1.0f, 0.0f));
+    const Rgba8Image lit = read_png_rgba8(dir.path / "above_cw.png");
+    const Rgba8Image back = read_png_rgba8(dir.path / "below_cw.png");
+    const auto red = [](const Rgba8Image& image) {  // the red channel at the centre: the ground's centre
+        return image.pixels[(std::size_t(image.height / 2) * std::size_t(image.width) + std::size_t(image.width / 2)) * 4];
+    };
+    CHECK(int(red(lit)) > int(red(back)) + 50);
 }

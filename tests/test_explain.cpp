@@ -13,6 +13,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <array>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -428,6 +429,75 @@ TEST_CASE("cli: explain prints depths' l and render's pixel", "[explain][cli]") 
     }
 }
 
+// explain takes render's and depths' own options, read by the same code (scene_overrides.hpp), so that its
+// story is of the pixel the user looked at: a sequence rendered with every option that changes a frame, and
+// pixels of its frames (beyond the scene's 512 pixels wide) explained with the same options and --frame. The
+// particle's l follows depths' --shape and --cutoff. Tolerance 0: the same computation.
+TEST_CASE("cli: explain follows render's and depths' options and frames", "[explain][cli]") {
+    TempDir dir;
+    const std::string scene = (kAssets / "scenes" / "two_tubes_sequence.json").string();
+    REQUIRE(shipped("two_tubes_sequence.json").camera.width == 512);
+    const std::string options = " --size 600x40 --mode simple-shadow --spp 2 --groups 2 --cutoff 4 "
+                                "--shape icosahedron --compositing thesis";
+    REQUIRE(run_cli("render " + scene + " -o " + (dir.path / "f.png").string() + options + " --frames 3").exit_code ==
+            0);
+    const auto rendered_at = [&](int frame, int x, int y) {
+        const Rgba8Image image = read_png_rgba8(dir.path / ("f_000" + std::to_string(frame) + ".png"));
+        REQUIRE(image.width == 600);
+        REQUIRE(image.height == 40);
+        const std::uint8_t* px = &image.pixels[(std::size_t(y) * std::size_t(image.width) + std::size_t(x)) * 4];
+        return std::array<int, 3>{px[0], px[1], px[2]};
+    };
+    const auto explained_at = [&](int frame, int x, int y, const std::string& extra) {
+        const CliRun r = run_cli_stdout("explain " + scene + " --pixel " + std::to_string(x) + "," +
+                                        std::to_string(y) + options + extra);
+        INFO(r.err);
+        REQUIRE(r.exit_code == 0);
+        CHECK(r.out.find("(frame " + std::to_string(frame) + ", mode simple-shadow") != std::string::npos);
+        const auto srgb = lines_after(r.out, "pixel (linear) ");
+        REQUIRE(srgb.size() == 1);
+        std::istringstream in(srgb[0].substr(srgb[0].rfind(':') + 1));
+        std::array<int, 3> rgb{-1, -1, -1};
+        in >> rgb[0] >> rgb[1] >> rgb[2];
+        return rgb;
+    };
+    bool frames_differ = false;
+    for (const auto& [x, y] : {std::pair{300, 20}, std::pair{560, 5}, std::pair{280, 30}}) {
+        INFO("pixel " << x << "," << y);
+        CHECK(explained_at(0, x, y, " --frames 3") == rendered_at(0, x, y));  // the first frame, by default
+        CHECK(explained_at(2, x, y, " --frames 3 --frame 2") == rendered_at(2, x, y));
+        frames_differ = frames_differ || rendered_at(0, x, y) != rendered_at(2, x, y);
+    }
+    CHECK(frames_differ);  // --frame is followed, not frame 0 drawn for every frame
+    // --frames A:B (of the scene's 24): frame A by default, the one render --frames 1:3 writes first.
+    CHECK(explained_at(1, 300, 20, " --frames 1:3") == rendered_at(1, 300, 20));
+
+    // A particle's l under depths' --cutoff and --shape: the same text as the CSV's.
+    const fs::path csv = dir.path / "d.csv";
+    const std::string depths_options = " --cutoff 4 --shape icosahedron";
+    REQUIRE(run_cli("depths " + scene + " -o " + csv.string() + depths_options).exit_code == 0);
+    std::vector<std::string> rows;
+    {
+        std::istringstream in(smoketrace::test::file_bytes(csv));
+        for (std::string line; std::getline(in, line);) rows.push_back(line);
+    }
+    // Not vacuous: at K = 4 particles 10 and 600 are cut off (without it they are lit), so an explain that
+    // ignored --cutoff would print a finite l where the CSV has inf.
+    CHECK(rows.at(11).ends_with(",cutoff"));
+    CHECK(rows.at(601).ends_with(",cutoff"));
+    for (const int i : {10, 300, 600}) {
+        const CliRun r = run_cli_stdout("explain " + scene + " --particle " + std::to_string(i) + depths_options);
+        INFO("particle " << i << ": " << r.err);
+        REQUIRE(r.exit_code == 0);
+        CHECK(r.out.find("icosahedron; cutoff 4") != std::string::npos);
+        const auto l = lines_after(r.out, "l = ");
+        REQUIRE(l.size() == 1);
+        const std::string row = rows.at(std::size_t(i) + 1);
+        const auto a = row.find(','), b = row.find(',', a + 1);
+        CHECK(l[0].substr(0, l[0].find(' ')) == row.substr(a + 1, b - a - 1));
+    }
+}
+
 TEST_CASE("cli: explain's bad input names the argument and writes nothing", "[explain][cli]") {
     TempDir dir;
     const std::string scene = (kAssets / "scenes" / "minimal.json").string();
@@ -442,7 +512,13 @@ TEST_CASE("cli: explain's bad input names the argument and writes nothing", "[ex
         {"explain " + scene + " --particle -1" + o, "--particle"},
         {"explain " + scene + " --particle x" + o, "--particle: 'x' is not a whole number"},
         {"explain " + empty.string() + " --particle 0" + o, "has no particles"},
-        {"explain " + scene + " --pixel 512,0" + o, "--pixel: 512,0 is outside the scene's 512x512 image"},
+        {"explain " + scene + " --pixel 512,0" + o, "--pixel: 512,0 is outside the 512x512 image"},
+        {"explain " + scene + " --pixel 40,0 --size 40x30" + o, "--pixel: 40,0 is outside the 40x30 image"},
+        {"explain " + scene + " --pixel 1,2 --frame 1" + o, "--frame: 1 is not one of the frames rendered, 0…0"},
+        {"explain " + scene + " --pixel 1,2 --frames 2:4 --frame 1" + o, "--frames 2:4: B is beyond the 1 frames"},
+        {"explain " + scene + " --pixel 1,2 --mode fancy" + o, "--mode: 'fancy' is not one of"},
+        {"explain " + scene + " --particle 0 --size 40x30" + o, "--size: --particle takes only depths' --shape"},
+        {"explain " + scene + " --particle 0 --frame 0" + o, "--frame: --particle explains frame 0"},
         {"explain " + scene + " --pixel 0,512" + o, "--pixel"},
         {"explain " + scene + " --pixel 3" + o, "--pixel: '3' is not of the form X,Y"},
         {"explain " + scene + " --pixel a,b" + o, "--pixel: X: 'a' is not a whole number"},

@@ -10,6 +10,7 @@
 
 #include <smoketrace/io/output_path.hpp>
 #include <smoketrace/io/png_io.hpp>
+#include <smoketrace/io/temporary_file.hpp>
 #include <smoketrace/render/sixway_texture.hpp>
 
 #include <catch2/catch.hpp>
@@ -404,6 +405,108 @@ TEST_CASE("output: the same file as an input, by any spelling, link or hard link
     CHECK(file_bytes(scene) == "{}");
 }
 
+// ---- Temporary files, signals and groups --------------------------------------------------------------------
+
+namespace {
+
+// The wait status of a child process that runs `body` with the command line's signal handling. Catch2
+// catches SIGINT and SIGTERM itself, so the child first puts back the default that a program starts with.
+int status_of_child(const std::function<void()>& body) {
+    const pid_t pid = ::fork();
+    REQUIRE(pid >= 0);
+    if (pid == 0) {
+        for (const int s : {SIGHUP, SIGINT, SIGTERM, SIGABRT}) ::signal(s, SIG_DFL);
+        remove_temporary_files_on_signals();
+        try {
+            body();
+        } catch (...) {
+            ::_exit(3);
+        }
+        ::_exit(0);
+    }
+    int status = 0;
+    REQUIRE(::waitpid(pid, &status, 0) == pid);
+    return status;
+}
+
+// A writer that writes more than the 64 KiB buffer (so that the temporary file holds bytes), then gets `sig`.
+std::function<void(std::ostream&)> signalled_while_writing(int sig) {
+    return [sig](std::ostream& out) {
+        out << std::string(200'000, 'x');
+        out.flush();
+        ::raise(sig);
+    };
+}
+
+}  // namespace
+
+TEST_CASE("output: a signal that ends the program while a file is written removes its temporary file",
+          "[output][signal]") {
+    // SIGABRT: what std::terminate and a failed assertion end in.
+    for (const int sig : {SIGINT, SIGTERM, SIGHUP, SIGABRT}) {
+        INFO("signal " << sig);
+        TempDir dir;
+        const fs::path file = dir.write("frame_0007.png", "old frame");
+        const int status = status_of_child([&] { write_output(file, signalled_while_writing(sig)); });
+        // Ended by the signal itself, as a shell reports it (128 + N), not by an exit status of our own.
+        CHECK(WIFSIGNALED(status));
+        CHECK((WIFSIGNALED(status) ? WTERMSIG(status) : 0) == sig);
+        CHECK(names_in(dir.path) == std::vector<std::string>{"frame_0007.png"});
+        CHECK(file_bytes(file) == "old frame");
+    }
+}
+
+TEST_CASE("output: files written together are replaced together or not at all", "[output][group]") {
+    TempDir dir;
+    const fs::path a = dir.write("a.png", "old a"), b = dir.path / "b.png", c = dir.write("c.json", "old c");
+    const std::vector<std::string> before{"a.png", "c.json"};
+    auto group = [&](const std::function<void(std::ostream&)>& last) {
+        return std::vector<GroupOutput>{
+            {resolve_output(a), writes("new a")}, {resolve_output(b), writes("new b")}, {resolve_output(c), last}};
+    };
+
+    // The last writer fails: nothing is replaced, and no temporary file remains.
+    const std::vector<GroupOutput> failing = group([](std::ostream&) { throw std::runtime_error("bake failed"); });
+    CHECK(message_of([&] { write_outputs_together(failing); }) == "bake failed");
+    CHECK(names_in(dir.path) == before);
+    CHECK(file_bytes(a) == "old a");
+    CHECK(file_bytes(c) == "old c");
+
+    // The last rename fails (its target is a folder that is not empty: the rename itself refuses it, for root
+    // too): the first two are put back, a.png with its old bytes and b.png, new, removed again.
+    fs::create_directories(dir.path / "d.json" / "inside");
+    std::vector<GroupOutput> renames = group(writes("new c"));
+    renames[2].target = OutputTarget{OutputKind::replace, dir.path / "d.json", dir.path / "d.json"};
+    const std::string message = message_of([&] { write_outputs_together(renames); });
+    CHECK(message.find((dir.path / "d.json").string() + ": cannot rename into place") != std::string::npos);
+    CHECK(message.find("left as they were") != std::string::npos);
+    CHECK(names_in(dir.path) == std::vector<std::string>{"a.png", "c.json", "d.json"});
+    CHECK(file_bytes(a) == "old a");
+    fs::remove_all(dir.path / "d.json");
+
+    // A stream cannot be taken back: refused before anything is written.
+    make_fifo(dir.path / "fifo");
+    std::vector<GroupOutput> with_stream = group(writes("new c"));
+    with_stream[1].target = resolve_output(dir.path / "fifo");
+    CHECK(message_of([&] { write_outputs_together(with_stream); }).find("fifo: is not a regular file") !=
+          std::string::npos);
+    CHECK(file_bytes(a) == "old a");
+    fs::remove(dir.path / "fifo");
+
+    // A signal while the last file is written: the program ends, the old files are whole, nothing is left.
+    const std::vector<GroupOutput> signalled = group(signalled_while_writing(SIGTERM));
+    const int status = status_of_child([&] { write_outputs_together(signalled); });
+    CHECK((WIFSIGNALED(status) ? WTERMSIG(status) : 0) == SIGTERM);
+    CHECK(names_in(dir.path) == before);
+    CHECK(file_bytes(a) == "old a");
+    CHECK(file_bytes(c) == "old c");
+
+    // And when all goes well, all three are new.
+    write_outputs_together(group(writes("new c")));
+    CHECK(names_in(dir.path) == std::vector<std::string>{"a.png", "b.png", "c.json"});
+    CHECK(file_bytes(a) + file_bytes(b) + file_bytes(c) == "new anew bnew c");
+}
+
 // ---- The command line ----------------------------------------------------------------------------------------
 
 TEST_CASE("output cli: -o - puts the CSV of depths and the PNG of render on standard output", "[output][cli]") {
@@ -545,6 +648,130 @@ TEST_CASE("output cli: an output that is an input is refused before any work, th
     CHECK(names_in(dir.path) ==
           std::vector<std::string>{"broken.json", "hard.csv", "scene.json", "seq_0001.png", "soft.csv", "sub",
                                    "textures"});
+}
+
+TEST_CASE("output cli: the PLY point cloud a scene reads is an input too: -o onto it is refused, it is unchanged",
+          "[output][cli]") {
+    TempDir dir;
+    const std::string ply_text = "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n"
+                                 "property float z\nproperty float radius\nend_header\n0 0 0 0.5\n0.6 0.1 0 0.4\n";
+    const fs::path ply = dir.write("cloud.ply", ply_text);
+    const fs::path scene = dir.write("s.json", R"({ "light": { "direction": [0.3, 1, 0.2] },
+        "smoke": { "particles": "cloud.ply" } })");
+    // Other names of the same file, as the other commands' extensions want them.
+    fs::create_hard_link(ply, dir.path / "frame.png");
+    fs::create_hard_link(ply, dir.path / "seq_0001.png");
+    fs::create_hard_link(ply, dir.path / "story.svg");
+    fs::create_symlink("cloud.ply", dir.path / "link.csv");
+    struct Case {
+        std::string args;
+        fs::path out;
+    };
+    const Case cases[] = {
+        {"depths " + scene.string() + " --timings", ply},  // the issue's case: the CSV replaced the cloud
+        {"depths " + scene.string() + " --timings", dir.path / "link.csv"},
+        {"render " + scene.string() + " --size 8x8 --timings", dir.path / "frame.png"},
+        {"render " + scene.string() + " --size 8x8 --frames 2 --timings", dir.path / "seq.png"},
+        {"explain " + scene.string() + " --particle 0", dir.path / "story.svg"},
+    };
+    for (const Case& c : cases) {
+        INFO(c.args << " -o " << c.out);
+        const CliRun r = run_cli_stdout(c.args + " -o " + c.out.string());
+        INFO(r.err);
+        CHECK(r.exit_code == 2);
+        // Both paths named: the output as given, and the input as the scene names it.
+        CHECK(r.err.find("is the same file as the input '" + ply.string() + "'") != std::string::npos);
+        CHECK(r.err.find("-o: " + (c.out == dir.path / "seq.png" ? dir.path / "seq_0001.png" : c.out).string()) !=
+              std::string::npos);
+        CHECK(r.out.empty());  // nothing traced: no timings, no story
+        CHECK(file_bytes(ply) == ply_text);
+    }
+    CHECK(names_in(dir.path) ==
+          std::vector<std::string>{"cloud.ply", "frame.png", "link.csv", "s.json", "seq_0001.png", "story.svg"});
+    // The scene itself still renders: the refusal is about the output, not the cloud.
+    const CliRun ok = run_cli("depths " + scene.string() + " -o " + (dir.path / "d.csv").string());
+    INFO(ok.err);
+    CHECK(ok.exit_code == 0);
+    CHECK(file_bytes(dir.path / "d.csv").rfind(kCsvHeader, 0) == 0);
+}
+
+TEST_CASE("output cli: a sequence killed at random moments leaves no temporary file and ends by the signal",
+          "[output][cli][signal]") {
+    // Each run is killed by SIGINT or SIGTERM at a moment drawn from [0, the time a whole run takes here);
+    // whatever it was doing, the folder then holds only whole frames, and the run ends by the signal (a
+    // shell's 128 + N). 40 runs of this small sequence take a few seconds.
+    constexpr int kKills = 40;
+    constexpr int kFrames = 64;
+    const std::string args = "render " + kScene + " --size 24x24 --mode basic --frames " + std::to_string(kFrames) +
+                             " --threads 1";
+    TempDir dir;
+    // Starts the command writing into `out`; the signals it is sent arrive with the defaults a program started
+    // from a shell has (Catch2 catches SIGINT and SIGTERM, and a forked copy of it must not).
+    auto start = [&](const fs::path& out) {
+        sigset_t signals, old;
+        sigemptyset(&signals);
+        sigaddset(&signals, SIGINT);
+        sigaddset(&signals, SIGTERM);
+        ::sigprocmask(SIG_BLOCK, &signals, &old);
+        const pid_t pid = ::fork();
+        if (pid == 0) {
+            ::signal(SIGINT, SIG_DFL);
+            ::signal(SIGTERM, SIG_DFL);
+            ::sigprocmask(SIG_SETMASK, &old, nullptr);
+            const int null = ::open("/dev/null", O_WRONLY);
+            ::dup2(null, STDOUT_FILENO);
+            ::dup2(null, STDERR_FILENO);
+            const std::string cmd =
+                "exec " + std::string(SMOKETRACE_CLI) + " " + args + " -o " + (out / "frame.png").string();
+            ::execl("/bin/sh", "sh", "-c", cmd.c_str(), static_cast<char*>(nullptr));
+            ::_exit(127);
+        }
+        ::sigprocmask(SIG_SETMASK, &old, nullptr);
+        REQUIRE(pid > 0);
+        return pid;
+    };
+    // Whole runs, timed: the kills are spread over the length of the fastest, so that they land before,
+    // between, during and after frame writes on any machine (a sanitizer build is many times slower), and a
+    // run slowed by other work on the machine does not stretch the window past most runs' end.
+    auto run_us = std::chrono::microseconds::max();
+    int status = 0;
+    for (int i = 0; i < 3; ++i) {
+        const auto t0 = std::chrono::steady_clock::now();
+        const pid_t whole = start(dir.path);
+        REQUIRE(::waitpid(whole, &status, 0) == whole);
+        run_us = std::min(run_us, std::chrono::duration_cast<std::chrono::microseconds>(
+                                      std::chrono::steady_clock::now() - t0));
+        REQUIRE((WIFEXITED(status) ? WEXITSTATUS(status) : -1) == 0);
+        REQUIRE(names_in(dir.path).size() == std::size_t(kFrames));
+    }
+    std::uint64_t seed = 0x9E3779B97F4A7C15ull;
+    int mid_sequence = 0;  // kills that found some frames written and some not: the case under test
+    for (int k = 0; k < kKills; ++k) {
+        const fs::path out = dir.path / ("run" + std::to_string(k));
+        fs::create_directories(out);
+        const int sig = k % 2 ? SIGTERM : SIGINT;
+        const pid_t pid = start(out);
+        seed = seed * 6364136223846793005ull + 1442695040888963407ull;  // an LCG step: the moments are fixed
+        std::this_thread::sleep_for(std::chrono::microseconds((seed >> 33) % std::uint64_t(run_us.count() + 1)));
+        ::kill(pid, sig);
+        REQUIRE(::waitpid(pid, &status, 0) == pid);
+        const std::vector<std::string> names = names_in(out);
+        INFO("kill " << k << " (signal " << sig << "): " << names.size() << " files");
+        // A run that finished before the kill exits 0; every other ends by the signal it was sent.
+        if (WIFEXITED(status)) CHECK(WEXITSTATUS(status) == 0);
+        else CHECK((WIFSIGNALED(status) ? WTERMSIG(status) : 0) == sig);
+        for (const std::string& name : names) {
+            INFO(name);
+            CHECK(name.size() == std::string("frame_0000.png").size());
+            CHECK(name.rfind("frame_", 0) == 0);
+            CHECK(read_png_rgba8(out / name).width == 24);
+        }
+        if (!names.empty() && names.size() < std::size_t(kFrames)) ++mid_sequence;
+    }
+    // The test means something only if kills came while frames were being written: about half of them do,
+    // one in eight leaves room for a loaded machine whose reference run was slow.
+    INFO("kills that came mid-sequence: " << mid_sequence << "; a whole run took " << run_us.count() << " us");
+    CHECK(mid_sequence >= kKills / 8);
 }
 
 TEST_CASE("output cli: an output that is a folder is refused before any work", "[output][cli]") {

@@ -17,6 +17,7 @@
 
 #include <glm/geometric.hpp>
 
+#include <algorithm>
 #include <atomic>
 #include <bit>
 #include <cmath>
@@ -584,7 +585,56 @@ TEST_CASE("sixway files: the committed assets are the baker's output for their r
     CHECK(worst <= kMaxCodeDifference);
 }
 
+TEST_CASE("sixway files: a bake whose sidecar cannot be written leaves the old atlases as they were", "[sixway]") {
+    // A set mixed from two bakes would be read without complaint: the three files go in together or not at all.
+    TempDir dir;
+    SixwayBakeSettings s = small_settings();
+    write_sixway_bake(dir.path, bake_sixway(s));
+    const fs::path pos = dir.path / std::string(kSixwayPositiveFile), neg = dir.path / std::string(kSixwayNegativeFile);
+    const std::string old_pos = file_bytes(pos), old_neg = file_bytes(neg);
+    // The sidecar's name is taken by a link to a folder: it cannot be replaced, so neither are the atlases.
+    fs::create_directories(dir.path / "elsewhere");
+    fs::remove(dir.path / std::string(kSixwayLayoutFile));
+    fs::create_directory_symlink("elsewhere", dir.path / std::string(kSixwayLayoutFile));
+    s.seed += 1;
+    const SixwayBake other = bake_sixway(s);
+    CHECK_THAT(message_of([&] { write_sixway_bake(dir.path, other); }),
+               Catch::Contains(std::string(kSixwayLayoutFile)) && Catch::Contains("is a directory"));
+    CHECK(file_bytes(pos) == old_pos);
+    CHECK(file_bytes(neg) == old_neg);
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(dir.path)) names.push_back(e.path().filename().string());
+    std::sort(names.begin(), names.end());
+    CHECK(names == std::vector<std::string>{"elsewhere", "sixway.json", "sixway_neg.png", "sixway_pos.png"});
+}
+
 // ---- Command -------------------------------------------------------------------------------------
+
+TEST_CASE("sixway cli: bake-sixway without -o writes into the current folder, never the assets folder",
+          "[sixway]") {
+    // The assets folder render would read, here a copy named by SMOKETRACE_ASSETS (an installed
+    // share/smoketrace, or the source tree's assets/ from the build tree, in real use).
+    TempDir assets, work;
+    for (const std::string_view f : {kSixwayPositiveFile, kSixwayNegativeFile, kSixwayLayoutFile})
+        fs::copy_file(fs::path(SMOKETRACE_ASSET_DIR) / f, assets.path / f);
+    const std::string before = file_bytes(assets.path / std::string(kSixwayLayoutFile)) +
+                               file_bytes(assets.path / std::string(kSixwayPositiveFile));
+    const fs::path err = work.path / "err.txt";
+    const std::string cmd = "cd '" + work.path.string() + "' && SMOKETRACE_ASSETS='" + assets.path.string() + "' " +
+                            SMOKETRACE_CLI + " bake-sixway --frames 1 --tile 4 2>'" + err.string() + "' >/dev/null";
+    const int status = std::system(cmd.c_str());
+    INFO(file_bytes(err));
+    CHECK((WIFEXITED(status) ? WEXITSTATUS(status) : -1) == 0);
+    CHECK(file_bytes(assets.path / std::string(kSixwayLayoutFile)) +
+              file_bytes(assets.path / std::string(kSixwayPositiveFile)) ==
+          before);
+    const SixwayTexture baked = load_sixway_texture(work.path / std::string(kSixwayLayoutFile));
+    CHECK(baked.frame_count() == 1);
+    CHECK(baked.tile_width() == 4);
+    // The help says where it goes.
+    const CliRun help = run_cli_stdout("help bake-sixway");
+    CHECK_THAT(help.out, Catch::Contains("default: the current folder"));
+}
 
 TEST_CASE("sixway cli: bake-sixway writes loadable atlases, bad input exits 2 and writes nothing", "[sixway]") {
     TempDir dir;

@@ -2,6 +2,7 @@
 #include "arguments.hpp"
 #include "command.hpp"
 #include "output_arg.hpp"
+#include "scene_overrides.hpp"
 #include "thread_limit.hpp"
 
 #include <smoketrace/io/depths_csv.hpp>
@@ -26,8 +27,7 @@ HitSort parse_sort(const std::string& s) {
 int run_depths(const Args& args) {
     ArgReader in(args);
     const auto out_path = in.string("-o");
-    const auto shape_arg = in.string("--shape");
-    const auto cutoff = in.integer("--cutoff", 0, 1'000'000'000);
+    const SceneOverrides overrides = SceneOverrides::read(in, OverrideSet::optical_depth);
     const auto threads = in.integer("--threads", 1, 4096);
     const auto repeat = in.integer("--repeat", 1, 1'000'000);
     const auto sort_arg = in.string("--sort");
@@ -37,11 +37,6 @@ int run_depths(const Args& args) {
     in.finish();
     if (!out_path) throw CliError("missing -o OUT.csv");
 
-    std::optional<StandInShape> shape;
-    if (shape_arg) {
-        shape = parse_stand_in_shape(*shape_arg);
-        if (!shape) throw CliError("--shape: '" + *shape_arg + "' is not sphere, icosahedron or icosphere:L (L = 1…4)");
-    }
     const HitSort sort = sort_arg ? parse_sort(*sort_arg) : HitSort::adaptive;
     const ThreadLimit limit(threads ? int(*threads) : 0);
     // Before any work: -o must not be the scene file, a folder, or in a missing folder.
@@ -52,11 +47,13 @@ int run_depths(const Args& args) {
     StageClock read_clock;
     const SceneDescription desc = load_scene_file(scene_path);
     const double read_ms = read_clock.lap_ms();
+    check_output_not_input(output, scene_inputs(scene_path, desc));  // the PLY it names, now known
     const auto& particles = desc.smoke.particles;
     std::optional<GroundQuad> ground;
     if (desc.ground) ground = GroundQuad{desc.ground->corners};
+    const RenderOptions options = overrides.render_options(desc);
     OpticalDepthSettings settings;
-    settings.cutoff = cutoff ? std::uint32_t(*cutoff) : desc.render.cutoff;
+    settings.cutoff = options.render.cutoff;
     const std::vector<std::uint32_t> all = particle_group(particles.size(), 1, 0);
 
     std::vector<FrameTimings> runs;
@@ -64,7 +61,7 @@ int run_depths(const Args& args) {
     for (long long r = 0; r < (repeat ? *repeat : 1); ++r) {
         FrameTimings t;
         StageClock clock;
-        SmokeScene smoke(particles, shape ? *shape : desc.smoke.shape, ground, /*billboards=*/false);
+        SmokeScene smoke(particles, options.shape, ground, /*billboards=*/false);
         smoke.update(particles, desc.camera.position);
         t.tlas_update = clock.lap_ms();
         depths = std::make_unique<OpticalPathLengths>(particles.size());
@@ -74,7 +71,7 @@ int run_depths(const Args& args) {
     }
 
     StageClock write_clock;
-    write_output(*out_path, [&](std::ostream& out) {
+    write_output(output, [&](std::ostream& out) {
         for (const std::string& piece : format_depths_csv(depths->lengths(), depths->hit_counts(), depths->status()))
             out.write(piece.data(), std::streamsize(piece.size()));
     });
@@ -88,10 +85,8 @@ int run_depths(const Args& args) {
 constexpr OptionHelp kOptions[] = {
     {"-o", "OUT.csv|-", "", "the CSV to write (-: standard output): particle,optical_path_length,hits,status, one row "
                             "per particle"},
-    {"--shape", "sphere|icosahedron|icosphere:L", "the scene's smoke.shape (sphere)",
-     "particle stand-in the light rays meet; icosphere level L = 1…4"},
-    {"--cutoff", "K", "the scene's render.cutoff (0: none)",
-     "a particle whose light ray meets more than K surfaces is fully dark (cutoff)"},
+    kCutoffHelp,
+    kShapeHelp,
     {"--threads", "T", "all cores", "worker threads; the output is the same for any T"},
     {"--repeat", "R", "1", "run the pass R times (for --timings)"},
     {"--timings", "", "off", "print the median stage times in ms (tlas_update, od_pass, resolve), then the times to "

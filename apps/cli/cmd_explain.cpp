@@ -6,6 +6,7 @@
 #include "command.hpp"
 #include "explain_report.hpp"
 #include "output_arg.hpp"
+#include "scene_overrides.hpp"
 #include "thread_limit.hpp"
 
 #include <smoketrace/io/output_path.hpp>
@@ -39,12 +40,22 @@ int run_explain(const Args& args) {
     const auto pixel_arg = in.string("--pixel");
     const auto assets = in.string("--assets");
     const auto threads = in.integer("--threads", 1, 4096);
+    const auto frame_arg = in.integer("--frame", 0, kMaxSceneFrames - 1);
+    // render's and depths' own options, read alike, so that the story is of the pixel the user looked at.
+    const SceneOverrides overrides = SceneOverrides::read(in, OverrideSet::frame);
     const std::string scene_path =
         in.positional("scene file (smoketrace explain SCENE.json --particle N | --pixel X,Y)");
     in.finish();
     if (particle_arg && pixel_arg) throw CliError("--particle and --pixel: give one of them, not both");
     if (!particle_arg && !pixel_arg)
         throw CliError("give --particle N (a particle's optical-depth ray) or --pixel X,Y");
+    if (particle_arg) {
+        // What `depths` traces: frame 0, with only its --shape and --cutoff.
+        if (frame_arg) throw CliError("--frame: --particle explains frame 0, as depths computes it");
+        if (const char* flag = overrides.frame_only_flag())
+            throw CliError(std::string(flag) + ": --particle takes only depths' --shape and --cutoff (" + flag +
+                           " changes the frame, not the optical-depth ray)");
+    }
     std::optional<std::pair<int, int>> pixel;
     if (pixel_arg) pixel = parse_pixel(*pixel_arg);
     std::optional<std::filesystem::path> out;
@@ -52,7 +63,7 @@ int run_explain(const Args& args) {
         out = std::filesystem::path(*out_arg);
         struct stat st {};
         const bool stream = ::stat(out->c_str(), &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode);
-        if (*out != kStandardOutputPath && out->extension() != ".svg" && !stream)
+        if (*out != kStandardOutputPath && !has_extension(*out, ".svg") && !stream)
             throw CliError("-o: '" + out->string() + "' must end in .svg");
     }
     const ThreadLimit limit(threads ? int(*threads) : 0);
@@ -69,6 +80,8 @@ int run_explain(const Args& args) {
     std::ostream& text = target && target->kind == OutputKind::standard_output ? std::cerr : std::cout;
 
     const SceneDescription desc = load_scene_file(scene_path);
+    const RenderOptions options = overrides.render_options(desc);
+    if (target) check_output_not_input(*target, scene_inputs(scene_path, desc));  // the PLY it names
     const std::string scene_name = std::filesystem::path(scene_path).filename().string();
     std::ostringstream svg;
     if (particle_arg) {
@@ -78,34 +91,44 @@ int run_explain(const Args& args) {
             throw CliError("--particle: " + std::to_string(*particle_arg) + " is out of range: " + scene_path +
                            " has " + std::to_string(particles.size()) + " particles, 0…" +
                            std::to_string(particles.size() - 1));
-        // What `smoketrace depths` traces: the scene's stand-ins and cutoff, frame 0's particles and light.
+        // What `smoketrace depths` traces with the same --shape and --cutoff: frame 0's particles and light.
         std::optional<GroundQuad> ground;
         if (desc.ground) ground = GroundQuad{desc.ground->corners};
-        SmokeScene smoke(particles, desc.smoke.shape, ground, /*billboards=*/false);
+        SmokeScene smoke(particles, options.shape, ground, /*billboards=*/false);
         smoke.update(particles, desc.camera.position);
         OpticalDepthSettings settings;
-        settings.cutoff = desc.render.cutoff;
+        settings.cutoff = options.render.cutoff;
         const OpticalDepthStory story =
             explain_optical_depth(smoke, particles, std::uint32_t(*particle_arg), desc.light.direction_at_frame(0),
                                   settings, HitSort::adaptive, desc.smoke.sigma_t);
-        write_particle_text(text, story, particles, scene_name, desc.smoke.shape.name().c_str(), desc.origin);
+        write_particle_text(text, story, particles, scene_name, options.shape.name().c_str(), desc.origin);
         if (target) write_particle_svg(svg, story, scene_name);
     } else {
-        const RenderOptions options = RenderOptions::from_scene(desc);
+        // The frame render writes first (0, or A of --frames A:B), unless --frame names another of them.
+        const auto [first, end] = overrides.frame_range(options);
+        const std::uint32_t frame = frame_arg ? std::uint32_t(*frame_arg) : first;
+        if (frame < first || frame >= end)
+            throw CliError("--frame: " + std::to_string(frame) + " is not one of the frames rendered, " +
+                           std::to_string(first) + "…" + std::to_string(end - 1) +
+                           " (--frames, else the scene's render.frames)");
         if (pixel->first >= options.width || pixel->second >= options.height)
-            throw CliError("--pixel: " + *pixel_arg + " is outside the scene's " + std::to_string(options.width) + "x" +
+            throw CliError("--pixel: " + *pixel_arg + " is outside the " + std::to_string(options.width) + "x" +
                            std::to_string(options.height) + " image (x 0…" + std::to_string(options.width - 1) +
-                           ", y 0…" + std::to_string(options.height - 1) + ")");
+                           ", y 0…" + std::to_string(options.height - 1) +
+                           "; --size, else the scene's camera.width and height)");
         const SixwayLayout layout = read_sixway_layout(*texture_dir / kSixwayLayoutFile);
-        if (target) check_not_an_input(*target, {layout.positive, layout.negative});
+        if (target) check_output_not_input(*target, {layout.positive, layout.negative});
         const SixwayTexture texture = load_sixway_texture(layout.positive, layout.negative, layout.grid);
-        // Frame 0 as `render` draws it (the scene's mode, compositing, spp and size), then that frame's pixel.
+        // The frame as `render` draws it with the same options (mode, compositing, spp, size, groups, cutoff,
+        // shape), brought there as render --frames A:B brings it, then that frame's pixel.
         FrameRenderer renderer(desc, options, texture);
+        renderer.skip_to(frame);
         ImageRgba image;
-        renderer.render(0, image);
-        const PixelStory story = explain_pixel(renderer, 0, pixel->first, pixel->second);
-        write_pixel_text(text, story, glm::vec3(image.at(pixel->first, pixel->second)), scene_name, desc.origin);
-        if (target) write_pixel_svg(svg, story, scene_name);
+        renderer.render(frame, image);
+        const PixelStory story = explain_pixel(renderer, frame, pixel->first, pixel->second);
+        write_pixel_text(text, story, glm::vec3(image.at(pixel->first, pixel->second)), scene_name, frame,
+                         desc.origin);
+        if (target) write_pixel_svg(svg, story, scene_name, frame);
     }
     if (target) {
         write_output(*target, [&](std::ostream& o) { o << svg.str(); });
@@ -120,16 +143,30 @@ constexpr OptionHelp kOptions[] = {
     {"--particle", "N", "none: give --particle or --pixel",
      "explain particle N's optical-depth ray (0-based, as in depths' CSV)"},
     {"--pixel", "X,Y", "none: give --particle or --pixel",
-     "explain pixel (X, Y) of frame 0 (0,0 the top left), each of its samples, as render draws it"},
+     "explain pixel (X, Y) of a frame (0,0 the top left), each of its samples, as render draws it with the same "
+     "options"},
+    {"--frame", "F", "the first frame render writes (0, or A of --frames A:B)",
+     "the frame of the sequence whose pixel is explained (--pixel only), one of those render writes"},
     {"-o", "OUT.svg|-", "none (text only)",
      "also draw the story as an SVG (-: standard output, the text then on standard error)"},
     {"--assets", "DIR", "SMOKETRACE_ASSETS, else <prefix>/share/smoketrace or assets/ beside the binary",
      "folder of the six-way textures (--pixel only)"},
-    {"--threads", "T", "all cores", "worker threads for frame 0 (--pixel); the story is the same for any T"},
+    {"--threads", "T", "all cores", "worker threads for the frame (--pixel); the story is the same for any T"},
+    kModeHelp,
+    kSizeHelp,
+    {"--frames", "N|A:B", "the scene's render.frames (1)",
+     "as render's (--pixel only): the sequence --frame is one of; N up to 1000000, or A:B of the scene's"},
+    kGroupsHelp,
+    kCutoffHelp,
+    kShapeHelp,
+    kCompositingHelp,
+    kSppHelp,
 };
 
 const RegisterCommand registration{
-    {"explain", "explain SCENE.json --particle N | --pixel X,Y [-o OUT.svg|-] [--assets DIR] [--threads T]",
+    {"explain",
+     "explain SCENE.json --particle N | --pixel X,Y [--frame F] [-o OUT.svg|-] [--assets DIR] [--threads T] "
+     "[render's --mode --size --frames --groups --cutoff --shape --compositing --spp]",
      "one ray's story, step by step, for learning the method: a particle's optical-depth ray (the any-hit "
      "candidates, the sort, eq. 3.1's counter, l, tau, T) or a pixel's camera ray (its layers, eq. 4.2, the "
      "ground and its shadow ray); see docs/explain.md",

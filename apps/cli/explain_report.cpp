@@ -5,6 +5,7 @@
 #include <smoketrace/render/scene_description.hpp>
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
@@ -109,6 +110,11 @@ std::vector<Chord> chords_of(std::span<const StoryHit> hits) {
 
 std::string format_number(double v) {
     if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+    // Most of a story's numbers are floats: the shortest text that reads back as the float, as `depths` writes.
+    if (const float f = float(v); double(f) == v) {
+        char text[32];
+        return std::string(text, std::to_chars(text, text + sizeof text, f).ptr);
+    }
     return fmt("%.9g", v);
 }
 
@@ -328,8 +334,8 @@ void write_particle_svg(std::ostream& out, const OpticalDepthStory& s, const std
 }
 
 void write_pixel_text(std::ostream& out, const PixelStory& p, const glm::vec3& rendered,
-                      const std::string& scene_name, const glm::dvec3& origin) {
-    out << "smoketrace explain: pixel " << p.x << "," << p.y << " of " << scene_name << " (frame 0, mode "
+                      const std::string& scene_name, std::uint64_t frame, const glm::dvec3& origin) {
+    out << "smoketrace explain: pixel " << p.x << "," << p.y << " of " << scene_name << " (frame " << frame << ", mode "
         << to_string(p.mode) << ", compositing " << to_string(p.compositing) << ", " << p.samples.size()
         << (p.samples.size() == 1 ? " sample: the pixel's centre" : " samples, averaged") << ")\n\n";
     const bool over = p.compositing == Compositing::over;
@@ -403,7 +409,7 @@ void write_pixel_text(std::ostream& out, const PixelStory& p, const glm::vec3& r
     out << "render's pixel  " << vec(rendered) << (rendered == p.color ? " (the same)" : " (DIFFERENT)") << "\n";
 }
 
-void write_pixel_svg(std::ostream& out, const PixelStory& p, const std::string& scene_name) {
+void write_pixel_svg(std::ostream& out, const PixelStory& p, const std::string& scene_name, std::uint64_t frame) {
     auto mean = [](const glm::vec3& c) { return (double(c.x) + double(c.y) + double(c.z)) / 3.0; };
     double scale_max = 0.0;  // the largest sample colour (mean of r, g, b): the bars' full length
     std::size_t rows = 0;
@@ -424,7 +430,8 @@ void write_pixel_svg(std::ostream& out, const PixelStory& p, const std::string& 
         << "\n";
     out << fmt(R"(<rect x="0" y="0" width="%.0f" height="%.0f" fill="white"/>)", W, H) << "\n";
     const std::string head = "Pixel " + std::to_string(p.x) + "," + std::to_string(p.y) + " of " + scene_name +
-                             " (frame 0, " + to_string(p.mode) + ", " + to_string(p.compositing) + ")";
+                             " (frame " + std::to_string(frame) + ", " + to_string(p.mode) + ", " +
+                             to_string(p.compositing) + ")";
     out << "<title>" << xml(head) << "</title>\n";
     out << R"(<text x="20" y="26" font-size="16" font-weight="bold">)" << xml(head) << "</text>\n";
     out << R"(<text x="20" y="46">)"

@@ -5,13 +5,15 @@
 #include <smoketrace/render/pixel_story.hpp>
 #include <smoketrace/smoke/optical_depth_story.hpp>
 
+#include <cstdint>
 #include <ostream>
 #include <span>
 #include <string>
 
 namespace smoketrace::cli {
 
-// Numbers as the text prints them: %.9g (a float read back is the same float; `depths` writes l alike).
+// Numbers as the text prints them: a float as the shortest text that reads back as it (`depths` writes l
+// alike), any other double as %.9g.
 std::string format_number(double v);
 
 // Positions are printed in world coordinates: `origin` (the scene's, SceneDescription::origin) plus the
@@ -20,9 +22,10 @@ void write_particle_text(std::ostream& out, const OpticalDepthStory& story, std:
                          const std::string& scene_name, const char* shape_name, const glm::dvec3& origin);
 void write_particle_svg(std::ostream& out, const OpticalDepthStory& story, const std::string& scene_name);
 
-// `rendered`: the pixel the frame's render_view() wrote, shown beside the explained one.
+// `rendered`: the pixel the frame's render_view() wrote, shown beside the explained one; `frame`: which frame
+// of the sequence the story is of.
 void write_pixel_text(std::ostream& out, const PixelStory& story, const glm::vec3& rendered,
-                      const std::string& scene_name, const glm::dvec3& origin);
-void write_pixel_svg(std::ostream& out, const PixelStory& story, const std::string& scene_name);
+                      const std::string& scene_name, std::uint64_t frame, const glm::dvec3& origin);
+void write_pixel_svg(std::ostream& out, const PixelStory& story, const std::string& scene_name, std::uint64_t frame);
 
 }  // namespace smoketrace::cli

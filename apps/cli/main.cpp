@@ -3,6 +3,8 @@
 #include "assets.hpp"
 #include "command.hpp"
 
+#include <smoketrace/io/temporary_file.hpp>
+
 #include <cstdio>
 #include <exception>
 #include <iostream>
@@ -63,6 +65,8 @@ int unknown_command(std::string_view name) {
 
 int main(int argc, char** argv) {
     using namespace smoketrace::cli;
+    // ^C or a scheduler's SIGTERM while a file is being written must not leave its temporary file behind.
+    smoketrace::remove_temporary_files_on_signals();
     if (argc < 2) {
         print_usage(std::cerr);
         return 2;

@@ -30,3 +30,4 @@
 #include <smoketrace/io/png_io.hpp>
 #include <smoketrace/io/scene_file.hpp>
 #include <smoketrace/io/sixway_files.hpp>
+#include <smoketrace/io/temporary_file.hpp>

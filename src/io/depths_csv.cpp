@@ -13,10 +13,10 @@ namespace {
 
 // Rows per piece: enough that a task's overhead vanishes, few enough that two threads share the work evenly.
 constexpr std::size_t kRowsPerPiece = 16384;
-// The longest row: a 20-digit index, "-1.17549435e-38", a 10-digit count, "occluded", 3 commas and '\n'.
+// The longest row: a 20-digit index, "-1.1754942e-38", a 10-digit count, "occluded", 3 commas and '\n'.
 constexpr std::size_t kMaxRowChars = 64;
-// A row of a million-particle run ("123456,0.0543839894,10,ok\n"), to reserve each piece.
-constexpr std::size_t kTypicalRowChars = 28;
+// A row of a million-particle run ("123456,0.05438399,10,ok\n"), to reserve each piece.
+constexpr std::size_t kTypicalRowChars = 26;
 
 std::string_view status_name(DepthStatus s) {
     switch (s) {
@@ -32,14 +32,14 @@ char* append(char* out, std::string_view text) {
     return out + text.size();
 }
 
-// std::to_chars in the general format with precision 9 writes what printf's "%.9g" writes (both are defined
-// as C's %g), without the locale, the format parsing and the stream per row.
+// std::to_chars of the float itself writes the shortest text that reads back as the same float (0.35, not
+// printf's "%.9g" 0.349999994), without the locale, the format parsing and the stream per row.
 char* format_row(char* out, std::size_t index, float length, std::uint32_t hits, DepthStatus status) {
     char* const end = out + kMaxRowChars;
     out = std::to_chars(out, end, index).ptr;
     *out++ = ',';
     if (std::isinf(length)) out = append(out, "inf");
-    else out = std::to_chars(out, end, double(length), std::chars_format::general, 9).ptr;
+    else out = std::to_chars(out, end, length).ptr;
     *out++ = ',';
     out = std::to_chars(out, end, hits).ptr;
     *out++ = ',';

@@ -1,6 +1,8 @@
 // Output paths: resolving what an output path names, and writing it without harming it (output_path.hpp).
 #include <smoketrace/io/output_path.hpp>
 
+#include <smoketrace/io/temporary_file.hpp>
+
 #include <atomic>
 #include <cerrno>
 #include <cstring>
@@ -170,7 +172,8 @@ void write_stream(const OutputTarget& target, const std::function<void(std::ostr
         throw std::runtime_error(target.given.string() + ": write failed (" + errno_text(errno) + ")");
 }
 
-void write_replacing(const OutputTarget& target, const std::function<void(std::ostream&)>& write) {
+// A fresh temporary file beside `target.file` holding what write() writes, closed. Throws naming the target.
+void fill_temporary(TemporaryFile& tmp, const OutputTarget& target, const std::function<void(std::ostream&)>& write) {
     const fs::path& file = target.file;
     const std::string what = describe(target.given, file);
     const fs::path folder = folder_of(file);
@@ -183,28 +186,23 @@ void write_replacing(const OutputTarget& target, const std::function<void(std::o
     name += std::to_string(::getpid());
     name += '-';
     name += std::to_string(serial.fetch_add(1));
-    const fs::path tmp = folder / name;
-    // O_EXCL | O_NOFOLLOW: never write through something already lying at the temporary name.
-    const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0666);
-    if (fd < 0)
+    if (!tmp.create(folder / name))
         throw std::runtime_error(what + ": cannot create a file in folder '" + folder.string() + "' (" +
                                  errno_text(errno) + ")");
-    Descriptor d{fd};
-    struct Cleanup {
-        const fs::path& p;
-        bool armed = true;
-        ~Cleanup() {
-            if (armed) ::unlink(p.c_str());
-        }
-    } cleanup{tmp};
     // A replaced file keeps its permissions (a private 0600 file must not come back world-readable).
     struct stat old{};
-    if (::stat(file.c_str(), &old) == 0 && S_ISREG(old.st_mode)) (void)::fchmod(fd, old.st_mode & 0777);
-    write_to(fd, what, write);
-    if (d.close() != 0 && errno != EINTR) throw std::runtime_error(what + ": write failed (" + errno_text(errno) + ")");
-    if (::rename(tmp.c_str(), file.c_str()) != 0)
-        throw std::runtime_error(what + ": cannot rename into place (" + errno_text(errno) + ")");
-    cleanup.armed = false;
+    if (::stat(file.c_str(), &old) == 0 && S_ISREG(old.st_mode)) (void)::fchmod(tmp.fd(), old.st_mode & 0777);
+    write_to(tmp.fd(), what, write);
+    if (tmp.close() != 0 && errno != EINTR)
+        throw std::runtime_error(what + ": write failed (" + errno_text(errno) + ")");
+}
+
+void write_replacing(const OutputTarget& target, const std::function<void(std::ostream&)>& write) {
+    TemporaryFile tmp;  // removed on every failure, and by a signal that ends the program meanwhile
+    fill_temporary(tmp, target, write);
+    if (!tmp.rename_to(target.file))
+        throw std::runtime_error(describe(target.given, target.file) + ": cannot rename into place (" +
+                                 errno_text(errno) + ")");
 }
 
 }  // namespace
@@ -267,6 +265,24 @@ void write_output(const OutputTarget& target, const std::function<void(std::ostr
 
 void write_output(const fs::path& path, const std::function<void(std::ostream&)>& write) {
     write_output(resolve_output(path), write);
+}
+
+void write_outputs_together(std::span<const GroupOutput> outputs) {
+    for (const GroupOutput& o : outputs)
+        if (o.target.kind != OutputKind::replace)
+            throw OutputPathError(o.target.given.string() +
+                                  ": is not a regular file; the files of this group are replaced together, and a "
+                                  "stream cannot be taken back");
+    std::vector<std::unique_ptr<TemporaryFile>> temporaries;
+    std::vector<TemporaryFile*> files;
+    std::vector<fs::path> targets;
+    for (const GroupOutput& o : outputs) {
+        temporaries.push_back(std::make_unique<TemporaryFile>());
+        fill_temporary(*temporaries.back(), o.target, o.write);
+        files.push_back(temporaries.back().get());
+        targets.push_back(o.target.file);
+    }
+    rename_together(files, targets);
 }
 
 }  // namespace smoketrace

@@ -293,11 +293,18 @@ void PngWriter::write_rgba8(const fs::path& path, int width, int height, const s
 }
 
 void PngWriter::write_rgba8(const fs::path& path, const Rgba8Image& image) {
+    const std::string& png = encode_rgba8(path, image);
+    write_output(path, [&](std::ostream& out) { out.write(png.data(), std::streamsize(png.size())); });
+}
+
+const std::string& PngWriter::encode_rgba8(const fs::path& path, const Rgba8Image& image) {
     check_png_size(path, image.width, image.height);
     if (image.pixels.size() != std::size_t(image.width) * std::size_t(image.height) * 4)
         write_error(path, "pixel buffer size does not match " + std::to_string(image.width) + "x" +
                               std::to_string(image.height) + " RGBA");
-    buffers().write(path, image.width, image.height, 4, image.pixels.data());
+    Buffers& b = buffers();
+    b.encode(path, image.width, image.height, 4, image.pixels.data());
+    return b.png;
 }
 
 void PngWriter::write_srgb(const fs::path& path, const ImageRgba& image, PngChannels channels) {

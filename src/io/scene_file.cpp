@@ -1093,6 +1093,20 @@ GroundDescription read_ground(const Reader& r, const Node& n, const glm::dvec3& 
     return ground;
 }
 
+// The ground is lit on the face the camera sees, whichever way the file winds its corners: a quad wound the
+// other way would otherwise show its unlit back and render black (ambient only) with no word. Reversing the
+// corners (0 3 2 1: the same diagonal 0–2, so the same two triangles) keeps "counter-clockwise seen from the
+// side `normal` points to" true. The camera does not move, so the face it sees is the same in every frame.
+void face_ground_to_camera(SceneDescription& scene) {
+    if (!scene.ground) return;
+    GroundDescription& g = *scene.ground;
+    glm::dvec3 centroid(0.0);
+    for (const glm::vec3& c : g.corners) centroid += 0.25 * glm::dvec3(c);
+    if (glm::dot(glm::dvec3(scene.camera.position) - centroid, glm::dvec3(g.normal)) >= 0.0) return;
+    std::swap(g.corners[1], g.corners[3]);
+    g.normal = -g.normal;
+}
+
 // The renderer's camera (camera.hpp) redoes these checks in float: it must agree, or a scene that reads
 // fine would fail at render time with a message that names no file.
 void check_renderer_accepts(const Reader& r, const CameraDescription& c, const std::string& path) {
@@ -1197,6 +1211,7 @@ SceneDescription read_scene(const json& document, const Reader& r, const FastPar
                                "/camera", false, scene.origin);
         check_renderer_accepts(r, scene.camera, "/camera");
     }
+    face_ground_to_camera(scene);
     return scene;
 }
 

@@ -97,8 +97,10 @@ SixwayTexture load_sixway_texture(const fs::path& layout_json) {
 }
 
 void write_sixway_bake(const std::filesystem::path& folder, const SixwayBake& bake) {
-    write_png_rgba8(folder / kSixwayPositiveFile, bake.positive);
-    write_png_rgba8(folder / kSixwayNegativeFile, bake.negative);
+    // Encoded first, in writers of their own, so that nothing is written before every file's bytes exist.
+    PngWriter positive_writer, negative_writer;
+    const std::string& positive = positive_writer.encode_rgba8(folder / kSixwayPositiveFile, bake.positive);
+    const std::string& negative = negative_writer.encode_rgba8(folder / kSixwayNegativeFile, bake.negative);
     const SixwayBakeSettings& s = bake.settings;
     nlohmann::ordered_json doc;
     doc["format"] = kSixwayFormatName;
@@ -123,7 +125,14 @@ void write_sixway_bake(const std::filesystem::path& folder, const SixwayBake& ba
                    {"scattering_octaves", s.scattering_octaves},
                    {"scattering_octave_weight", shortest_decimal(s.scattering_octave_weight)}};
     const std::string text = doc.dump(2) + "\n";
-    write_output(folder / kSixwayLayoutFile, [&](std::ostream& out) { out << text; });
+    auto bytes = [](const std::string& b) {
+        return [&b](std::ostream& out) { out.write(b.data(), std::streamsize(b.size())); };
+    };
+    // A sidecar from one bake with an atlas from another would be read without complaint: all or none.
+    const GroupOutput files[] = {{resolve_output(folder / kSixwayPositiveFile), bytes(positive)},
+                                 {resolve_output(folder / kSixwayNegativeFile), bytes(negative)},
+                                 {resolve_output(folder / kSixwayLayoutFile), bytes(text)}};
+    write_outputs_together(files);
 }
 
 }  // namespace smoketrace

@@ -1,6 +1,7 @@
-# The two consumer tests of tests/install/CMakeLists.txt, as a CMake script (ctest runs it with -P).
-# MODE=package: install, move, check and use the installed tree; MODE=subdirectory: configure a parent
-# project that adds smoketrace with add_subdirectory(). WORK is this test's folder, emptied first.
+# The consumer tests of tests/install/CMakeLists.txt, as a CMake script (ctest runs it with -P).
+# MODE=package: install, move, check and use the installed tree (with CMake and with pkg-config);
+# MODE=subdirectory: configure a parent project that adds smoketrace with add_subdirectory(); MODE=readme:
+# the README's hand-compile line against the build tree's library. WORK is this test's folder, emptied first.
 cmake_minimum_required(VERSION 3.25)
 
 function(run what)  # run(<what> COMMAND …): the command must exit 0; its output goes to WORK/<what>.log
@@ -40,6 +41,63 @@ set(no_env ${CMAKE_COMMAND} -E env --unset=SMOKETRACE_ASSETS)
 
 file(REMOVE_RECURSE "${WORK}")
 file(MAKE_DIRECTORY "${WORK}")
+
+# The README's line that compiles an example by hand, found by what it holds (`marker`), into `line`.
+function(readme_line marker)
+  file(STRINGS "${SOURCE_DIR}/README.md" lines REGEX "^g\\+\\+ ")
+  foreach(l ${lines})
+    string(FIND "${l}" "${marker}" at)
+    if(NOT at EQUAL -1)
+      set(line "${l}" PARENT_SCOPE)
+      return()
+    endif()
+  endforeach()
+  fail("README.md has no line 'g++ …' with '${marker}'")
+endfunction()
+
+# Every example but the Embree one, built with `command` (a README line, its example and program names
+# swapped in; ccache in front when this build uses it) in `directory`, then run, its output checked.
+function(build_and_run_examples what command directory)
+  foreach(example minimal_trace optical_path_lengths render_frame)
+    string(REPLACE "minimal_trace" "${example}" line "${command}")
+    string(REPLACE "-o ${example}" "-o ${WORK}/${example}" line "${line}")
+    if(LAUNCHER)
+      string(REGEX REPLACE "^g\\+\\+ " "${LAUNCHER} g++ " line "${line}")
+    endif()
+    run("${what}: build ${example}" COMMAND sh -c "${line}" WORKING_DIRECTORY "${directory}")
+  endforeach()
+  run("${what}: run minimal_trace" COMMAND "${WORK}/minimal_trace")
+  if(NOT output MATCHES "t=1.500 instance=0 enter.*t=8.500 instance=2 leave")
+    fail("${what}: minimal_trace printed:\n${output}")
+  endif()
+  run("${what}: run optical_path_lengths" COMMAND "${WORK}/optical_path_lengths")
+  if(NOT output MATCHES "all path lengths within 1e-4 of the chords")
+    fail("${what}: optical_path_lengths printed:\n${output}")
+  endif()
+  run("${what}: run render_frame" COMMAND "${WORK}/render_frame" "${SOURCE_DIR}/assets/scenes/minimal.json"
+    "${SOURCE_DIR}/assets" "${WORK}/frame.png" 16x12)
+  file(READ "${WORK}/frame.png" signature LIMIT 8 HEX)
+  if(NOT signature STREQUAL "89504e470d0a1a0a")
+    fail("${what}: render_frame wrote no PNG (${WORK}/frame.png starts with ${signature})")
+  endif()
+  file(REMOVE "${WORK}/minimal_trace" "${WORK}/optical_path_lengths" "${WORK}/render_frame" "${WORK}/frame.png")
+endfunction()
+
+if(MODE STREQUAL "readme")
+  # Run in the source tree as the README says, with this build's library in place of build/libsmoketrace.a.
+  readme_line("build/libsmoketrace.a")
+  # What the headers require of the code that includes them (docs/building.md), which a link cannot catch.
+  foreach(flag "-std=c++20" "-DGLM_FORCE_XYZW_ONLY" "-ffp-contract=off")
+    string(FIND "${line}" " ${flag} " at)
+    if(at EQUAL -1)
+      fail("the README's hand-compile line lacks ${flag}: ${line}")
+    endif()
+  endforeach()
+  string(REPLACE "build/libsmoketrace.a" "${LIBRARY}" line "${line}")
+  build_and_run_examples("README line" "${line}" "${SOURCE_DIR}")
+  message(STATUS "the README's hand-compile line builds and runs every example")
+  return()
+endif()
 
 if(MODE STREQUAL "subdirectory")
   run("configure the add_subdirectory project" COMMAND ${CMAKE_COMMAND} ${configure_args}
@@ -120,3 +178,26 @@ if(NOT output MATCHES "downstream: ok")
   fail("the downstream program printed:\n${output}")
 endif()
 message(STATUS "${output}")
+
+# 5. Without CMake: the README's pkg-config line, the installed (and moved) tree's smoketrace.pc.
+if(NOT EXISTS "${prefix}/${LIBDIR}/pkgconfig/smoketrace.pc")
+  fail("the installed tree has no ${LIBDIR}/pkgconfig/smoketrace.pc")
+endif()
+readme_line("pkg-config --cflags --libs smoketrace")
+set(ENV{PKG_CONFIG_PATH} "${prefix}/${LIBDIR}/pkgconfig")
+run("pkg-config" COMMAND pkg-config --cflags --libs smoketrace)
+foreach(flag "-ffp-contract=off" "-DGLM_FORCE_XYZW_ONLY" "-lsmoketrace")
+  string(FIND "${output}" "${flag}" at)
+  if(at EQUAL -1)
+    fail("pkg-config --cflags --libs smoketrace lacks ${flag}: ${output}")
+  endif()
+endforeach()
+# The include path is the moved tree's, spelt from the .pc file's own folder (lib/pkgconfig/../../include).
+string(REGEX MATCH "-I([^ \n]*/${INCLUDEDIR})[ \n]" include_flag "${output}")
+file(REAL_PATH "${CMAKE_MATCH_1}" include_dir)
+file(REAL_PATH "${prefix}/${INCLUDEDIR}" want_include_dir)
+if(NOT include_flag OR NOT include_dir STREQUAL want_include_dir)
+  fail("pkg-config --cflags smoketrace does not name the moved tree's ${INCLUDEDIR}: ${output}")
+endif()
+build_and_run_examples("pkg-config line" "${line}" "${SOURCE_DIR}")
+message(STATUS "the README's pkg-config line builds and runs every example against the moved tree")

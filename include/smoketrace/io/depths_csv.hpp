@@ -1,7 +1,7 @@
 #pragma once
 // The optical depths as CSV, what `smoketrace depths` writes: a header line, then one row per particle,
-// "particle,optical_path_length,hits,status". A length is printf's "%.9g" of the float (9 significant
-// digits: every float reads back exactly) or "inf" for a particle that is occluded or cut off.
+// "particle,optical_path_length,hits,status". A length is the shortest text that reads back as the same
+// float (std::to_chars: 0.35 for 0.35f) or "inf" for a particle that is occluded or cut off.
 #include <smoketrace/smoke/hit_resolver.hpp>
 
 #include <cstdint>

@@ -21,10 +21,14 @@
 // they open (the kernel's /proc/self/fd/N entries for pipes, sockets or deleted files) are streamed.
 //
 // An output that is the same file as an input (another spelling, a link or a hard link of it) is refused
-// by check_not_an_input(), which compares device and inode numbers.
+// by check_not_an_input(), which compares device and inode numbers. A temporary file is removed on every
+// failure, and also by a signal that ends the program where the program asked for that
+// (remove_temporary_files_on_signals(), temporary_file.hpp). Files that belong together (a six-way bake's
+// atlases and sidecar) are replaced together or not at all by write_outputs_together().
 #include <filesystem>
 #include <functional>
 #include <ostream>
+#include <span>
 #include <stdexcept>
 #include <string_view>
 #include <vector>
@@ -69,5 +73,18 @@ void check_not_an_input(const OutputTarget& output, const std::vector<std::files
 void write_output(const OutputTarget& target, const std::function<void(std::ostream&)>& write);
 // resolve_output(path), then the above.
 void write_output(const std::filesystem::path& path, const std::function<void(std::ostream&)>& write);
+
+// One file of a group that write_outputs_together() replaces.
+struct GroupOutput {
+    OutputTarget target;
+    std::function<void(std::ostream&)> write;
+};
+
+// Writes every output to a temporary file beside its file, then renames them into place together
+// (rename_together(), temporary_file.hpp): on any failure, and on a signal meanwhile, every file is left as
+// it was and no temporary file remains. Each target must be OutputKind::replace (a stream written in part
+// cannot be taken back): OutputPathError names one that is not. Other failures throw std::runtime_error
+// naming the file and the reason.
+void write_outputs_together(std::span<const GroupOutput> outputs);
 
 }  // namespace smoketrace

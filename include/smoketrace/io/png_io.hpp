@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <string>
 
 namespace smoketrace {
 
@@ -30,6 +31,9 @@ public:
     void write_srgb(const std::filesystem::path& path, const ImageRgba& image, PngChannels channels = PngChannels::rgb);
     void write_rgba8(const std::filesystem::path& path, int width, int height, const std::uint8_t* rgba);
     void write_rgba8(const std::filesystem::path& path, const Rgba8Image& image);
+    // The PNG file's bytes, for a caller that writes them with others (write_outputs_together()); valid
+    // until the writer's next call. `path` names the file in messages.
+    [[nodiscard]] const std::string& encode_rgba8(const std::filesystem::path& path, const Rgba8Image& image);
 
 private:
     struct Buffers;

@@ -36,7 +36,9 @@ struct SixwayLayout {
 [[nodiscard]] SixwayTexture load_sixway_texture(const std::filesystem::path& layout_json);
 
 // Writes kSixwayPositiveFile, kSixwayNegativeFile and the kSixwayLayoutFile sidecar (grid and bake
-// settings) into an existing folder, each file all-or-nothing (write_output()), the sidecar last.
+// settings) into an existing folder, the three together or none of them (write_outputs_together()): a
+// failure or a signal half-way leaves the folder's old set whole. Throws std::runtime_error (OutputPathError
+// for a file that cannot be replaced: a folder, a FIFO) naming the file.
 void write_sixway_bake(const std::filesystem::path& folder, const SixwayBake& bake);
 
 }  // namespace smoketrace
