@@ -725,7 +725,7 @@ std::string read_ply_particles(const Reader& r, const Node& list, const std::fil
         std::uint64_t index = 0;
         std::size_t count = ply.read(batch);
         // Only now: the first read() has held the count against the file's size, so a header that lies
-        // costs no memory.
+        // cannot reserve more than the file could hold.
         particles.reserve(std::size_t(ply.vertex_count()));
         for (; count != 0; count = ply.read(batch)) {
             for (const PlyPoint& p : std::span(batch).first(count)) {
