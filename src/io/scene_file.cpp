@@ -26,12 +26,10 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <initializer_list>
 #include <limits>
 #include <set>
 #include <span>
-#include <sstream>
 
 namespace smoketrace {
 
