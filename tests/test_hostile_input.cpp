@@ -5,8 +5,11 @@
 //    counts and long particle lists, refused before anything that large is built), coordinates and
 //    colours whose derived values would overflow float, motion that leaves the coordinate range, files
 //    that are empty, binary or a folder, and the valid extreme: no particles at all;
+//  * reads with a bound: /dev/zero, sparse files of gigabytes, FIFOs that stream without end, files that
+//    cannot be a JSON object (refused at their first read), a scene file over kMaxSceneFileBytes;
 //  * the optical-depth pass's hit budget (dense scenes without a cutoff need memory quadratic in density);
-//  * six-way textures given with --textures: missing, truncated, wrong-size and corrupt files;
+//  * six-way textures given with --textures: missing, truncated, wrong-size and corrupt files, a sidecar of
+//    gigabytes or over its limit, atlases whose header claims more pixels than a texture may have;
 //  * the command line: bad numbers for every numeric flag, --threads 0 and --size 0x0 for each command that
 //    takes them, output paths in read-only or unwritable folders and onto an existing folder.
 #include "support/cli_runner.hpp"
@@ -15,8 +18,10 @@
 #include <smoketrace/core/memory_budget.hpp>
 #include <smoketrace/core/shown_text.hpp>
 #include <smoketrace/smoke/optical_depth_pass.hpp>
+#include <smoketrace/io/json_text_file.hpp>
 #include <smoketrace/io/png_io.hpp>
 #include <smoketrace/io/scene_file.hpp>
+#include <smoketrace/io/sixway_files.hpp>
 #include <smoketrace/render/sixway_texture.hpp>
 #include <smoketrace/smoke/tube_generator.hpp>
 
@@ -37,9 +42,15 @@
 #include <numeric>
 #include <sstream>
 #include <string>
+#include <thread>
+#include <vector>
+
+#include <csignal>
+#include <fcntl.h>
+#include <pthread.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
-#include <vector>
 
 namespace fs = std::filesystem;
 using namespace smoketrace;
@@ -89,6 +100,24 @@ std::string error_of(const std::string& text, const std::string& source = "bad.j
 }
 
 const char* const kLight = R"("light": { "direction": [0, 1, 0] })";
+
+// A PNG file's bytes with the size in its header (IHDR) changed, and the chunk's CRC made to match: a file
+// that passes every check of its structure and claims pixels its data does not have.
+std::string with_png_size(std::string png, std::uint32_t width, std::uint32_t height) {
+    REQUIRE(png.substr(12, 4) == "IHDR");
+    for (int i = 0; i < 4; ++i) {
+        png[std::size_t(16 + i)] = char(width >> (24 - 8 * i));
+        png[std::size_t(20 + i)] = char(height >> (24 - 8 * i));
+    }
+    std::uint32_t crc = 0xFFFFFFFFu;  // the PNG specification's CRC-32 over the chunk's type and data
+    for (std::size_t i = 12; i < 12 + 4 + 13; ++i) {
+        crc ^= std::uint8_t(png[i]);
+        for (int k = 0; k < 8; ++k) crc = (crc & 1u) ? 0xEDB88320u ^ (crc >> 1) : crc >> 1;
+    }
+    crc ^= 0xFFFFFFFFu;
+    for (int i = 0; i < 4; ++i) png[std::size_t(29 + i)] = char(crc >> (24 - 8 * i));
+    return png;
+}
 
 }  // namespace
 
@@ -282,7 +311,10 @@ TEST_CASE("hostile cli: bad scene files of every kind, through depths and render
     for (const std::string command : {"depths", "render"}) {
         const std::string out = " -o " + (command == std::string("depths") ? csv : png).string();
         cases.push_back({command + " " + empty + out, "empty.json: malformed JSON at the end of the input (byte 1)"});
-        cases.push_back({command + " " + binary + out, "binary.json: malformed JSON at byte 1"});
+        cases.push_back({command + " " + binary + out,
+                         "binary.json: not a JSON object: its first non-blank byte, byte 1, is 0x89"});
+        // An endless device: refused at its first byte, not read until memory runs out.
+        cases.push_back({command + " /dev/zero" + out, "/dev/zero: byte 1 is a NUL byte"});
         cases.push_back({command + " " + nan + out, "nan.json: malformed JSON"});
         cases.push_back({command + " " + deep + out, "deep.json: /light/0/0"});
         cases.push_back({command + " " + count + out, "count.json: /smoke/tubes/count: too many particles"});
@@ -302,6 +334,113 @@ TEST_CASE("hostile cli: bad scene files of every kind, through depths and render
     const CliRun ok = run_cli("render " + fast + " -o " + png.string() + " --size 8x8 --frames 3");
     CHECK(ok.exit_code == 0);
     for (int f = 0; f < 3; ++f) CHECK(fs::exists(dir.path / ("out_000" + std::to_string(f) + ".png")));
+}
+
+// ---- Reads with a bound ------------------------------------------------------------------------------------
+
+namespace {
+
+// Writes `total` bytes of `fill` (after `head`) into the FIFO `path` from another thread, until the reader
+// closes its end; returns how many bytes went in. SIGPIPE is blocked in that thread only, so that a closed
+// reader shows as EPIPE there and nothing else in the test process changes.
+class FifoWriter {
+public:
+    FifoWriter(fs::path path, std::string head, char fill, std::size_t total)
+        : thread_([this, path = std::move(path), head = std::move(head), fill, total] {
+              sigset_t pipe_signal;
+              sigemptyset(&pipe_signal);
+              sigaddset(&pipe_signal, SIGPIPE);
+              pthread_sigmask(SIG_BLOCK, &pipe_signal, nullptr);
+              const int fd = ::open(path.c_str(), O_WRONLY);  // waits for the reader to open its end
+              if (fd < 0) return;
+              std::string chunk = head + std::string(std::size_t(1) << 16, fill);
+              while (written_ < total) {
+                  const std::size_t n = std::min(chunk.size(), total - written_);
+                  const ssize_t done = ::write(fd, chunk.data(), n);
+                  if (done <= 0) break;  // EPIPE: the reader stopped reading
+                  written_ += std::size_t(done);
+                  if (written_ >= head.size()) chunk.assign(std::size_t(1) << 16, fill);
+              }
+              ::close(fd);
+          }) {}
+    std::size_t written() {
+        thread_.join();
+        return written_;
+    }
+
+private:
+    std::size_t written_ = 0;
+    std::thread thread_;
+};
+
+}  // namespace
+
+TEST_CASE("hostile scene: files that cannot be a JSON object are refused at their first bytes, however large",
+          "[hostile]") {
+    TempDir dir;
+    auto message_of = [](const fs::path& path) {
+        try {
+            (void)load_scene_file(path);
+        } catch (const SceneFileError& e) {
+            return std::string(e.what());
+        }
+        return std::string("(no error)");
+    };
+    // A sparse file of 1 GiB of zeros: read whole, it took 1 GiB of memory and many seconds before
+    // "malformed JSON at byte 1".
+    const fs::path sparse = dir.path / "sparse.json";
+    std::ofstream(sparse).close();
+    fs::resize_file(sparse, std::uintmax_t(1) << 30);
+    CHECK(message_of(sparse) ==
+          sparse.string() + ": byte 1 is a NUL byte, which JSON text never holds (is it a binary file?)");
+    // A NUL further in: named by its byte.
+    const fs::path late = dir.write("late.json", "{" + std::string(99999, ' ') + std::string(1, '\0') + "}");
+    CHECK_THAT(message_of(late), Catch::StartsWith(late.string() + ": byte 100001 is a NUL byte"));
+    // Valid JSON, but not an object: refused without parsing what follows.
+    const fs::path list = dir.write("list.json", " \r\n\t[1, 2, 3]");
+    CHECK(message_of(list) ==
+          list.string() +
+              ": not a JSON object: its first non-blank byte, byte 5, is '[' (a JSON object begins with '{')");
+    // A FIFO that would go on for 64 MiB of zeros: the reader stops after its first read.
+    const fs::path fifo = dir.path / "zeros.json";
+    REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
+    constexpr std::size_t kStreamBytes = std::size_t(64) << 20;
+    FifoWriter zeros(fifo, "", '\0', kStreamBytes);
+    CHECK_THAT(message_of(fifo), Catch::StartsWith(fifo.string() + ": byte 1 is a NUL byte"));
+    CHECK(zeros.written() < kStreamBytes);
+    // A byte-order mark before the object is still read, as JSON readers do.
+    const fs::path bom =
+        dir.write("bom.json", std::string("\xEF\xBB\xBF\n{") + kLight + R"(, "smoke": { "particles": [] } })");
+    CHECK(message_of(bom) == "(no error)");
+}
+
+TEST_CASE("hostile scene: a scene file longer than kMaxSceneFileBytes is refused by its size, a stream at the "
+          "bound", "[hostile]") {
+    TempDir dir;
+    // A sparse file one byte over the limit, beginning like a scene: refused before a byte of it is read.
+    const fs::path big = dir.write("big.json", std::string("{") + kLight + R"(, "smoke": { "particles": [)");
+    fs::resize_file(big, kMaxSceneFileBytes + 1);
+    const CliRun r = run_cli("depths " + big.string() + " -o " + (dir.path / "out.csv").string());
+    CHECK(r.exit_code == 1);
+    CHECK(r.err.find(big.string() + ": the file is 4294967297 bytes, more than the limit of 4294967296 bytes") !=
+          std::string::npos);
+    CHECK(!fs::exists(dir.path / "out.csv"));
+    // A stream has no size: it is read up to the bound and no further (a bound of 1 MiB here, for a 16 MiB
+    // stream, so that the test moves little data; load_scene_file() gives kMaxSceneFileBytes).
+    const fs::path fifo = dir.path / "spaces.json";
+    REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
+    constexpr std::size_t kBound = std::size_t(1) << 20, kStreamBytes = std::size_t(16) << 20;
+    FifoWriter spaces(fifo, "{", ' ', kStreamBytes);
+    CHECK_THROWS_WITH(read_json_object_text(fifo, kBound), "it is longer than the limit of 1048576 bytes");
+    CHECK(spaces.written() < kStreamBytes);
+    // Up to the bound, a stream is read whole, with the padding asked for.
+    const fs::path fifo2 = dir.path / "small.json";
+    REQUIRE(::mkfifo(fifo2.c_str(), 0600) == 0);
+    FifoWriter small(fifo2, "{", ' ', kBound);
+    const std::string text = read_json_object_text(fifo2, kBound, 64);
+    CHECK(small.written() == kBound);
+    CHECK(text.size() == kBound);
+    CHECK(text.capacity() >= kBound + 64);
 }
 
 TEST_CASE("hostile cli: an empty particle list is valid: render draws the ground and sky, depths writes a header", "[hostile][cli]") {
@@ -406,6 +545,26 @@ TEST_CASE("hostile cli: missing, truncated, wrong-size and corrupt six-way textu
              j.replace(j.find("\"frames\": 16"), 12, "\"frames\": 99999");
              put(d / layout, j);
          }},
+        // Reads with a bound: a sidecar of gigabytes, or longer than its limit; an atlas whose header gives a size
+        // that decodes to a gigabyte (its data is a few bytes: decoding first failed with "not enough pixels").
+        {"a sidecar of 1 GiB of zeros (sparse)", layout + "': the file is 1073741824 bytes, more than the limit of "
+                                                          "1048576 bytes", [&](const fs::path& d) {
+             put(d / layout, "");
+             fs::resize_file(d / layout, std::uintmax_t(1) << 30);
+         }},
+        {"a sidecar of zeros", layout + "': byte 1 is a NUL byte", [&](const fs::path& d) {
+             put(d / layout, std::string(1000, '\0'));
+         }},
+        {"a sidecar longer than kMaxSixwayLayoutBytes", "more than the limit of 1048576 bytes", [&](const fs::path& d) {
+             std::string text(1, '{');  // appended, not "{" + …: GCC 12 warns falsely (-Wrestrict) on that
+             text.append(kMaxSixwayLayoutBytes, ' ');
+             put(d / layout, text + bytes_of(d / layout).substr(1));
+         }},
+        {"a positive atlas whose header says 16384x16384", pos + "': PNG size 16384x16384 is larger than the limit "
+                                                                 "of 8192x8192 for a texture",
+         [&](const fs::path& d) { put(d / pos, with_png_size(bytes_of(d / pos), 16384, 16384)); }},
+        {"a negative atlas whose header says 16384x16384", neg + "': expected 512x512 pixels, the file has 16384x16384",
+         [&](const fs::path& d) { put(d / neg, with_png_size(bytes_of(d / neg), 16384, 16384)); }},
         {"sidecar pointing outside with a missing file", "nowhere.png", [&](const fs::path& d) {
              std::string j = bytes_of(d / layout);
              j.replace(j.find("\"sixway_pos.png\""), 16, "\"../nowhere.png\"");

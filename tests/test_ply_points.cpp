@@ -263,3 +263,96 @@ TEST_CASE("PLY particles: the same depths as the same particles in JSON (smoketr
     CHECK(csv.find(",ok\n") != std::string::npos);
     CHECK(csv == test::file_bytes(dir.path / "list.csv"));
 }
+
+TEST_CASE("PLY particles: header values that overflow, a second vertex element, trailing data and ascii values "
+          "out of their type's range are refused", "[ply][hostile]") {
+    TempDir dir;
+    const std::vector<Particle> three = some_particles(3);
+    const std::string good = ply_file(three, {});
+    const std::string ascii = ply_file(three, {"ascii"});
+    const std::string ply = (dir.path / "c.ply").string();
+    auto replaced = [](std::string text, const std::string& from, const std::string& to) {
+        REQUIRE(text.find(from) != std::string::npos);
+        return text.replace(text.find(from), from.size(), to);
+    };
+    // An ascii cloud of two particles, the first one's x and radius as given, of the types given.
+    auto hand_made = [](const std::string& x_type, const std::string& x, const std::string& radius_type,
+                        const std::string& radius) {
+        return "ply\nformat ascii 1.0\nelement vertex 2\nproperty " + x_type + " x\nproperty float y\n"
+               "property float z\nproperty " + radius_type + " radius\nend_header\n" + x + " 0 0 " + radius +
+               "\n1 0 0 1\n";
+    };
+    struct Case {
+        std::string name, text, expected;
+    };
+    const std::vector<Case> cases = {
+        // 2^62 elements of 4 bytes before the vertices: 2^64 bytes, which wrapped to a skip of 0, so the
+        // vertices were read as if the element were not there.
+        {"a skip that wraps to 0",
+         replaced(good, "element vertex", "element junk 4611686018427387904\nproperty float a\nelement vertex"),
+         ply + ": the elements before vertex end, by the header's counts, beyond byte 2^64, past the end of the file"},
+        // (2^61 - 1) elements of 8 bytes: 2^64 - 8, a seek of -8 bytes, back into "end_header\n", whose text
+        // was read as vertex 0.
+        {"a skip that seeks backwards",
+         replaced(good, "element vertex",
+                  "element junk 2305843009213693951\nproperty float a\nproperty float b\nelement vertex"),
+         ply + ": the elements before vertex end, by the header's counts, beyond byte 2^64"},
+        {"a skipped element whose data is not there",
+         replaced(good, "element vertex", "element junk 1000\nproperty float a\nelement vertex"),
+         ply + ": the elements before vertex end, by the header's counts, at byte "},
+        {"a second vertex element", replaced(good, "end_header", "element vertex 1\nproperty float x\nend_header"),
+         ply + ": element vertex appears twice in the header"},
+        {"trailing bytes (binary)", good + "garbage",
+         ply + ": the header's elements end at byte " + std::to_string(good.size()) + ", but the file has " +
+             std::to_string(good.size() + 7) + " bytes: 7 bytes of trailing data"},
+        {"a vertex count one short (binary)", replaced(good, "element vertex 3", "element vertex 2"),
+         ": 16 bytes of trailing data"},
+        {"a fixed-size element after vertex that is missing",
+         replaced(good, "end_header", "element extra 5\nproperty float q\nend_header"),
+         ply + ": truncated: the elements after vertex end, by the header's counts, at byte"},
+        {"a vertex count one short (ascii)", replaced(ascii, "element vertex 3", "element vertex 2"),
+         ply + ": after the last vertex the file has 1 more non-blank lines, where the header's elements after "
+               "vertex give 0"},
+        {"trailing text (ascii)", ascii + "42\n", "after the last vertex the file has 1 more non-blank lines"},
+        // Refused at the first read, before the scene file reserves memory for the count.
+        {"a vertex count the text cannot hold (ascii)", hand_made("float", "0", "float", "1").replace(
+                                                            std::strlen("ply\nformat ascii 1.0\nelement vertex "), 1, "9"),
+         ply + ": truncated: the header declares 9 vertices of 4 values, more than the 16 bytes after it can hold as "
+               "text"},
+        {"a uchar radius of 300 (ascii)", hand_made("float", "0", "uchar", "300"),
+         ply + ": vertex 0, property radius: out of range for uchar (0 to 255) (got \"300\")"},
+        {"a uchar radius of 0.5 (ascii)", hand_made("float", "0", "uchar", "0.5"),
+         ply + ": vertex 0, property radius: not a whole number, as its integer type needs (got \"0.5\")"},
+        {"a short x of -40000 (ascii)", hand_made("short", "-40000", "float", "1"),
+         ply + ": vertex 0, property x: out of range for short (-32768 to 32767) (got \"-40000\")"},
+        {"a float x beyond FLT_MAX (ascii)", hand_made("float", "1e39", "float", "1"),
+         ply + ": vertex 0, property x: out of range for float (got \"1e39\")"},
+    };
+    for (const Case& c : cases) {
+        INFO(c.name);
+        const std::string message = scene_error(dir, c.text);
+        INFO("message: " << message);
+        CHECK(message.rfind((dir.path / "s.json").string() + ": /smoke/particles: ", 0) == 0);
+        CHECK(message.find(c.expected) != std::string::npos);
+    }
+    // A header of endless comment lines ends at the limit, not at the end of the file.
+    std::string comments;
+    while (comments.size() <= kMaxPlyHeaderBytes) comments += "comment " + std::string(1000, 'x') + "\n";
+    CHECK_THAT(scene_error(dir, replaced(good, "end_header", comments + "end_header")),
+               Catch::Contains(ply + ": the header is longer than 1048576 bytes"));
+    // The valid neighbours of those files still load: an ascii uchar radius of 255, a short x of -32768, an
+    // element after vertex whose data is there, a header just under the limit.
+    const auto scene = dir.write("s.json", kSceneHead + std::string("\"c.ply\"") + kSceneTail);
+    dir.write("c.ply", hand_made("short", "-32768", "uchar", "255"));
+    const SceneDescription extremes = load_scene_file(scene);
+    REQUIRE(extremes.smoke.particles.size() == 2);
+    CHECK(extremes.smoke.particles[0].radius == 255.0f);
+    CHECK(double(extremes.smoke.particles[0].center.x) + extremes.origin.x == -32768.0);
+    dir.write("c.ply",
+              replaced(good, "end_header", "element extra 2\nproperty float q\nend_header") + std::string(8, '\0'));
+    CHECK(load_scene_file(scene).smoke.particles.size() == 3);
+    std::string filler;
+    while (good.size() + filler.size() + 1000 < kMaxPlyHeaderBytes) filler += "comment " + std::string(990, 'y') + "\n";
+    dir.write("c.ply", replaced(good, "end_header", filler + "end_header"));
+    CHECK(load_scene_file(scene).smoke.particles.size() == 3);
+}

@@ -361,6 +361,16 @@ TEST_CASE("PNG errors: wrong size when a size is expected", "[png]") {
     CHECK(read_png_rgba8(p, 37, 23).width == 37);
 }
 
+TEST_CASE("PNG errors: a size beyond the caller's limit is refused from the header, before decoding", "[png]") {
+    TempDir dir;
+    const fs::path p = dir.path / "wide.png";
+    write_png_rgba8(p, pattern(9000, 3));
+    CHECK_THAT(message_of([&] { (void)read_png_rgba8_at_most(p, 8192, 8192); }),
+               Catch::Contains(p.string()) && Catch::Contains("PNG size 9000x3 is larger than the limit of 8192x8192"));
+    CHECK_THAT(message_of([&] { (void)read_png_rgba8_at_most(p, 9000, 2); }), Catch::Contains("larger than the limit"));
+    CHECK(read_png_rgba8_at_most(p, 9000, 3).pixels == pattern(9000, 3).pixels);
+}
+
 TEST_CASE("PNG errors: writing into a missing folder names the path and leaves nothing", "[png]") {
     TempDir dir;
     const fs::path p = dir.path / "missing" / "out.png";

@@ -24,6 +24,7 @@
 
 // Files: scene files in, PNG and CSV out, never destroying what an output path names.
 #include <smoketrace/io/depths_csv.hpp>
+#include <smoketrace/io/json_text_file.hpp>
 #include <smoketrace/io/output_path.hpp>
 #include <smoketrace/io/ply_points.hpp>
 #include <smoketrace/io/png_io.hpp>

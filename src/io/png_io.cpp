@@ -426,10 +426,19 @@ void write_png_srgb(const fs::path& path, const ImageRgba& image, PngChannels ch
     PngWriter().write_srgb(path, image, channels);
 }
 
-Rgba8Image read_png_rgba8(const fs::path& path) {
-    const std::vector<std::uint8_t> bytes = read_whole_file(path);
+namespace {
+
+// `bytes` (a whole PNG file) decoded, after check_png_structure() and `size_ok(width, height)` on stb's
+// reading of its header, so that a size the caller refuses costs no decoding.
+template <class SizeCheck>
+Rgba8Image decode_png(const fs::path& path, const std::vector<std::uint8_t>& bytes, SizeCheck&& size_ok) {
     check_png_structure(path, bytes);
     int width = 0, height = 0, channels_in_file = 0;
+    if (!stbi_info_from_memory(bytes.data(), int(bytes.size()), &width, &height, &channels_in_file)) {
+        const char* reason = stbi_failure_reason();
+        read_error(path, std::string("cannot decode PNG: ") + (reason ? reason : "unknown reason"));
+    }
+    size_ok(width, height);
     const std::unique_ptr<stbi_uc, void (*)(void*)> decoded(
         stbi_load_from_memory(bytes.data(), int(bytes.size()), &width, &height, &channels_in_file, 4), stbi_image_free);
     if (!decoded) {
@@ -441,12 +450,27 @@ Rgba8Image read_png_rgba8(const fs::path& path) {
     return image;
 }
 
+}  // namespace
+
+Rgba8Image read_png_rgba8(const fs::path& path) {
+    return decode_png(path, read_whole_file(path), [](int, int) {});
+}
+
 Rgba8Image read_png_rgba8(const fs::path& path, int expected_width, int expected_height) {
-    Rgba8Image image = read_png_rgba8(path);
-    if (image.width != expected_width || image.height != expected_height)
-        read_error(path, "expected " + std::to_string(expected_width) + "x" + std::to_string(expected_height) +
-                             " pixels, the file has " + std::to_string(image.width) + "x" + std::to_string(image.height));
-    return image;
+    return decode_png(path, read_whole_file(path), [&](int width, int height) {
+        if (width != expected_width || height != expected_height)
+            read_error(path, "expected " + std::to_string(expected_width) + "x" + std::to_string(expected_height) +
+                                 " pixels, the file has " + std::to_string(width) + "x" + std::to_string(height));
+    });
+}
+
+Rgba8Image read_png_rgba8_at_most(const fs::path& path, int max_width, int max_height) {
+    return decode_png(path, read_whole_file(path), [&](int width, int height) {
+        if (width > max_width || height > max_height)
+            read_error(path, "PNG size " + std::to_string(width) + "x" + std::to_string(height) +
+                                 " is larger than the limit of " + std::to_string(max_width) + "x" +
+                                 std::to_string(max_height) + " for a texture");
+    });
 }
 
 }  // namespace smoketrace

@@ -7,6 +7,7 @@
 // value checks (Reader's, on a number and a lazily described site) and local_particle().
 #include <smoketrace/io/scene_file.hpp>
 
+#include <smoketrace/io/json_text_file.hpp>
 #include <smoketrace/io/ply_points.hpp>
 #include <smoketrace/render/camera.hpp>
 #include <smoketrace/render/pixel_samples.hpp>
@@ -26,13 +27,11 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <initializer_list>
 #include <limits>
 #include <map>
 #include <set>
 #include <span>
-#include <sstream>
 
 namespace smoketrace {
 
@@ -780,10 +779,13 @@ std::string read_ply_particles(const Reader& r, const Node& list, const std::fil
         PlyPointReader ply(path, name);
         if (const std::string problem = particle_count_problem(ply.vertex_count(), false); !problem.empty())
             r.fail(list.path + ": " + name + ": element vertex", problem);
-        particles.reserve(std::size_t(ply.vertex_count()));
         std::vector<PlyPoint> batch(kPlyBatch);
         std::uint64_t index = 0;
-        while (const std::size_t count = ply.read(batch)) {
+        std::size_t count = ply.read(batch);
+        // Only now: the first read() has held the count against the file's size, so a header that lies
+        // cannot reserve more than the file could hold.
+        particles.reserve(std::size_t(ply.vertex_count()));
+        for (; count != 0; count = ply.read(batch)) {
             for (const PlyPoint& p : std::span(batch).first(count)) {
                 ParticleValues v;
                 v.center = {r.coordinate(p.x, PlyValueSite{name, index, "x", p.x}),
@@ -1369,24 +1371,15 @@ SceneDescription parse_scene(std::string_view json_text, std::string_view source
 
 SceneDescription load_scene_file(const std::filesystem::path& path) {
     const std::string name = path.string();
-    std::error_code ec;
-    if (std::filesystem::is_directory(path, ec)) throw SceneFileError(name + ": is a directory, not a scene file");
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw SceneFileError(name + ": cannot open the file for reading");
-    if (std::filesystem::is_regular_file(path, ec)) {
-        // Straight into simdjson's padded buffer: the text is held once, however large the file.
-        const auto size = std::filesystem::file_size(path, ec);
-        if (!ec) {
-            simdjson::padded_string text{std::size_t(size)};
-            in.read(text.data(), std::streamsize(size));
-            if (in.bad() || std::size_t(in.gcount()) != size) throw SceneFileError(name + ": read error");
-            return parse_scene_text(text, name, SceneJsonReader::automatic);
-        }
+    std::string text;
+    try {
+        // Padded for simdjson, so that the text is held once however large the file.
+        text = read_json_object_text(path, kMaxSceneFileBytes, simdjson::SIMDJSON_PADDING);
+    } catch (const JsonTextFileError& e) {
+        throw SceneFileError(name + ": " + e.what());
     }
-    std::ostringstream text;  // a FIFO or a device: read to its end
-    text << in.rdbuf();
-    if (in.bad()) throw SceneFileError(name + ": read error");
-    return parse_scene(text.str(), name);
+    return parse_scene_text(simdjson::padded_string_view(text.data(), text.size(), text.capacity()), name,
+                            SceneJsonReader::automatic);
 }
 
 }  // namespace smoketrace

@@ -1,17 +1,15 @@
 // Six-way lighting textures as files: the two atlas PNGs and their JSON sidecar (see sixway_files.hpp).
 #include <smoketrace/io/sixway_files.hpp>
 
+#include <smoketrace/io/json_text_file.hpp>
 #include <smoketrace/io/output_path.hpp>
 #include <smoketrace/io/png_io.hpp>
 
 #include <nlohmann/json.hpp>
 
-#include <cerrno>
 #include <charconv>
 #include <cstdlib>
-#include <cstring>
-#include <fstream>
-#include <sstream>
+#include <ostream>
 #include <stdexcept>
 #include <string>
 
@@ -56,7 +54,7 @@ double shortest_decimal(float value) {
 SixwayTexture load_sixway_texture(const fs::path& positive_png, const fs::path& negative_png, SixwayAtlasGrid grid) {
     if (const std::string problem = sixway_grid_problem(grid); !problem.empty())
         throw std::runtime_error("six-way texture '" + positive_png.string() + "': " + problem);
-    const Rgba8Image positive = read_png_rgba8(positive_png);
+    const Rgba8Image positive = read_png_rgba8_at_most(positive_png, kMaxSixwayAtlasSide, kMaxSixwayAtlasSide);
     const Rgba8Image negative = read_png_rgba8(negative_png, positive.width, positive.height);
     try {
         return SixwayTexture(positive, negative, grid);
@@ -66,13 +64,15 @@ SixwayTexture load_sixway_texture(const fs::path& positive_png, const fs::path& 
 }
 
 SixwayLayout read_sixway_layout(const fs::path& layout_json) {
-    std::ifstream in(layout_json, std::ios::binary);
-    if (!in) throw std::runtime_error("cannot read '" + layout_json.string() + "': " + std::strerror(errno));
-    std::stringstream text;
-    text << in.rdbuf();
+    std::string text;
+    try {
+        text = read_json_object_text(layout_json, kMaxSixwayLayoutBytes);
+    } catch (const JsonTextFileError& e) {
+        throw std::runtime_error("cannot read '" + layout_json.string() + "': " + e.what());
+    }
     nlohmann::json doc;
     try {
-        doc = nlohmann::json::parse(text.str());
+        doc = nlohmann::json::parse(text);
     } catch (const nlohmann::json::parse_error& e) {
         throw std::runtime_error("'" + layout_json.string() + "': not valid JSON: " + e.what());
     }

@@ -8,12 +8,17 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <span>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 namespace smoketrace {
+
+// The longest header read: a PLY header is a few hundred bytes of keywords, names and comments, so 1 MiB is
+// generous; a longer one (endless comment lines) is refused, not read to the end of the file.
+inline constexpr std::uint64_t kMaxPlyHeaderBytes = std::uint64_t(1) << 20;
 
 // A PLY file that cannot be read: the message names the file, the element, property or vertex, and the problem.
 class PlyError : public std::runtime_error {
@@ -32,8 +37,9 @@ struct PlyPoint {
 class PlyPointReader {
 public:
     // Opens `path` and reads its header; `name` is how messages name the file. Throws PlyError: not a regular
-    // file, no PLY header, an unsupported format, no vertex element, no x, y, z or radius property, only part
-    // of vx, vy, vz, a list property in or before the vertex element.
+    // file, no PLY header, a header longer than kMaxPlyHeaderBytes, an unsupported format, no vertex element
+    // or two of them, no x, y, z or radius property, only part of vx, vy, vz, a list property in or before
+    // the vertex element.
     PlyPointReader(const std::filesystem::path& path, std::string name);
     ~PlyPointReader();
     PlyPointReader(const PlyPointReader&) = delete;
@@ -44,7 +50,11 @@ public:
     [[nodiscard]] const std::string& name() const { return name_; }
 
     // Fills `out` with the next vertices; returns how many (fewer than out.size() only at the last vertex,
-    // 0 after it). Throws PlyError when the data ends early or an ascii value is not a number.
+    // 0 after it). Throws PlyError when the data ends early, when more data follows than the header declares
+    // (binary: checked from the file's size before the first vertex; ascii: when the last vertex is read),
+    // when the file is too short for the vertex count (checked at the first call, so that vertex_count() can
+    // be trusted to size a buffer after it), or when an ascii value is not a number its declared type holds
+    // (a uchar of 300 or 0.5).
     std::size_t read(std::span<PlyPoint> out);
 
 private:
@@ -57,6 +67,9 @@ private:
 
     void read_header();
     void skip_elements_before_vertex();
+    void check_binary_layout();
+    void check_ascii_room();
+    void check_ascii_end();
     [[noreturn]] void fail(const std::string& problem) const;
     [[noreturn]] void truncated(std::uint64_t vertex) const;
     std::size_t read_binary(std::span<PlyPoint> out);
@@ -75,6 +88,14 @@ private:
     // Elements before "vertex": (count, bytes each; ascii: their count of lines) to skip.
     std::vector<std::pair<std::uint64_t, std::uint32_t>> before_;
     std::vector<unsigned char> buffer_;
+    // Binary: byte offsets of the first vertex, the end of the vertices and of
+    // all elements; nullopt where the header's counts overflow 64 bits. after_sized_: whether the elements
+    // after vertex have a size (no list properties), so that data_end_ is where the file must end.
+    std::optional<std::uint64_t> vertex_start_, vertex_end_, data_end_;
+    bool after_sized_ = true;
+    // Ascii: lines the elements after vertex take (nullopt: more than 2^64).
+    std::optional<std::uint64_t> after_lines_;
+    bool started_ = false, ended_ = false;
 };
 
 }  // namespace smoketrace

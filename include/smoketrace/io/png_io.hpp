@@ -87,8 +87,13 @@ void write_png_rgba8(const std::filesystem::path& path, const Rgba8Image& image)
 // Reads any 8- or 16-bit PNG as RGBA8 (grey and RGB gain opaque alpha; 16-bit is rounded to 8).
 // Throws std::runtime_error naming the file and the problem: cannot be read (errno text), not a PNG
 // (signature), truncated or corrupt (chunk structure and CRCs are checked before decoding), not
-// decodable (stb's failure reason), or, with the second overload, not of the expected size.
+// decodable (stb's failure reason), or, with the second overload, not of the expected size. Sizes are
+// checked against the header before the pixels are decoded: a file of a few megabytes can decode to
+// gigabytes.
 [[nodiscard]] Rgba8Image read_png_rgba8(const std::filesystem::path& path);
 [[nodiscard]] Rgba8Image read_png_rgba8(const std::filesystem::path& path, int expected_width, int expected_height);
+// As the first overload, but an image wider than `max_width` or taller than `max_height` is refused (a
+// texture's limits: the whole-image limit kMaxImageSide holds 16384x16384, 1 GB decoded).
+[[nodiscard]] Rgba8Image read_png_rgba8_at_most(const std::filesystem::path& path, int max_width, int max_height);
 
 }  // namespace smoketrace

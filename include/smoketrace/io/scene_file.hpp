@@ -36,6 +36,10 @@ public:
 // 50 million particles already need ~2.4 GB as Particle structs alone, before stand-ins, billboards, the
 // BVHs and the hit lists (several times more); a larger count is almost surely a typo.
 inline constexpr std::uint64_t kMaxSceneParticles = 50'000'000;
+// The longest scene file read (4 GiB): a list of 10^7 particles is about 1 GB in the form the generators write
+// and stays within it at 400 bytes a particle. A longer file (or a FIFO or device that goes on longer) is
+// refused by its size, before it fills memory; larger clouds belong in a PLY file.
+inline constexpr std::uint64_t kMaxSceneFileBytes = std::uint64_t(1) << 32;
 // Scene coordinates (world coordinates, as the file gives them) and radii: far beyond any sensible scene,
 // yet small enough that nothing the pipeline derives in float overflows: squared distances between scene
 // points (camera normalisation, box areas; stored relative to the origin, within 2·10^15) stay below
@@ -97,7 +101,9 @@ enum class SceneJsonReader { automatic, fast, reference };
                                            SceneJsonReader reader = SceneJsonReader::automatic);
 
 // Reads the file and parse_scene()s it, naming the file as given in messages; throws SceneFileError also
-// when the file cannot be read.
+// when the file cannot be read, is longer than kMaxSceneFileBytes, or cannot be a JSON object (a NUL byte, a
+// first non-blank byte other than '{'), the last two found without reading further than the bound or the
+// offending byte.
 [[nodiscard]] SceneDescription load_scene_file(const std::filesystem::path& path);
 
 }  // namespace smoketrace
