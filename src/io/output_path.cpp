@@ -3,7 +3,6 @@
 
 #include <smoketrace/io/temporary_file.hpp>
 
-#include <atomic>
 #include <cerrno>
 #include <cstring>
 #include <fcntl.h>
@@ -177,16 +176,7 @@ void fill_temporary(TemporaryFile& tmp, const OutputTarget& target, const std::f
     const fs::path& file = target.file;
     const std::string what = describe(target.given, file);
     const fs::path folder = folder_of(file);
-    // Unique per process and per call, so two threads (or two processes) writing the same target never
-    // share a temporary file; the name is cut so that it stays within the 255 bytes a file name may have.
-    static std::atomic<unsigned> serial{0};
-    std::string name(1, '.');
-    name += file.filename().string().substr(0, 200);
-    name += ".tmp";
-    name += std::to_string(::getpid());
-    name += '-';
-    name += std::to_string(serial.fetch_add(1));
-    if (!tmp.create(folder / name))
+    if (!tmp.create(hidden_name_beside(file, ".tmp")))
         throw std::runtime_error(what + ": cannot create a file in folder '" + folder.string() + "' (" +
                                  errno_text(errno) + ")");
     // A replaced file keeps its permissions (a private 0600 file must not come back world-readable).

@@ -105,20 +105,19 @@ extern "C" void remove_and_raise_again(int signal) {
 
 std::string errno_text(int e) { return std::strerror(e); }
 
-// A name for a hard link that keeps `file`'s old contents during rename_together().
-fs::path backup_name(const fs::path& file) {
+}  // namespace
+
+fs::path hidden_name_beside(const fs::path& file, std::string_view kind) {
     static std::atomic<unsigned> serial{0};
     const fs::path folder = file.has_parent_path() ? file.parent_path() : fs::path(".");
     std::string name(1, '.');
     name += file.filename().string().substr(0, 200);
-    name += ".old";
+    name += kind;
     name += std::to_string(::getpid());
     name += '-';
     name += std::to_string(serial.fetch_add(1));
     return folder / name;
 }
-
-}  // namespace
 
 TemporaryFile::~TemporaryFile() {
     if (fd_ >= 0) ::close(fd_);
@@ -162,7 +161,7 @@ void rename_together(std::span<TemporaryFile* const> files, std::span<const fs::
     // Everything that allocates comes first, so that nothing below throws while slots are busy.
     std::vector<fs::path> names(files.size()), backups(files.size());
     std::vector<bool> existed(files.size());
-    for (std::size_t i = 0; i < files.size(); ++i) names[i] = backup_name(targets[i]);
+    for (std::size_t i = 0; i < files.size(); ++i) names[i] = hidden_name_beside(targets[i], ".old");
     HoldSignals hold;
     // Busy: a handler running in another thread now waits until the group is in place or rolled back.
     for (TemporaryFile* f : files) {

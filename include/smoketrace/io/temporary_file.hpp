@@ -10,6 +10,7 @@
 // for such a slot to settle, so that no file is created unlisted and no group is half renamed when it runs.
 #include <filesystem>
 #include <span>
+#include <string_view>
 
 namespace smoketrace {
 
@@ -47,6 +48,11 @@ private:
 // is removed again) and std::runtime_error names the target and the reason. A signal that arrives
 // meanwhile takes effect only once the group is complete or rolled back.
 void rename_together(std::span<TemporaryFile* const> files, std::span<const std::filesystem::path> targets);
+
+// A hidden name beside `file` for a temporary file or a backup: ".NAME" + kind + "PID-N", unique per process
+// and per call, so two threads (or two processes) writing the same target never share one; NAME is cut so
+// that the whole stays within the 255 bytes a file name may have.
+[[nodiscard]] std::filesystem::path hidden_name_beside(const std::filesystem::path& file, std::string_view kind);
 
 // Removes every listed temporary file. Async-signal-safe: for a signal handler.
 void remove_temporary_files() noexcept;
