@@ -13,7 +13,10 @@
 #include <bit>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
+#include <filesystem>
+#include <iterator>
 #include <limits>
 #include <string>
 #include <vector>
@@ -248,6 +251,23 @@ TEST_CASE("PLY particles: every problem names the file and what is wrong", "[ply
     CHECK_THROWS_WITH(load_scene_file(scene), Catch::Contains("missing.ply: cannot open the file for reading"));
     const auto folder = dir.write("f.json", kSceneHead + std::string("\".\"") + kSceneTail);
     CHECK_THROWS_WITH(load_scene_file(folder), Catch::Contains(": is not a regular file"));
+}
+
+// A reader whose constructor refuses the header (it throws) must close the file it opened: a program that
+// reads many clouds, or a fuzzer, would otherwise run out of descriptors (the fuzzer found this one).
+TEST_CASE("PLY particles: a refused header leaves no file open", "[ply]") {
+    TempDir dir;
+    const auto open_descriptors = [] {
+        return std::distance(std::filesystem::directory_iterator("/proc/self/fd"), {});
+    };
+    const std::string bad = (dir.path / "bad.ply").string();
+    std::FILE* f = std::fopen(bad.c_str(), "wb");
+    REQUIRE(f);
+    std::fputs("ply\nformat binary_middle_endian 1.0\nend_header\n", f);
+    std::fclose(f);
+    const auto before = open_descriptors();
+    for (int i = 0; i < 64; ++i) CHECK_THROWS_AS(PlyPointReader(bad, "bad.ply"), PlyError);
+    CHECK(open_descriptors() == before);
 }
 
 TEST_CASE("PLY particles: the same depths as the same particles in JSON (smoketrace depths)", "[ply][cli]") {

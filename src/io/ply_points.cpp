@@ -108,15 +108,13 @@ PlyPointReader::PlyPointReader(const std::filesystem::path& path, std::string na
         if (!std::filesystem::exists(path, ec)) fail("cannot open the file for reading (it does not exist)");
         fail("is not a regular file");
     }
-    file_ = std::fopen(path.c_str(), "rb");
+    file_.reset(std::fopen(path.c_str(), "rb"));
     if (!file_) fail("cannot open the file for reading");
     read_header();
     skip_elements_before_vertex();
 }
 
-PlyPointReader::~PlyPointReader() {
-    if (file_) std::fclose(file_);
-}
+PlyPointReader::~PlyPointReader() = default;
 
 void PlyPointReader::fail(const std::string& problem) const { throw PlyError(name_ + ": " + problem); }
 
@@ -129,7 +127,7 @@ void PlyPointReader::read_header() {
     std::uint64_t header_bytes = 0;
     auto next_line = [&](std::string& line) {
         line.clear();
-        for (int c; (c = std::fgetc(file_)) != EOF;) {
+        for (int c; (c = std::fgetc(file_.get())) != EOF;) {
             if (++header_bytes > kMaxPlyHeaderBytes)
                 fail("the header is longer than " + std::to_string(kMaxPlyHeaderBytes) + " bytes");
             if (c == '\n') return true;
@@ -236,7 +234,7 @@ void PlyPointReader::read_header() {
     // Binary: where each part of the data begins and ends, in checked arithmetic, so that a count that
     // overflows cannot move the reader backwards into the header; compared with the file's size before the
     // first vertex is read. Elements after vertex with list properties have no size the header gives.
-    const auto at = std::ftell(file_);
+    const auto at = std::ftell(file_.get());
     if (at < 0) fail("cannot read the file");
     std::optional<std::uint64_t> offset = std::uint64_t(at);
     std::optional<std::uint64_t> after_lines = 0;
@@ -270,14 +268,14 @@ void PlyPointReader::skip_elements_before_vertex() {
     for (const auto& [count, bytes] : before_) {
         // One element a line.
         for (std::uint64_t i = 0; i < count; ++i)
-            for (int c; (c = std::fgetc(file_)) != '\n';)
+            for (int c; (c = std::fgetc(file_.get())) != '\n';)
                 if (c == EOF) truncated(0);
     }
 }
 
 void PlyPointReader::check_binary_layout() {
     struct stat info{};
-    if (::fstat(fileno(file_), &info) != 0) fail("cannot read the file");
+    if (::fstat(fileno(file_.get()), &info) != 0) fail("cannot read the file");
     const auto size = std::uint64_t(info.st_size);
     const auto past_the_end = [&](std::optional<std::uint64_t> end) {
         return " end, by the header's counts, " + (end ? "at byte " + std::to_string(*end) : "beyond byte 2^64") +
@@ -291,7 +289,7 @@ void PlyPointReader::check_binary_layout() {
              std::to_string(size) + " bytes: " + std::to_string(size - *data_end_) +
              " bytes of trailing data (is the vertex count wrong?)");
     if (*vertex_start_ > std::uint64_t(std::numeric_limits<off_t>::max()) ||
-        ::fseeko(file_, off_t(*vertex_start_), SEEK_SET) != 0)
+        ::fseeko(file_.get(), off_t(*vertex_start_), SEEK_SET) != 0)
         fail("cannot seek to the first vertex (byte " + std::to_string(*vertex_start_) + ")");
 }
 
@@ -299,8 +297,8 @@ void PlyPointReader::check_ascii_room() {
     // Each value is at least one character and a separator: a count the rest of the file cannot hold is
     // refused before a caller sizes anything by it.
     struct stat info{};
-    const auto at = std::ftell(file_);
-    if (::fstat(fileno(file_), &info) != 0 || at < 0) fail("cannot read the file");
+    const auto at = std::ftell(file_.get());
+    if (::fstat(fileno(file_.get()), &info) != 0 || at < 0) fail("cannot read the file");
     const std::uint64_t left = std::uint64_t(info.st_size) - std::min(std::uint64_t(info.st_size), std::uint64_t(at));
     const std::optional<std::uint64_t> values = checked_product(vertex_count_, vertex_properties_);
     if (!values || *values > left / 2 + 1)
@@ -313,7 +311,7 @@ void PlyPointReader::check_ascii_end() {
     // What follows the last vertex: the lines of the elements after it, then only white space.
     std::uint64_t lines = 0;
     bool in_line = false;
-    for (int c; (c = std::fgetc(file_)) != EOF;) {
+    for (int c; (c = std::fgetc(file_.get())) != EOF;) {
         if (c == '\n') {
             in_line = false;
         } else if (!std::isspace(c) && !in_line) {
@@ -321,7 +319,7 @@ void PlyPointReader::check_ascii_end() {
             ++lines;
         }
     }
-    if (std::ferror(file_)) fail("cannot read the file");
+    if (std::ferror(file_.get())) fail("cannot read the file");
     if (!after_lines_ || lines != *after_lines_)
         fail("after the last vertex the file has " + std::to_string(lines) + " more non-blank lines, where the " +
              "header's elements after vertex give " + (after_lines_ ? std::to_string(*after_lines_) : "more") +
@@ -350,7 +348,7 @@ std::size_t PlyPointReader::read_binary(std::span<PlyPoint> out) {
         const std::size_t batch =
             std::min({kBatchVertices, std::max<std::size_t>(1, kBatchBytes / vertex_bytes_), out.size() - done});
         buffer_.resize(batch * vertex_bytes_);
-        const std::size_t got = std::fread(buffer_.data(), 1, buffer_.size(), file_);
+        const std::size_t got = std::fread(buffer_.data(), 1, buffer_.size(), file_.get());
         if (got < buffer_.size()) truncated(next_vertex_ + got / vertex_bytes_);
         for (std::size_t i = 0; i < batch; ++i) {
             const unsigned char* vertex = buffer_.data() + i * vertex_bytes_;
@@ -379,8 +377,8 @@ std::size_t PlyPointReader::read_binary(std::span<PlyPoint> out) {
 bool PlyPointReader::ascii_token(std::string& token) {
     token.clear();
     int c;
-    while ((c = std::fgetc(file_)) != EOF && std::isspace(c)) {}
-    for (; c != EOF && !std::isspace(c); c = std::fgetc(file_)) token.push_back(char(c));
+    while ((c = std::fgetc(file_.get())) != EOF && std::isspace(c)) {}
+    for (; c != EOF && !std::isspace(c); c = std::fgetc(file_.get())) token.push_back(char(c));
     return !token.empty();
 }
 

@@ -77,7 +77,11 @@ private:
     bool ascii_token(std::string& token);
 
     std::string name_;
-    std::FILE* file_ = nullptr;
+    struct CloseFile {
+        void operator()(std::FILE* f) const { std::fclose(f); }
+    };
+    // Owned from the constructor's first line on, so that a header it refuses (it throws) closes the file.
+    std::unique_ptr<std::FILE, CloseFile> file_;
     Format format_ = Format::ascii;
     std::uint64_t vertex_count_ = 0, next_vertex_ = 0;
     std::uint32_t vertex_bytes_ = 0;     // binary: the size of one vertex
