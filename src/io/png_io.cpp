@@ -140,6 +140,11 @@ std::uint8_t paeth(int left, int up, int upper_left) {
     return std::uint8_t(pu <= pul ? up : upper_left);
 }
 
+// The inverse of read_be32(): PNG stores every number big-endian.
+void store_be32(std::uint8_t* p, std::uint32_t v) {
+    for (int k = 0; k < 4; ++k) p[k] = std::uint8_t(v >> (24 - 8 * k));
+}
+
 void append_be32(std::string& out, std::uint32_t v) {
     for (int shift = 24; shift >= 0; shift -= 8) out.push_back(char((v >> shift) & 0xFFu));
 }
@@ -158,10 +163,8 @@ void append_png_start(std::string& out, int width, int height, int channels) {
     static constexpr std::uint8_t kColourType[5] = {0, 0, 4, 2, 6};  // by channel count
     out.append(reinterpret_cast<const char*>(kPngSignature.data()), kPngSignature.size());
     std::array<std::uint8_t, 13> header{};
-    for (int k = 0; k < 4; ++k) {
-        header[std::size_t(k)] = std::uint8_t(std::uint32_t(width) >> (24 - 8 * k));
-        header[std::size_t(4 + k)] = std::uint8_t(std::uint32_t(height) >> (24 - 8 * k));
-    }
+    store_be32(&header[0], std::uint32_t(width));
+    store_be32(&header[4], std::uint32_t(height));
     header[8] = 8;  // bits per sample
     header[9] = kColourType[channels];
     // [10..12]: compression 0 (zlib), filter method 0 (the five adaptive filters), no interlace
@@ -352,7 +355,7 @@ ApngWriter::ApngWriter(std::ostream& out, fs::path path, int width, int height, 
     chunks_.clear();
     append_png_start(chunks_, width, height, 3);
     std::array<std::uint8_t, 8> control{};
-    for (int k = 0; k < 4; ++k) control[std::size_t(k)] = std::uint8_t(frames >> (24 - 8 * k));  // num_frames
+    store_be32(&control[0], frames);  // num_frames
     // [4..7]: num_plays 0, loop for ever
     append_chunk(chunks_, "acTL", control.data(), control.size());
     put(chunks_);
@@ -376,13 +379,10 @@ void ApngWriter::add_srgb(const ImageRgba& frame) {
     to_srgb8(frame, 3, b.samples);
     const std::size_t size = b.deflate_rows(path_, width_, height_, 3, b.samples.data());
 
-    const auto be32 = [](std::uint8_t* p, std::uint32_t v) {
-        for (int k = 0; k < 4; ++k) p[k] = std::uint8_t(v >> (24 - 8 * k));
-    };
     std::array<std::uint8_t, 26> control{};
-    be32(&control[0], sequence_++);
-    be32(&control[4], std::uint32_t(width_));
-    be32(&control[8], std::uint32_t(height_));
+    store_be32(&control[0], sequence_++);
+    store_be32(&control[4], std::uint32_t(width_));
+    store_be32(&control[8], std::uint32_t(height_));
     // [12..19]: x and y offset 0, every frame covers the whole image
     control[21] = 1;  // delay_num 1 over delay_den fps: each frame shows for 1/fps s
     control[22] = std::uint8_t(fps_ >> 8);
@@ -397,7 +397,7 @@ void ApngWriter::add_srgb(const ImageRgba& frame) {
         std::uint8_t* const stream = b.compressed.data.get();
         b.filtered.reserve(size + 4);  // the rows are compressed: their buffer holds the chunk's data
         std::uint8_t* const data = b.filtered.data.get();
-        be32(data, sequence_++);
+        store_be32(data, sequence_++);
         std::memcpy(data + 4, stream, size);
         append_chunk(chunks_, "fdAT", data, size + 4);
     }
