@@ -20,7 +20,7 @@ cxx="${FUZZ_CXX:-clang++}"
 command -v "$cxx" >/dev/null || { echo "fuzz: $cxx not found (Debian: apt-get install clang libclang-rt-dev)" >&2; exit 1; }
 
 cmake -S "$root" -B "$build" -DCMAKE_CXX_COMPILER="$cxx" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-  "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g" -DSMOKETRACE_FUZZ=ON -DSMOKETRACE_SANITIZE=address,undefined \
+  "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1" -DSMOKETRACE_FUZZ=ON -DSMOKETRACE_SANITIZE=address,undefined \
   -DSMOKETRACE_NATIVE=OFF -DSMOKETRACE_TESTS=OFF -DSMOKETRACE_BENCH=OFF >/dev/null
 cmake --build "$build" --parallel "$jobs" --target fuzz_scene_file fuzz_ply_points fuzz_png_texture
 
