@@ -59,6 +59,11 @@ struct TruthReport {
     int light_columns_u = 0, light_columns_v = 0, light_nodes_w = 0;  // the light volume's grid
     float light_spacing = 0;               // its node spacing, world units
     std::uint64_t camera_samples = 0;      // density samples taken along camera rays, all levels
+    // Per pixel (width*height, row 0 at the top): its error estimate (view steps + light volume), and whether
+    // it hit a refinement limit (a step level or the light volume's spacing) with the estimate above its share
+    // of the tolerance. An error map for the error study, and what tests hold the bound to.
+    std::vector<float> pixel_error_estimate;
+    std::vector<std::uint8_t> pixel_unconverged;
 };
 
 class GroundTruth {
@@ -67,9 +72,10 @@ public:
     // scene's camera at width x height; `puff` = the bake settings of the scene's six-way textures.
     GroundTruth(const SceneDescription& scene, const SixwayBakeSettings& puff, std::uint64_t frame, int width,
                 int height, const TruthSettings& settings = {});
-    // The same with given densities, one per flipbook frame (tests: a uniform ball, a uniform cube).
-    GroundTruth(const SceneDescription& scene, std::vector<PuffVolume> flipbook, std::uint64_t frame, int width,
-                int height, const TruthSettings& settings = {});
+    // The same with given densities, one per flipbook frame (tests: a uniform ball, a uniform cube);
+    // `scattering` gives the light's multiple-scattering octaves (scattering_octaves 1: plain e^{-τ}).
+    GroundTruth(const SceneDescription& scene, const SixwayBakeSettings& scattering, std::vector<PuffVolume> flipbook,
+                std::uint64_t frame, int width, int height, const TruthSettings& settings = {});
     ~GroundTruth();
     GroundTruth(const GroundTruth&) = delete;
     GroundTruth& operator=(const GroundTruth&) = delete;
