@@ -457,7 +457,7 @@ TEST_CASE("cli: render -o OUT.apng writes the sequence as one animated PNG", "[c
 }
 
 // truth and depths --truth read the puff from the textures' sidecar: a small bake keeps them fast.
-TEST_CASE("cli: truth writes the image and its bound; depths --truth adds the true optical depths", "[cli][truth]") {
+TEST_CASE("cli: truth writes the image and its bound, depths --truth adds the true optical depths", "[cli][truth]") {
     TempDir dir;
     const fs::path textures = dir.path / "textures";
     fs::create_directories(textures);
