@@ -22,10 +22,14 @@
 #include <smoketrace/render/pixel_story.hpp>
 #include <smoketrace/render/sixway_baker.hpp>
 
-// Files: scene files in, PNG and CSV out, never destroying what an output path names.
+// Files: scene files in, PNG, EXR, PFM and CSV out, never destroying what an output path names.
 #include <smoketrace/io/depths_csv.hpp>
+#include <smoketrace/io/exr_io.hpp>
+#include <smoketrace/io/file_bytes.hpp>
+#include <smoketrace/io/image_files.hpp>
 #include <smoketrace/io/json_text_file.hpp>
 #include <smoketrace/io/output_path.hpp>
+#include <smoketrace/io/pfm_io.hpp>
 #include <smoketrace/io/ply_points.hpp>
 #include <smoketrace/io/png_io.hpp>
 #include <smoketrace/io/scene_file.hpp>
