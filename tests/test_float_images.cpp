@@ -348,3 +348,44 @@ TEST_CASE("float images: render -o x.pfm and x.exr hold the library's frame, x.p
     CHECK(bad.exit_code == 2);
     CHECK_THAT(bad.err, Catch::Contains("must end in .png (8-bit sRGB), .exr (OpenEXR, linear float) or .pfm"));
 }
+
+// smoketrace diff: A − B of two float images, as the signed floats (.pfm) and as a red/blue PNG, with the RMSE and
+// the largest difference, all checked by hand on three pixels.
+TEST_CASE("float images: diff writes A - B and prints its RMSE and largest difference", "[float_image][cli]") {
+    TempDir dir;
+    ImageRgba a(3, 1), b(3, 1);
+    a.at(0, 0) = glm::vec4(0.5f, 0.5f, 0.5f, 1.0f);  // A brighter by 0.25 in every channel
+    b.at(0, 0) = glm::vec4(0.25f, 0.25f, 0.25f, 1.0f);
+    a.at(1, 0) = glm::vec4(0.0f, 0.0f, 0.0f, 1.0f);  // B brighter by 0.5
+    b.at(1, 0) = glm::vec4(0.5f, 0.5f, 0.5f, 1.0f);
+    a.at(2, 0) = b.at(2, 0) = glm::vec4(0.75f, 0.125f, 2.0f, 1.0f);  // the same
+    write_pfm(dir.path / "a.pfm", a);
+    write_exr(dir.path / "b.exr", b);
+    const std::string inputs = (dir.path / "a.pfm").string() + " " + (dir.path / "b.exr").string();
+    const CliRun floats = smoketrace::test::run_cli_stdout("diff " + inputs + " -o " + (dir.path / "d.pfm").string());
+    INFO(floats.err);
+    REQUIRE(floats.exit_code == 0);
+    // RMSE over the nine channels: sqrt((3 · 0.25² + 3 · 0.5²) / 9) = sqrt(0.9375 / 9).
+    CHECK_THAT(floats.out, Catch::StartsWith("rmse=0.322749 max_abs=0.5 (linear radiance, RGB channels of 3x1"));
+    const ImageRgba d = read_pfm(dir.path / "d.pfm");
+    CHECK(d.at(0, 0) == glm::vec4(0.25f, 0.25f, 0.25f, 1.0f));
+    CHECK(d.at(1, 0) == glm::vec4(-0.5f, -0.5f, -0.5f, 1.0f));
+    CHECK(d.at(2, 0) == glm::vec4(0.0f, 0.0f, 0.0f, 1.0f));
+    // The PNG: scale 1 / 0.5, so the first pixel is red at 0.5 (sRGB 188), the second full blue, the third black.
+    const CliRun png = smoketrace::test::run_cli_stdout("diff " + inputs + " -o " + (dir.path / "d.png").string());
+    REQUIRE(png.exit_code == 0);
+    CHECK_THAT(png.out, Catch::Contains("scale=2 "));
+    CHECK_THAT(png.err, Catch::Contains("wrote " + (dir.path / "d.png").string()));
+    const Rgba8Image shown = read_png_rgba8(dir.path / "d.png");
+    const std::uint8_t expected[3][3] = {{188, 0, 0}, {0, 0, 255}, {0, 0, 0}};
+    for (int x = 0; x < 3; ++x)
+        for (int c = 0; c < 3; ++c) CHECK(shown.texel(x, 0)[c] == expected[x][c]);
+    // Images of two sizes, and an output that is an input, are refused; nothing is written.
+    write_pfm(dir.path / "small.pfm", ImageRgba(1, 1));
+    const CliRun sizes = run_cli("diff " + inputs.substr(0, inputs.find(' ')) + " " + (dir.path / "small.pfm").string() +
+                                 " -o " + (dir.path / "e.png").string());
+    CHECK(sizes.exit_code == 2);
+    CHECK_THAT(sizes.err, Catch::Contains("is 3x1") && Catch::Contains("1x1: the images must be of one size"));
+    CHECK(run_cli("diff " + inputs + " -o " + (dir.path / "a.pfm").string()).exit_code == 2);
+    CHECK_FALSE(fs::exists(dir.path / "e.png"));
+}
