@@ -507,6 +507,7 @@ TruthReport GroundTruth::render(ImageRgba& image, WorkProgress* progress) const 
         ++light_level;
     }
     report.light_levels_used = light_level;
+    report.light_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     report.light_columns_u = lv.nu;
     report.light_columns_v = lv.nv;
     report.light_nodes_w = lv.nw;

@@ -50,6 +50,7 @@ struct TruthSettings {
 
 struct TruthReport {
     double seconds = 0;                    // wall time of render()
+    double light_seconds = 0;              // of which building (and refining) the light volume
     float max_error_estimate = 0;          // the largest per-pixel error estimate (view steps + light volume)
     std::uint64_t unconverged_pixels = 0;  // pixels that hit a refinement limit
     float view_error_estimate = 0;         // the largest step-halving change of a pixel at its last level
