@@ -25,8 +25,9 @@
 namespace smoketrace::cli {
 namespace {
 
-// OUT.png for one frame; OUT_0000.png, OUT_0001.png, … for a sequence (OUT.exr, OUT_0000.exr, … alike). Every name has as many digits as the
-// last frame's number (at least 4), so that the names sort in frame order for any length of sequence.
+// OUT.png for one frame; OUT_0000.png, OUT_0001.png, … for a sequence (OUT.exr, OUT_0000.exr, … alike). Every
+// name has as many digits as the last frame's number (at least 4), so that the names sort in frame order for any
+// length of sequence.
 std::filesystem::path frame_path(const std::filesystem::path& out, std::uint32_t frame, std::uint32_t frames) {
     if (frames == 1) return out;
     const int digits = std::max(4, int(std::to_string(frames - 1).size()));
@@ -196,7 +197,8 @@ constexpr OptionHelp kOptions[] = {
 
 const RegisterCommand registration{
     {"render",
-     "render SCENE.json -o OUT.png|OUT.exr|OUT.pfm|OUT.apng|- [--mode basic|simple-shadow|full] [--size WxH] [--frames N|A:B] [--groups G] "
+     "render SCENE.json -o OUT.png|OUT.exr|OUT.pfm|OUT.apng|- [--mode basic|simple-shadow|full] [--size WxH] "
+     "[--frames N|A:B] [--groups G] "
      "[--cutoff K] [--shape S] [--threads T] [--timings] [--compositing over|thesis] "
      "[--compositor tiled|one-traversal|retrace] [--spp N] [--assets DIR]",
      "render a frame (PNG, or linear float EXR or PFM; -o -: on standard output), or N frames OUT_0000.png … or "

@@ -100,7 +100,8 @@ constexpr OptionHelp kOptions[] = {
 
 const RegisterCommand registration{
     {"truth",
-     "truth SCENE.json -o OUT.png|OUT.exr|OUT.pfm|- [--size WxH] [--frame N] [--tolerance X] [--spp N] [--threads T] [--assets DIR]",
+     "truth SCENE.json -o OUT.png|OUT.exr|OUT.pfm|- [--size WxH] [--frame N] [--tolerance X] [--spp N] "
+     "[--threads T] [--assets DIR]",
      "the ground truth of a frame: the smoke it depicts rendered as a volume, converged to a stated bound",
      &run_truth, kOptions}};
 

@@ -117,7 +117,8 @@ void write_pfm(const fs::path& path, const ImageRgba& image) {
         for (int y = image.height - 1; y >= 0; --y) {
             for (std::size_t x = 0; x < width; ++x) {
                 const glm::vec4& p = image.at(int(x), y);
-                for (int c = 0; c < 3; ++c) row[x * 3 + std::size_t(c)] = little_endian(std::bit_cast<std::uint32_t>(p[c]));
+                for (int c = 0; c < 3; ++c)
+                    row[x * 3 + std::size_t(c)] = little_endian(std::bit_cast<std::uint32_t>(p[c]));
             }
             out.write(reinterpret_cast<const char*>(row.data()), std::streamsize(row.size() * 4));
         }
