@@ -9,6 +9,7 @@ demo_packages=(
   libglm-dev          # vector maths
   libstb-dev          # stb_image (PNG in)
   zlib1g-dev          # deflate for PNG out (src/io/png_io.cpp: our PNG encoder over zlib)
+  libopenexr-dev      # OpenEXR: float images in and out (src/io/exr_io.cpp)
   libtbb-dev          # oneTBB: parallel passes and builds
   nlohmann-json3-dev  # scene files
   libsimdjson-dev     # scene files: the fast reader of large particle lists (src/io/scene_file.cpp)

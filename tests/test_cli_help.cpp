@@ -50,8 +50,9 @@ const std::string kScene = std::string(SMOKETRACE_ASSET_DIR) + "/scenes/minimal.
 
 // The flags a command reads, from the message of an unknown option: "… (the options: -o, --mode, …)".
 std::vector<std::string> options_read_by(const std::string& command) {
-    // The unknown flag first, then a positional argument for the commands that want one (it is only read).
-    const Run r = cli(command + " --no-such-option scene.json");
+    // The unknown flag first, then positional arguments for the commands that want them (they are only read;
+    // diff wants two).
+    const Run r = cli(command + " --no-such-option scene.json other.json");
     REQUIRE(r.exit_code == 2);
     const std::string key = "(the options: ";
     const auto from = r.err.find(key);
@@ -99,7 +100,7 @@ TEST_CASE("cli help: --help lists every option of every command, each with its d
     const Run all = cli("--help");
     REQUIRE(all.exit_code == 0);
     const std::vector<std::string> commands = listed_commands(all.out);
-    REQUIRE(commands == std::vector<std::string>{"bake-sixway", "depths", "explain", "render", "truth"});
+    REQUIRE(commands == std::vector<std::string>{"bake-sixway", "depths", "diff", "explain", "render", "truth"});
     for (const std::string& command : commands) {
         INFO(command);
         const Run one = cli("help " + command);
@@ -108,7 +109,7 @@ TEST_CASE("cli help: --help lists every option of every command, each with its d
         CHECK(cli(command + " --help").out == one.out);
         CHECK(all.out.find(one.out) != std::string::npos);
         const std::vector<std::string> flags = options_read_by(command);
-        REQUIRE(flags.size() >= 3);
+        REQUIRE(flags.size() >= 2);  // the fewest: diff's -o and --scale
         for (const std::string& flag : flags) {
             INFO(flag);
             const std::string entry = entry_of(one.out, flag);
@@ -199,7 +200,7 @@ TEST_CASE("cli help: a mistyped or missing command gets one line and the list of
         CHECK(r.exit_code == 2);
         CHECK(r.out.empty());
         CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 2);
-        CHECK_THAT(r.err, Catch::Contains("\ncommands: bake-sixway, depths, explain, render, truth ("));
+        CHECK_THAT(r.err, Catch::Contains("\ncommands: bake-sixway, depths, diff, explain, render, truth ("));
         CHECK_THAT(r.err, !Catch::Contains("--size"));
     }
     CHECK_THAT(cli("rendr").err, Catch::StartsWith("smoketrace: unknown command 'rendr' (did you mean render?)\n"));

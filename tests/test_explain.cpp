@@ -10,11 +10,13 @@
 #include <smoketrace/render/pixel_story.hpp>
 #include <smoketrace/smoke/optical_depth_story.hpp>
 #include <smoketrace/smoke/optical_path_lengths.hpp>
+#include <smoketrace/truth/ground_truth.hpp>
 
 #include <catch2/catch.hpp>
 
 #include <array>
 #include <bit>
+#include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -603,4 +605,36 @@ TEST_CASE("cli: explain prints positions in world coordinates for a scene far fr
     INFO(x.err);
     REQUIRE(x.exit_code == 0);
     CHECK(x.out.find("camera ray from (1000000, 1.5, -999991)") != std::string::npos);
+}
+
+// explain --pixel --truth prints the pixel's ground truth beside the frame's: the truth is the library's
+// GroundTruth::pixel() of the same frame and size, to the last bit of its shortest text, and the frame's
+// value is the one render writes. A puff baked at 8x8 texels keeps the truth's volume small (the test's
+// time); the minimal scene at 8x8 pixels.
+TEST_CASE("cli: explain --pixel --truth prints the truth's pixel beside the frame's", "[explain][cli][truth]") {
+    TempDir dir;
+    const CliRun bake = run_cli("bake-sixway --frames 1 --tile 8 -o " + dir.path.string());
+    REQUIRE(bake.exit_code == 0);
+    const std::string scene_path = std::string(SMOKETRACE_ASSET_DIR) + "/scenes/minimal.json";
+    const CliRun r = run_cli_stdout("explain " + scene_path + " --pixel 3,4 --size 8x8 --truth --assets " +
+                                    dir.path.string());
+    INFO(r.err);
+    REQUIRE(r.exit_code == 0);
+    const SceneDescription desc = load_scene_file(scene_path);
+    const GroundTruth truth(desc, read_sixway_bake_settings(dir.path / kSixwayLayoutFile), 0, 8, 8);
+    const glm::vec3 expected = truth.pixel(3, 4);
+    const auto shortest = [](float v) {
+        char text[32];
+        return std::string(text, std::to_chars(text, text + sizeof text, v).ptr);
+    };
+    std::string triple = "(";
+    triple.append(shortest(expected.x)).append(", ").append(shortest(expected.y)).append(", ");
+    triple.append(shortest(expected.z)).append(")");
+    INFO(r.out);
+    CHECK_THAT(r.out, Catch::Contains("\n  truth          " + triple + " "));
+    CHECK_THAT(r.out, Catch::Contains("\n  frame - truth  ("));
+    // Not with --particle: a particle's truth is depths --truth.
+    const CliRun particle = run_cli("explain " + scene_path + " --particle 0 --truth");
+    CHECK(particle.exit_code == 2);
+    CHECK_THAT(particle.err, Catch::Contains("--truth"));
 }

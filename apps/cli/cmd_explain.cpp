@@ -15,6 +15,7 @@
 #include <smoketrace/render/frame_renderer.hpp>
 #include <smoketrace/render/pixel_story.hpp>
 #include <smoketrace/smoke/optical_depth_story.hpp>
+#include <smoketrace/truth/ground_truth.hpp>
 
 #include <filesystem>
 #include <iostream>
@@ -42,6 +43,7 @@ int run_explain(const Args& args) {
     const auto assets = in.string("--assets");
     const auto threads = in.integer("--threads", 1, 4096);
     const auto frame_arg = in.integer("--frame", 0, kMaxSceneFrames - 1);
+    const bool truth = in.flag("--truth");
     // render's and depths' own options, read alike, so that the story is of the pixel the user looked at.
     const SceneOverrides overrides = SceneOverrides::read(in, OverrideSet::frame);
     const std::string scene_path =
@@ -53,6 +55,7 @@ int run_explain(const Args& args) {
     if (particle_arg) {
         // What `depths` traces: frame 0, with only its --shape and --cutoff.
         if (frame_arg) throw CliError("--frame: --particle explains frame 0, as depths computes it");
+        if (truth) throw CliError("--truth: the truth of a pixel (--pixel); depths --truth gives a particle's");
         if (const char* flag = overrides.frame_only_flag())
             throw CliError(std::string(flag) + ": --particle takes only depths' --shape and --cutoff (" + flag +
                            " changes the frame, not the optical-depth ray)");
@@ -128,8 +131,17 @@ int run_explain(const Args& args) {
         ImageRgba image;
         renderer.render(frame, image);
         const PixelStory story = explain_pixel(renderer, frame, pixel->first, pixel->second);
-        write_pixel_text(text, story, glm::vec3(image.at(pixel->first, pixel->second)), scene_name, frame,
-                         desc.origin);
+        const glm::vec3 frame_pixel(image.at(pixel->first, pixel->second));
+        write_pixel_text(text, story, frame_pixel, scene_name, frame, desc.origin);
+        if (truth) {
+            // The same frame's smoke as a volume (truth/ground_truth.hpp), its puff the one the textures were
+            // baked from; one pixel, its light rays traced exactly.
+            const TruthSettings settings;
+            const GroundTruth volume(desc, read_sixway_bake_settings(*texture_dir / kSixwayLayoutFile), frame,
+                                     options.width, options.height, settings);
+            write_pixel_truth_text(text, frame_pixel, volume.pixel(pixel->first, pixel->second), settings.spp,
+                                   settings.tolerance);
+        }
         if (target) write_pixel_svg(svg, story, scene_name, frame);
     }
     if (target) {
@@ -148,6 +160,9 @@ constexpr OptionHelp kOptions[] = {
     {"--pixel", "X,Y", "none: give --particle or --pixel",
      "explain pixel (X, Y) of a frame (0,0 the top left), each of its samples, as render draws it with the same "
      "options"},
+    {"--truth", "", "off",
+     "also the pixel's ground truth (the smoke as a volume, as smoketrace truth renders it) beside the frame's, "
+     "and their difference (--pixel only; seconds to a minute)"},
     {"--frame", "F", "the first frame render writes (0, or A of --frames A:B)",
      "the frame of the sequence whose pixel is explained (--pixel only), one of those render writes"},
     {"-o", "OUT.svg|-", "none (text only)",
@@ -168,7 +183,7 @@ constexpr OptionHelp kOptions[] = {
 
 const RegisterCommand registration{
     {"explain",
-     "explain SCENE.json --particle N | --pixel X,Y [--frame F] [-o OUT.svg|-] [--assets DIR] [--threads T] "
+     "explain SCENE.json --particle N | --pixel X,Y [--truth] [--frame F] [-o OUT.svg|-] [--assets DIR] [--threads T] "
      "[render's --mode --size --frames --groups --cutoff --shape --compositing --spp]",
      "one ray's story, step by step, for learning the method: a particle's optical-depth ray (the any-hit "
      "candidates, the sort, eq. 3.1's counter, l, tau, T) or a pixel's camera ray (its layers, eq. 4.2, the "

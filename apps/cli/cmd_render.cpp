@@ -9,6 +9,7 @@
 
 #include <smoketrace/render/frame_renderer.hpp>
 #include <smoketrace/render/pixel_samples.hpp>
+#include <smoketrace/io/image_files.hpp>
 #include <smoketrace/io/output_path.hpp>
 #include <smoketrace/io/png_io.hpp>
 #include <smoketrace/io/scene_file.hpp>
@@ -20,20 +21,13 @@
 #include <filesystem>
 #include <iostream>
 #include <optional>
-#include <sys/stat.h>
 
 namespace smoketrace::cli {
 namespace {
 
-// An existing file that is not a regular file or a folder (a FIFO, a device): a single frame streamed into it
-// may have any name.
-bool is_existing_stream(const std::filesystem::path& path) {
-    struct stat st{};
-    return ::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode);
-}
-
-// OUT.png for one frame; OUT_0000.png, OUT_0001.png, … for a sequence. Every name has as many digits as the
-// last frame's number (at least 4), so that the names sort in frame order for any length of sequence.
+// OUT.png for one frame; OUT_0000.png, OUT_0001.png, … for a sequence (OUT.exr, OUT_0000.exr, … alike). Every
+// name has as many digits as the last frame's number (at least 4), so that the names sort in frame order for any
+// length of sequence.
 std::filesystem::path frame_path(const std::filesystem::path& out, std::uint32_t frame, std::uint32_t frames) {
     if (frames == 1) return out;
     const int digits = std::max(4, int(std::to_string(frames - 1).size()));
@@ -61,11 +55,17 @@ int run_render(const Args& args) {
     const bool to_stdout = out == kStandardOutputPath;
     // One file that plays the whole sequence, where a browser can watch it; the name says which is wanted.
     const bool animated = has_extension(out, ".apng");
-    // Checks that need no file read, before the scene is loaded; every frame's path is checked below.
+    // Checks that need no file read, before the scene is loaded; every frame's path is checked below. The
+    // kind of image is output_image_kind()'s choice, the one the writer makes.
     if (!to_stdout) {
-        if (!has_extension(out, ".png") && !animated && !is_existing_stream(out))
-            throw CliError("-o: " + quoted_arg(out.string()) +
-                           " must end in .png (or .apng: the sequence as one animated PNG)");
+        if (!animated) {
+            try {
+                (void)output_image_kind(out);
+            } catch (const OutputPathError&) {
+                throw CliError("-o: " + quoted_arg(out.string()) + " must end in " + std::string(kImageFileKindsText) +
+                               " (or .apng: the sequence as one animated PNG)");
+            }
+        }
         const std::filesystem::path out_dir = out.has_parent_path() ? out.parent_path() : ".";
         if (!std::filesystem::is_directory(out_dir))
             throw CliError("-o: folder " + quoted_arg(out_dir.string()) + " does not exist");
@@ -86,9 +86,9 @@ int run_render(const Args& args) {
     if (to_stdout && frame_count > 1)
         throw CliError("-o -: standard output takes one frame, not " + std::to_string(frame_count) +
                        " (--frames or the scene's render.frames); write a sequence with -o OUT.png or OUT.apng");
-    if (frame_count > 1 && !has_extension(out, ".png") && !animated)
-        throw CliError("-o: " + quoted_arg(out.string()) +
-                       " must end in .png (it names the files of a sequence) or .apng (one animated PNG)");
+    if (frame_count > 1 && !image_file_kind(out) && !animated)
+        throw CliError("-o: " + quoted_arg(out.string()) + " must end in " + std::string(kImageFileKindsText) +
+                       " (it names the files of a sequence) or .apng (one animated PNG)");
     if (assets && textures) throw CliError("--assets and --textures name the same folder: give one");
     const std::filesystem::path texture_dir =
         textures ? find_assets(textures, "--textures") : find_assets(assets, "--assets");
@@ -96,7 +96,7 @@ int run_render(const Args& args) {
     // Before any work: no frame may be written onto an input, a folder or into a missing folder.
     std::vector<std::filesystem::path> inputs = scene_inputs(scene_path, scene);
     inputs.insert(inputs.end(), {texture_dir / kSixwayLayoutFile, layout.positive, layout.negative});
-    bool timings_to_stderr = false;  // the PNG is on standard output: nothing else may go there
+    bool timings_to_stderr = false;  // the image is on standard output: nothing else may go there
     std::optional<OutputTarget> animation;
     if (animated) {
         animation = checked_output(out, inputs);
@@ -118,6 +118,8 @@ int run_render(const Args& args) {
     renderer.skip_to(first);  // particles, light, TLAS and the groups' optical depths as the full run has them
     std::vector<FrameTimings> all;
     ImageRgba image;
+    const std::string image_stage =
+        "writing the " + std::string(to_string(animated ? ImageFileKind::png : output_image_kind(out)));
     const auto render_frame = [&](std::uint32_t f) {
         const FrameReport r = renderer.render(f, image);
         all.push_back(r.timings);
@@ -126,7 +128,7 @@ int run_render(const Args& args) {
             report << "frame=" << f << " tlas=" << to_string(r.tlas) << "\n" << format_timings(r.timings, true);
             report.flush();
         }
-        if (work) work->begin(animation ? "compressing the frame" : "writing the PNG", 0);
+        if (work) work->begin(animation ? "compressing the frame" : image_stage.c_str(), 0);
     };
     if (animation) {
         // Each frame is compressed and written to the temporary file as it is rendered: one frame's memory.
@@ -142,10 +144,10 @@ int run_render(const Args& args) {
             apng.finish();
         });
     } else {
-        PngWriter png;  // one for the sequence: its memory is reused by every frame
+        ImageFileWriter writer;  // one for the sequence: the PNG encoder's memory is reused by every frame
         for (std::uint32_t f = first; f < end; ++f) {
             render_frame(f);
-            png.write_srgb(frame_path(out, f, frame_count), image);
+            writer.write(frame_path(out, f, frame_count), image);
             progress.step();
             if (work && f + 1 < end) work->begin("moving the particles", 0);
         }
@@ -167,10 +169,11 @@ int run_render(const Args& args) {
 }
 
 constexpr OptionHelp kOptions[] = {
-    {"-o", "OUT.png|OUT.apng|-", "", "the PNG to write (8-bit sRGB; -: standard output, one frame); with N > 1 "
-                                     "frames OUT_0000.png, OUT_0001.png, … (the digits of the last frame's number, "
-                                     "at least 4); OUT.apng: every frame in one animated PNG, played at the scene's "
-                                     "render.fps (24)"},
+    {"-o", "OUT.png|OUT.exr|OUT.pfm|OUT.apng|-", "",
+     "the image to write: .png 8-bit sRGB; .exr (OpenEXR) or .pfm (Portable Float Map) the linear radiance before "
+     "sRGB, 32-bit float RGB; -: a PNG on standard output, one frame. With N > 1 frames OUT_0000.png, "
+     "OUT_0001.png, … (.exr, .pfm alike; the digits of the last frame's number, at least 4); OUT.apng: every "
+     "frame in one animated PNG, played at the scene's render.fps (24)"},
     kModeHelp,
     kSizeHelp,
     {"--frames", "N|A:B", "the scene's render.frames (1)",
@@ -194,11 +197,12 @@ constexpr OptionHelp kOptions[] = {
 
 const RegisterCommand registration{
     {"render",
-     "render SCENE.json -o OUT.png|OUT.apng|- [--mode basic|simple-shadow|full] [--size WxH] [--frames N|A:B] [--groups G] "
+     "render SCENE.json -o OUT.png|OUT.exr|OUT.pfm|OUT.apng|- [--mode basic|simple-shadow|full] [--size WxH] "
+     "[--frames N|A:B] [--groups G] "
      "[--cutoff K] [--shape S] [--threads T] [--timings] [--compositing over|thesis] "
      "[--compositor tiled|one-traversal|retrace] [--spp N] [--assets DIR]",
-     "render a frame (-o -: on standard output), or N frames OUT_0000.png … or one animated OUT.apng, of the smoke "
-     "scene", &run_render,
+     "render a frame (PNG, or linear float EXR or PFM; -o -: on standard output), or N frames OUT_0000.png … or "
+     "one animated OUT.apng, of the smoke scene", &run_render,
      kOptions}};
 
 }  // namespace

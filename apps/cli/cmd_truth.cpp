@@ -9,8 +9,8 @@
 #include "thread_limit.hpp"
 
 #include <smoketrace/render/pixel_samples.hpp>
+#include <smoketrace/io/image_files.hpp>
 #include <smoketrace/io/output_path.hpp>
-#include <smoketrace/io/png_io.hpp>
 #include <smoketrace/io/scene_file.hpp>
 #include <smoketrace/io/sixway_files.hpp>
 #include <smoketrace/truth/ground_truth.hpp>
@@ -36,8 +36,12 @@ int run_truth(const Args& args) {
     in.finish();
     if (!out_arg) throw CliError("missing -o OUT.png");
     const std::filesystem::path out(*out_arg);
-    if (out != kStandardOutputPath && !has_extension(out, ".png"))
-        throw CliError("-o: " + quoted_arg(out.string()) + " must end in .png");
+    ImageFileKind kind;
+    try {
+        kind = output_image_kind(out);  // render's choice: .png, .exr, .pfm
+    } catch (const OutputPathError& e) {
+        throw CliError(std::string("-o: ") + e.what());
+    }
 
     const ThreadLimit limit(threads ? int(*threads) : 0);
     const SceneDescription scene = load_scene_file(scene_path);
@@ -60,9 +64,9 @@ int run_truth(const Args& args) {
     const GroundTruth truth(scene, puff, f, options.width, options.height, settings);
     ImageRgba image;
     const TruthReport r = truth.render(image, work);
-    if (work) work->begin("writing the PNG", 0);
-    PngWriter png;  // the writer render uses for a single frame
-    png.write_srgb(out, image);
+    const std::string writing = "writing the " + std::string(to_string(kind));
+    if (work) work->begin(writing.c_str(), 0);
+    write_image(out, image);  // as render writes a frame
     progress.step();
     progress.finish();
     std::ostream& report = output.kind == OutputKind::standard_output ? std::cerr : std::cout;
@@ -82,7 +86,9 @@ int run_truth(const Args& args) {
 }
 
 constexpr OptionHelp kOptions[] = {
-    {"-o", "OUT.png|-", "", "the image to write (8-bit sRGB of the linear radiance; -: standard output)"},
+    {"-o", "OUT.png|OUT.exr|OUT.pfm|-", "",
+     "the image to write, as render writes a frame: .png 8-bit sRGB; .exr or .pfm the linear radiance, 32-bit float "
+     "RGB; -: a PNG on standard output"},
     kSizeHelp,
     {"--frame", "N", "0", "the frame of the scene's sequence (particles and light as render draws frame N)"},
     {"--tolerance", "X", "1/512", "per pixel and channel, linear radiance: steps and the light volume are refined "
@@ -94,7 +100,8 @@ constexpr OptionHelp kOptions[] = {
 
 const RegisterCommand registration{
     {"truth",
-     "truth SCENE.json -o OUT.png|- [--size WxH] [--frame N] [--tolerance X] [--spp N] [--threads T] [--assets DIR]",
+     "truth SCENE.json -o OUT.png|OUT.exr|OUT.pfm|- [--size WxH] [--frame N] [--tolerance X] [--spp N] "
+     "[--threads T] [--assets DIR]",
      "the ground truth of a frame: the smoke it depicts rendered as a volume, converged to a stated bound",
      &run_truth, kOptions}};
 

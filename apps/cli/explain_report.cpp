@@ -409,6 +409,23 @@ void write_pixel_text(std::ostream& out, const PixelStory& p, const glm::vec3& r
     out << "render's pixel  " << vec(rendered) << (rendered == p.color ? " (the same)" : " (DIFFERENT)") << "\n";
 }
 
+void write_pixel_truth_text(std::ostream& out, const glm::vec3& frame_pixel, const glm::vec3& truth_pixel, int spp,
+                            float tolerance) {
+    const auto srgb = [](const glm::vec3& c) {
+        return fmt("%3d %3d %3d", int(linear_to_srgb8(c.x)), int(linear_to_srgb8(c.y)), int(linear_to_srgb8(c.z)));
+    };
+    const glm::vec3 error = frame_pixel - truth_pixel;
+    out << "\nbeside the ground truth (the smoke as a volume, docs/ground-truth.md: " << spp
+        << " samples over the pixel, exact light rays, converged to " << num(tolerance) << " per channel):\n";
+    out << fmt("  %-14s %-40s %s\n", "", "linear (r, g, b)", "8-bit sRGB");
+    out << fmt("  %-14s %-40s %s\n", "frame", vec(frame_pixel).c_str(), srgb(frame_pixel).c_str());
+    out << fmt("  %-14s %-40s %s\n", "truth", vec(truth_pixel).c_str(), srgb(truth_pixel).c_str());
+    out << fmt("  %-14s %-40s %+4d %+4d %+4d\n", "frame - truth", vec(error).c_str(),
+               int(linear_to_srgb8(frame_pixel.x)) - int(linear_to_srgb8(truth_pixel.x)),
+               int(linear_to_srgb8(frame_pixel.y)) - int(linear_to_srgb8(truth_pixel.y)),
+               int(linear_to_srgb8(frame_pixel.z)) - int(linear_to_srgb8(truth_pixel.z)));
+}
+
 void write_pixel_svg(std::ostream& out, const PixelStory& p, const std::string& scene_name, std::uint64_t frame) {
     auto mean = [](const glm::vec3& c) { return (double(c.x) + double(c.y) + double(c.z)) / 3.0; };
     double scale_max = 0.0;  // the largest sample colour (mean of r, g, b): the bars' full length

@@ -27,5 +27,9 @@ void write_particle_svg(std::ostream& out, const OpticalDepthStory& story, const
 void write_pixel_text(std::ostream& out, const PixelStory& story, const glm::vec3& rendered,
                       const std::string& scene_name, std::uint64_t frame, const glm::dvec3& origin);
 void write_pixel_svg(std::ostream& out, const PixelStory& story, const std::string& scene_name, std::uint64_t frame);
+// The pixel beside its ground truth (truth/ground_truth.hpp): both in linear radiance and 8-bit sRGB, and the
+// frame's error, frame − truth. `spp`, `tolerance`: the truth's settings, named in the text.
+void write_pixel_truth_text(std::ostream& out, const glm::vec3& frame_pixel, const glm::vec3& truth_pixel, int spp,
+                            float tolerance);
 
 }  // namespace smoketrace::cli

@@ -25,10 +25,14 @@
 // The ground truth: the smoke a frame depicts, rendered as a volume and converged (docs/ground-truth.md).
 #include <smoketrace/truth/ground_truth.hpp>
 
-// Files: scene files in, PNG and CSV out, never destroying what an output path names.
+// Files: scene files in, PNG, EXR, PFM and CSV out, never destroying what an output path names.
 #include <smoketrace/io/depths_csv.hpp>
+#include <smoketrace/io/exr_io.hpp>
+#include <smoketrace/io/file_bytes.hpp>
+#include <smoketrace/io/image_files.hpp>
 #include <smoketrace/io/json_text_file.hpp>
 #include <smoketrace/io/output_path.hpp>
+#include <smoketrace/io/pfm_io.hpp>
 #include <smoketrace/io/ply_points.hpp>
 #include <smoketrace/io/png_io.hpp>
 #include <smoketrace/io/scene_file.hpp>

@@ -1,13 +1,13 @@
 // PNG reading and writing, and all-or-nothing file writes (see png_io.hpp).
 #include <smoketrace/io/png_io.hpp>
 
+#include <smoketrace/io/file_bytes.hpp>
 #include <smoketrace/io/output_path.hpp>
 
 #include <stb_image.h>
 #include <zlib.h>
 
 #include <array>
-#include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -15,13 +15,8 @@
 #include <ostream>
 #include <stdexcept>
 #include <string>
-#include <system_error>
 #include <utility>
 #include <vector>
-
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
 
 namespace smoketrace {
 
@@ -33,8 +28,6 @@ namespace {
 // render smoketrace deals with comes near it.
 constexpr std::size_t kMaxPngFileBytes = std::size_t(1) << 30;
 
-std::string errno_text(int error) { return std::error_code(error, std::generic_category()).message(); }
-
 [[noreturn]] void write_error(const fs::path& path, const std::string& problem) {
     throw std::runtime_error("cannot write '" + path.string() + "': " + problem);
 }
@@ -42,11 +35,6 @@ std::string errno_text(int error) { return std::error_code(error, std::generic_c
 [[noreturn]] void read_error(const fs::path& path, const std::string& problem) {
     throw std::runtime_error("cannot read '" + path.string() + "': " + problem);
 }
-
-struct FileDescriptor {
-    int fd;
-    ~FileDescriptor() { ::close(fd); }
-};
 
 void check_png_size(const fs::path& path, int width, int height) {
     if (width < 1 || height < 1 || width > kMaxImageSide || height > kMaxImageSide)
@@ -272,34 +260,6 @@ void PngWriter::Buffers::encode(const fs::path& path, int width, int height, int
     append_chunk(png, "IEND", nullptr, 0);
 }
 
-namespace {
-
-std::vector<std::uint8_t> read_whole_file(const fs::path& path) {
-    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-    if (fd < 0) read_error(path, errno_text(errno));
-    const FileDescriptor closer{fd};
-    struct stat info{};
-    if (::fstat(fd, &info) != 0) read_error(path, errno_text(errno));
-    if (S_ISDIR(info.st_mode)) read_error(path, errno_text(EISDIR));
-    if (std::size_t(info.st_size) > kMaxPngFileBytes)
-        read_error(path, "file is larger than " + std::to_string(kMaxPngFileBytes) + " bytes");
-    std::vector<std::uint8_t> bytes;
-    std::array<std::uint8_t, 1 << 16> buffer;
-    while (true) {
-        const ssize_t n = ::read(fd, buffer.data(), buffer.size());
-        if (n < 0) {
-            if (errno == EINTR) continue;
-            read_error(path, errno_text(errno));
-        }
-        if (n == 0) break;
-        bytes.insert(bytes.end(), buffer.data(), buffer.data() + n);
-        if (bytes.size() > kMaxPngFileBytes)
-            read_error(path, "file is larger than " + std::to_string(kMaxPngFileBytes) + " bytes");
-    }
-    return bytes;
-}
-
-}  // namespace
 
 PngWriter::PngWriter() : buffers_(std::make_unique<Buffers>()) {}
 PngWriter::~PngWriter() = default;
@@ -453,11 +413,11 @@ Rgba8Image decode_png(const fs::path& path, const std::vector<std::uint8_t>& byt
 }  // namespace
 
 Rgba8Image read_png_rgba8(const fs::path& path) {
-    return decode_png(path, read_whole_file(path), [](int, int) {});
+    return decode_png(path, read_file_bytes(path, kMaxPngFileBytes), [](int, int) {});
 }
 
 Rgba8Image read_png_rgba8(const fs::path& path, int expected_width, int expected_height) {
-    return decode_png(path, read_whole_file(path), [&](int width, int height) {
+    return decode_png(path, read_file_bytes(path, kMaxPngFileBytes), [&](int width, int height) {
         if (width != expected_width || height != expected_height)
             read_error(path, "expected " + std::to_string(expected_width) + "x" + std::to_string(expected_height) +
                                  " pixels, the file has " + std::to_string(width) + "x" + std::to_string(height));
@@ -465,7 +425,7 @@ Rgba8Image read_png_rgba8(const fs::path& path, int expected_width, int expected
 }
 
 Rgba8Image read_png_rgba8_at_most(const fs::path& path, int max_width, int max_height) {
-    return decode_png(path, read_whole_file(path), [&](int width, int height) {
+    return decode_png(path, read_file_bytes(path, kMaxPngFileBytes), [&](int width, int height) {
         if (width > max_width || height > max_height)
             read_error(path, "PNG size " + std::to_string(width) + "x" + std::to_string(height) +
                                  " is larger than the limit of " + std::to_string(max_width) + "x" +
