@@ -1,5 +1,6 @@
 // smoketrace depths: the optical-depth pipeline alone (thesis 4.3.2–4.3.3), one CSV row per particle.
 #include "arguments.hpp"
+#include "assets.hpp"
 #include "command.hpp"
 #include "output_arg.hpp"
 #include "progress_bar.hpp"
@@ -11,6 +12,8 @@
 #include <smoketrace/smoke/optical_path_lengths.hpp>
 #include <smoketrace/smoke/particle_groups.hpp>
 #include <smoketrace/io/scene_file.hpp>
+#include <smoketrace/io/sixway_files.hpp>
+#include <smoketrace/truth/ground_truth.hpp>
 
 #include <iostream>
 #include <memory>
@@ -33,10 +36,13 @@ int run_depths(const Args& args) {
     const auto repeat = in.integer("--repeat", 1, 1'000'000);
     const auto sort_arg = in.string("--sort");
     const bool timings = in.flag("--timings");
+    const bool truth = in.flag("--truth");
+    const auto assets = in.string("--assets");
     // After every flag has taken its value, so that "-o OUT" is never mistaken for the scene file.
     const std::string scene_path = in.positional("scene file (smoketrace depths SCENE.json -o OUT.csv)");
     in.finish();
     if (!out_path) throw CliError("missing -o OUT.csv");
+    if (assets && !truth) throw CliError("--assets: only --truth reads the six-way textures' puff");
 
     const HitSort sort = sort_arg ? parse_sort(*sort_arg) : HitSort::adaptive;
     const ThreadLimit limit(threads ? int(*threads) : 0);
@@ -77,10 +83,19 @@ int run_depths(const Args& args) {
         progress.step();
     }
 
+    std::vector<double> true_depths;
+    if (truth) {
+        // The ground truth's τ from each centre, exact light rays through the same particles (frame 0).
+        if (work) work->begin("true optical depths", 0);
+        const SixwayBakeSettings puff = read_sixway_bake_settings(find_assets(assets, "--assets") / kSixwayLayoutFile);
+        const GroundTruth ground_truth(desc, puff, 0, 1, 1);
+        true_depths = ground_truth.particle_optical_depths();
+    }
+
     if (work) work->begin("writing the CSV", 0);
     StageClock write_clock;
     write_output(output, [&](std::ostream& out) {
-        for (const std::string& piece : format_depths_csv(depths->lengths(), depths->hit_counts(), depths->status()))
+        for (const std::string& piece : format_depths_csv(depths->lengths(), depths->hit_counts(), depths->status(), true_depths))
             out.write(piece.data(), std::streamsize(piece.size()));
     });
     const double write_ms = write_clock.lap_ms();
@@ -103,6 +118,10 @@ constexpr OptionHelp kOptions[] = {
     {"--repeat", "R", "1", "run the pass R times (for --timings)"},
     {"--timings", "", "off", "print the median stage times in ms (tlas_update, od_pass, resolve), then the times to "
                             "read the scene and write the CSV (read_scene, write_csv); on standard error with -o -"},
+    {"--truth", "", "off", "add a column true_optical_depth: the ground truth's τ from each centre to the light "
+                          "(docs/ground-truth.md; compare with optical_path_length × sigma_t)"},
+    {"--assets", "DIR", "as render's", "with --truth: folder of the six-way textures whose sixway.json \"bake\" gives "
+                                       "the puff"},
     {"--sort", "adaptive|std|bubble", "adaptive",
      "how each particle's hits are sorted (adaptive: a sorting network, rank or radix sort by list length)"},
 };
@@ -110,7 +129,7 @@ constexpr OptionHelp kOptions[] = {
 const RegisterCommand registration{
     {"depths",
      "depths SCENE.json -o OUT.csv|- [--shape sphere|icosahedron|icosphere:L] [--cutoff K] [--threads T] "
-     "[--repeat R] [--timings] [--sort adaptive|std|bubble]",
+     "[--repeat R] [--timings] [--sort adaptive|std|bubble] [--truth [--assets DIR]]",
      "optical path length of every particle toward the light, as CSV (-o -: on standard output)", &run_depths,
      kOptions}};
 

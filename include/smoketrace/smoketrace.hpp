@@ -1,7 +1,7 @@
 #pragma once
 // smoketrace in one include: what a program needs to trace rays (trace(), trace_bundle() over a two-level
 // scene) or to render frames (a scene file, the six-way textures, the frame renderer, PNG output). The
-// library's layers, in the order they build on each other: core, geometry, accel, trace, smoke, render, io
+// library's layers, in the order they build on each other: core, geometry, accel, trace, smoke, render, truth, io
 // (docs/design.md). Include a single header of a layer instead to keep a translation unit lean.
 
 // Tracing: the two-level scene and DirectX Raytracing's TraceRay() rules on the CPU.
@@ -21,6 +21,9 @@
 #include <smoketrace/render/pixel_samples.hpp>
 #include <smoketrace/render/pixel_story.hpp>
 #include <smoketrace/render/sixway_baker.hpp>
+
+// The ground truth: the smoke a frame depicts, rendered as a volume and converged (docs/ground-truth.md).
+#include <smoketrace/truth/ground_truth.hpp>
 
 // Files: scene files in, PNG and CSV out, never destroying what an output path names.
 #include <smoketrace/io/depths_csv.hpp>

@@ -91,6 +91,51 @@ SixwayLayout read_sixway_layout(const fs::path& layout_json) {
             folder / read_file_name(doc, layout_json, "negative")};
 }
 
+SixwayBakeSettings read_sixway_bake_settings(const fs::path& layout_json) {
+    const SixwayLayout layout = read_sixway_layout(layout_json);  // the format, version and grid checked first
+    const nlohmann::json doc = nlohmann::json::parse(read_json_object_text(layout_json, kMaxSixwayLayoutBytes));
+    if (!doc.contains("bake") || !doc.at("bake").is_object())
+        layout_error(layout_json, "/bake", "missing: the ground truth needs the puff the textures were baked from "
+                                           "(bake them again with smoketrace bake-sixway)");
+    const nlohmann::json& b = doc.at("bake");
+    SixwayBakeSettings s;
+    s.frames = layout.grid.frames;
+    auto integer = [&](const char* key, int& out) {
+        if (!b.contains(key)) layout_error(layout_json, std::string("/bake/") + key, "missing");
+        const nlohmann::json& j = b.at(key);
+        if (!j.is_number_integer()) layout_error(layout_json, std::string("/bake/") + key, "must be an integer, got " + j.dump());
+        const long long v = j.get<long long>();
+        if (v < -2147483647LL || v > 4294967295LL) layout_error(layout_json, std::string("/bake/") + key, "out of range: " + j.dump());
+        out = int(v);
+    };
+    auto number = [&](const char* key, float& out) {
+        if (!b.contains(key)) layout_error(layout_json, std::string("/bake/") + key, "missing");
+        const nlohmann::json& j = b.at(key);
+        if (!j.is_number()) layout_error(layout_json, std::string("/bake/") + key, "must be a number, got " + j.dump());
+        out = j.get<float>();
+    };
+    integer("tile", s.tile);
+    integer("depth_samples", s.depth_samples);
+    if (!b.contains("seed") || !b.at("seed").is_number_unsigned() || b.at("seed").get<unsigned long long>() > 0xFFFFFFFFull)
+        layout_error(layout_json, "/bake/seed", "must be an integer in [0, 4294967295]");
+    s.seed = std::uint32_t(b.at("seed").get<unsigned long long>());
+    number("radius", s.radius);
+    number("noise_amplitude", s.noise_amplitude);
+    number("noise_frequency", s.noise_frequency);
+    integer("noise_octaves", s.noise_octaves);
+    number("edge_softness", s.edge_softness);
+    number("extinction", s.extinction);
+    number("drift", s.drift);
+    integer("scattering_octaves", s.scattering_octaves);
+    number("scattering_octave_weight", s.scattering_octave_weight);
+    try {
+        validate(s);
+    } catch (const std::invalid_argument& e) {
+        layout_error(layout_json, "/bake", e.what());
+    }
+    return s;
+}
+
 SixwayTexture load_sixway_texture(const fs::path& layout_json) {
     const SixwayLayout layout = read_sixway_layout(layout_json);
     return load_sixway_texture(layout.positive, layout.negative, layout.grid);

@@ -28,6 +28,10 @@ struct SixwayLayout {
 // kMaxSixwayLayoutBytes or cannot be a JSON object (a NUL byte, a first non-blank byte other than '{').
 [[nodiscard]] SixwayLayout read_sixway_layout(const std::filesystem::path& layout_json);
 
+// The bake settings a sidecar records (its "bake" object; frames from its grid): the puff the textures were
+// baked from, which the ground truth renders as a volume. Throws std::runtime_error naming the file and the
+// JSON path (/bake, /bake/radius, ...) when one is missing, of the wrong type or out of range.
+[[nodiscard]] SixwayBakeSettings read_sixway_bake_settings(const std::filesystem::path& layout_json);
 // From the two PNGs and a grid. Throws std::runtime_error naming the file and the problem; an atlas wider or
 // taller than kMaxSixwayAtlasSide, or a negative one of another size than the positive, before it is decoded.
 [[nodiscard]] SixwayTexture load_sixway_texture(const std::filesystem::path& positive_png,

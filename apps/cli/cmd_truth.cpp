@@ -1,0 +1,102 @@
+// smoketrace truth: the ground truth of a frame, the smoke it depicts rendered as a volume and converged
+// (docs/ground-truth.md), to measure the frame's approximations against.
+#include "arguments.hpp"
+#include "assets.hpp"
+#include "command.hpp"
+#include "output_arg.hpp"
+#include "progress_bar.hpp"
+#include "scene_overrides.hpp"
+#include "thread_limit.hpp"
+
+#include <smoketrace/render/pixel_samples.hpp>
+#include <smoketrace/io/output_path.hpp>
+#include <smoketrace/io/png_io.hpp>
+#include <smoketrace/io/scene_file.hpp>
+#include <smoketrace/io/sixway_files.hpp>
+#include <smoketrace/truth/ground_truth.hpp>
+
+#include <filesystem>
+#include <iostream>
+
+namespace smoketrace::cli {
+namespace {
+
+int run_truth(const Args& args) {
+    ArgReader in(args);
+    const auto out_arg = in.string("-o");
+    SceneOverrides overrides;
+    overrides.size = in.size("--size", int(kMaxImageSide));
+    const auto frame = in.integer("--frame", 0, kMaxSceneFrames - 1);
+    const auto tolerance = in.number("--tolerance", 1e-6, 1.0);
+    const auto spp = in.integer("--spp", 1, kMaxSpp);
+    const auto threads = in.integer("--threads", 1, 4096);
+    const auto assets = in.string("--assets");
+    // After every flag has taken its value, so that "-o OUT" is never mistaken for the scene file.
+    const std::string scene_path = in.positional("scene file (smoketrace truth SCENE.json -o OUT.png)");
+    in.finish();
+    if (!out_arg) throw CliError("missing -o OUT.png");
+    const std::filesystem::path out(*out_arg);
+    if (out != kStandardOutputPath && !has_extension(out, ".png"))
+        throw CliError("-o: " + quoted_arg(out.string()) + " must end in .png");
+
+    const ThreadLimit limit(threads ? int(*threads) : 0);
+    const SceneDescription scene = load_scene_file(scene_path);
+    const std::uint64_t f = frame ? std::uint64_t(*frame) : 0;
+    overrides.frames.count = (long long)(f + 1);  // the scene's motion must stay in range up to this frame
+    const RenderOptions options = overrides.render_options(scene);
+    const std::filesystem::path texture_dir = find_assets(assets, "--assets");
+    const std::filesystem::path sidecar = texture_dir / kSixwayLayoutFile;
+    const SixwayBakeSettings puff = read_sixway_bake_settings(sidecar);
+    std::vector<std::filesystem::path> inputs = scene_inputs(scene_path, scene);
+    inputs.push_back(sidecar);
+    const OutputTarget output = checked_output(out, inputs);
+
+    TruthSettings settings;
+    if (tolerance) settings.tolerance = float(*tolerance);
+    if (spp) settings.spp = int(*spp);
+    ProgressBar progress(1, "frame");
+    WorkProgress* const work = progress.work();
+    if (work) work->begin("sampling the puffs", 0);
+    const GroundTruth truth(scene, puff, f, options.width, options.height, settings);
+    ImageRgba image;
+    const TruthReport r = truth.render(image, work);
+    if (work) work->begin("writing the PNG", 0);
+    PngWriter png;  // the writer render uses for a single frame
+    png.write_srgb(out, image);
+    progress.step();
+    progress.finish();
+    std::ostream& report = output.kind == OutputKind::standard_output ? std::cerr : std::cout;
+    report << "truth of frame " << f << " at " << options.width << "x" << options.height << ", " << settings.spp
+           << " samples per pixel: " << r.seconds << " s\n"
+           << "error bound (per pixel and channel, linear): " << r.max_error_estimate << " (tolerance "
+           << settings.tolerance << "; view steps " << r.view_error_estimate << ", light volume "
+           << r.light_error_estimate << ")\n"
+           << "unconverged pixels: " << r.unconverged_pixels << "\n"
+           << "view step levels: " << r.view_levels_used << ", light volume " << r.light_columns_u << "x"
+           << r.light_columns_v << "x" << r.light_nodes_w << " nodes at " << r.light_spacing << " ("
+           << r.light_levels_used << " halvings), " << r.camera_samples << " density samples\n";
+    std::cerr << (output.kind == OutputKind::standard_output ? std::string("wrote the PNG to standard output")
+                                                             : "wrote " + shown_text(out.string(), kMaxShownPathBytes))
+              << "\n";
+    return 0;
+}
+
+constexpr OptionHelp kOptions[] = {
+    {"-o", "OUT.png|-", "", "the image to write (8-bit sRGB of the linear radiance; -: standard output)"},
+    kSizeHelp,
+    {"--frame", "N", "0", "the frame of the scene's sequence (particles and light as render draws frame N)"},
+    {"--tolerance", "X", "1/512", "per pixel and channel, linear radiance: steps and the light volume are refined "
+                                  "until the pixel's error estimate is below X"},
+    {"--spp", "N", "16", "samples per pixel (the pixel_samples pattern render uses), averaged: an anti-aliased truth"},
+    {"--threads", "T", "all cores", "worker threads; the image is the same for any T"},
+    {"--assets", "DIR", "as render's", "folder of the six-way textures: the puff is read from sixway.json's \"bake\""},
+};
+
+const RegisterCommand registration{
+    {"truth",
+     "truth SCENE.json -o OUT.png|- [--size WxH] [--frame N] [--tolerance X] [--spp N] [--threads T] [--assets DIR]",
+     "the ground truth of a frame: the smoke it depicts rendered as a volume, converged to a stated bound",
+     &run_truth, kOptions}};
+
+}  // namespace
+}  // namespace smoketrace::cli

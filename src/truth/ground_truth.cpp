@@ -1,0 +1,595 @@
+// The ground truth of a frame (see ground_truth.hpp and docs/ground-truth.md).
+#include <smoketrace/truth/ground_truth.hpp>
+
+#include <smoketrace/render/frame_renderer.hpp>
+#include <smoketrace/render/pixel_samples.hpp>
+#include <smoketrace/render/puff_density.hpp>
+#include <smoketrace/render/view_compositor.hpp>
+#include <smoketrace/smoke/smoke_scene.hpp>
+#include <smoketrace/trace/trace.hpp>
+
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace smoketrace {
+
+namespace {
+
+// One particle as the volume sees it: its sphere (in double, for the ray intervals) and its billboard's
+// tangent frame (world → tangent: p = (d·x̂, d·ŷ, d·ẑ) / radius, d = x − centre).
+struct PuffPlacement {
+    glm::dvec3 centre;
+    double radius;
+    glm::vec3 centre_f, ex, ey, ez;
+    float inv_radius;
+    int frame;  // flipbook frame: (view flipbook frame + particle index) % frames, as PixelShader has it
+};
+
+// A puff's stretch of a ray: [t_in, t_out] of its sphere, clipped to the ray's range.
+struct Interval {
+    double t_in, t_out;
+    std::uint32_t puff;
+};
+
+// Per-thread scratch, reused across rays: no allocation per ray once warm.
+struct Scratch {
+    std::vector<std::uint32_t> ids;
+    std::vector<Interval> intervals;
+    std::vector<Interval> intervals_light;
+    std::vector<std::pair<double, double>> segments;  // the union of the intervals
+};
+
+// A light-space box sampled on a node grid: τ from each node to the light (a deep shadow map).
+struct LightVolume {
+    glm::dvec3 u, v, w;  // w = toward the light
+    double lo_u = 0, lo_v = 0, lo_w = 0, spacing = 1;
+    int nu = 0, nv = 0, nw = 0;
+    std::vector<float> tau;  // [j][i][k]: k along w fastest, so a column is contiguous
+
+    [[nodiscard]] std::size_t bytes() const { return tau.size() * sizeof(float); }
+    [[nodiscard]] float node(int i, int j, int k) const {
+        return tau[(std::size_t(j) * std::size_t(nu) + std::size_t(i)) * std::size_t(nw) + std::size_t(k)];
+    }
+    // Trilinear on the grid (stride 1) or on its every-other-node subgrid (stride 2); clamped to the box,
+    // which gives 0 beside the columns and above them (no puff there) and the column's total below.
+    [[nodiscard]] float lookup(const glm::dvec3& x, int stride) const {
+        const double s = spacing * stride;
+        const int mu = (nu - 1) / stride, mv = (nv - 1) / stride, mw = (nw - 1) / stride;
+        const double fu = std::clamp((glm::dot(x, u) - lo_u) / s, 0.0, double(mu));
+        const double fv = std::clamp((glm::dot(x, v) - lo_v) / s, 0.0, double(mv));
+        const double fw = std::clamp((glm::dot(x, w) - lo_w) / s, 0.0, double(mw));
+        const int i = std::min(int(fu), mu - 1), j = std::min(int(fv), mv - 1), k = std::min(int(fw), mw - 1);
+        const double a = fu - i, b = fv - j, c = fw - k;
+        auto at = [&](int di, int dj, int dk) { return double(node((i + di) * stride, (j + dj) * stride, (k + dk) * stride)); };
+        const double c00 = at(0, 0, 0) + a * (at(1, 0, 0) - at(0, 0, 0));
+        const double c10 = at(0, 1, 0) + a * (at(1, 1, 0) - at(0, 1, 0));
+        const double c01 = at(0, 0, 1) + a * (at(1, 0, 1) - at(0, 0, 1));
+        const double c11 = at(0, 1, 1) + a * (at(1, 1, 1) - at(0, 1, 1));
+        const double c0 = c00 + b * (c10 - c00), c1 = c01 + b * (c11 - c01);
+        return float(c0 + c * (c1 - c0));
+    }
+};
+
+}  // namespace
+
+struct GroundTruth::Impl {
+    SceneDescription scene;
+    SixwayBakeSettings scattering;  // its scattering_octaves and weight: the light's T_ms
+    std::vector<PuffVolume> flipbook;
+    TruthSettings settings;
+    std::uint64_t frame = 0;
+    int width = 0, height = 0;
+
+    SixwayTexture texture;  // a placeholder of the right frame count: FrameRenderer needs one, the truth reads none
+    std::unique_ptr<FrameRenderer> renderer;
+    ViewSettings view;
+    std::vector<PuffPlacement> puffs;
+    glm::dvec3 to_light{0, 1, 0};
+    float sigma_t = 1.0f;
+    double min_voxel = 1.0;  // the smallest puff's voxel, world units
+    glm::vec3 ground_lit{0.0f};  // c_base · c_light · max(N·L, 0)
+    glm::vec3 ground_ambient{0.0f};
+    mutable tbb::enumerable_thread_specific<Scratch> scratch;
+
+    void init();
+
+    const AccelScene& accel() const { return renderer->smoke().scene(); }
+
+    // σ(x) = σt · Σ ρ_i(x) over the puffs of `intervals` whose stretch holds t (x = the ray's point at t).
+    float sigma_at(const glm::vec3& x, double t, const std::vector<Interval>& intervals) const {
+        float sum = 0.0f;
+        for (const Interval& iv : intervals) {
+            if (t < iv.t_in || t > iv.t_out) continue;
+            sum += density(iv.puff, x);
+        }
+        return sigma_t * sum;
+    }
+    float density(std::uint32_t i, const glm::vec3& x) const {
+        const PuffPlacement& p = puffs[i];
+        const glm::vec3 d = x - p.centre_f;
+        const glm::vec3 q = glm::vec3(glm::dot(d, p.ex), glm::dot(d, p.ey), glm::dot(d, p.ez)) * p.inv_radius;
+        return flipbook[std::size_t(p.frame)].density(q);
+    }
+
+    // The puffs whose stand-in spheres the ray meets in [tmin, tmax], found through the TLAS (any-hit on the
+    // stand-ins, thesis 4.3.2's rays), with their intervals from the spheres in double, sorted by t_in.
+    void puffs_on(const Ray& ray, double tmax, Scratch& sc, std::vector<Interval>& out) const {
+        sc.ids.clear();
+        const Ray r{ray.origin, ray.tmin, ray.direction, std::numeric_limits<float>::infinity()};
+        trace<TlasWalk::all_hits>(accel(), r, ray_flag_force_non_opaque, kStandInMask, [&](const TraceHit& h) {
+            sc.ids.push_back(h.instance_id);
+            return AnyHitDecision::ignore;
+        });
+        std::sort(sc.ids.begin(), sc.ids.end());
+        sc.ids.erase(std::unique(sc.ids.begin(), sc.ids.end()), sc.ids.end());
+        out.clear();
+        const glm::dvec3 o(ray.origin), d(glm::normalize(glm::dvec3(ray.direction)));
+        for (std::uint32_t id : sc.ids) {
+            const PuffPlacement& p = puffs[id];
+            const glm::dvec3 oc = o - p.centre;
+            const double b = glm::dot(oc, d), c = glm::dot(oc, oc) - p.radius * p.radius;
+            const double disc = b * b - c;
+            if (disc <= 0.0) continue;
+            const double root = std::sqrt(disc);
+            const double t0 = std::max(-b - root, double(ray.tmin)), t1 = std::min(-b + root, tmax);
+            if (t1 > t0) out.push_back({t0, t1, id});
+        }
+        std::sort(out.begin(), out.end(), [](const Interval& a, const Interval& b2) {
+            return a.t_in < b2.t_in || (a.t_in == b2.t_in && a.puff < b2.puff);
+        });
+    }
+
+    // ∫ ρ_puff along the ray over [a, b], two-point Gauss–Legendre on each of `n` panels: exact for cubics, as
+    // the trilinear density is along a line within a voxel, and never evaluated at a stretch's ends, where a
+    // sphere's surface (the edge of a uniform test density) would be met in rounding.
+    double integrate(std::uint32_t puff, const glm::dvec3& o, const glm::dvec3& d, double a, double b, int n) const {
+        const double h = (b - a) / n;
+        const double g = 0.5 * h / std::sqrt(3.0);  // the nodes at the panel's midpoint ± h/(2√3)
+        double sum = 0.0;
+        for (int k = 0; k < n; ++k) {
+            const double mid = a + (k + 0.5) * h;
+            sum += double(density(puff, glm::vec3(o + (mid - g) * d))) + double(density(puff, glm::vec3(o + (mid + g) * d)));
+        }
+        return sum * 0.5 * h;
+    }
+    // Panels of at most half the puff's voxel: the interpolated density is cubic along a line within a voxel,
+    // where two-point Gauss–Legendre is exact; the error comes from the voxel faces only.
+    int panels(std::uint32_t puff, double length) const {
+        const double voxel = puffs[puff].radius * double(flipbook[std::size_t(puffs[puff].frame)].voxel());
+        return std::max(1, int(std::ceil(length / (0.5 * voxel))));
+    }
+
+    // Exact τ from x to the light: a light ray through the TLAS, each puff's stretch integrated by Gauss–Legendre with
+    // its panels halved until τ changes by less than 1e-7 (far below what any pixel can show).
+    double exact_tau(const glm::dvec3& x, Scratch& sc) const {
+        const Ray ray{glm::vec3(x), 0.0f, glm::vec3(to_light), std::numeric_limits<float>::infinity()};
+        puffs_on(ray, std::numeric_limits<double>::infinity(), sc, sc.intervals_light);
+        double tau = 0.0;
+        const glm::dvec3 o{glm::vec3(x)};
+        for (const Interval& iv : sc.intervals_light) {
+            int n = panels(iv.puff, iv.t_out - iv.t_in);
+            double prev = integrate(iv.puff, o, to_light, iv.t_in, iv.t_out, n);
+            for (int level = 0; level < 6; ++level) {
+                n *= 2;
+                const double next = integrate(iv.puff, o, to_light, iv.t_in, iv.t_out, n);
+                const bool done = std::abs(next - prev) < 1e-7;
+                prev = next;
+                if (done) break;
+            }
+            tau += prev;
+        }
+        return double(sigma_t) * tau;
+    }
+
+    void build_light_volume(LightVolume& lv, double spacing, WorkProgress* progress) const;
+
+    // One camera sample's radiance with midpoint steps of `step`; τ_light from the volume (stride 1 and, when
+    // `coarse` is given, stride 2 too) or, with `exact`, from exact light rays.
+    struct Sample {
+        glm::dvec3 color{0.0}, coarse{0.0};
+        std::uint64_t steps = 0;
+    };
+    Sample march(const Ray& ray, double t_end, const std::vector<Interval>& intervals, const std::vector<std::pair<double, double>>& segments,
+                 const glm::vec3& background_lit, const glm::vec3& background_ambient, const glm::dvec3& ground_point,
+                 bool ground, double step, const LightVolume* lv, bool coarse, Scratch* exact) const;
+
+    void prepare_ray(const Ray& ray, Scratch& sc, double& t_end, bool& ground, glm::dvec3& ground_point) const {
+        const TraceResult g = trace(accel(), ray, ray_flag_force_opaque, kGroundMask);
+        ground = g.hit;
+        t_end = g.hit ? double(g.committed.t) : std::numeric_limits<double>::infinity();
+        ground_point = g.hit ? glm::dvec3(ray.origin) + double(g.committed.t) * glm::dvec3(ray.direction) : glm::dvec3(0.0);
+        puffs_on(ray, t_end, sc, sc.intervals);
+        sc.segments.clear();
+        for (const Interval& iv : sc.intervals) {
+            if (!sc.segments.empty() && iv.t_in <= sc.segments.back().second)
+                sc.segments.back().second = std::max(sc.segments.back().second, iv.t_out);
+            else
+                sc.segments.emplace_back(iv.t_in, iv.t_out);
+        }
+    }
+
+    // A pixel: the mean of its spp samples, the step halved until the pixel changes by less than half the
+    // tolerance. Returns the colour; sets the view and light error estimates, the level and whether it hit
+    // the limit.
+    struct PixelResult {
+        glm::vec3 color{0.0f};
+        float view_error = 0, light_error = 0;
+        int level = 0;
+        bool limit = false;
+        std::uint64_t steps = 0;
+    };
+    PixelResult shade_pixel(int x, int y, const LightVolume* lv, int max_levels, Scratch& sc) const;
+};
+
+void GroundTruth::Impl::build_light_volume(LightVolume& lv, double spacing, WorkProgress* progress) const {
+    lv.w = to_light;
+    const glm::dvec3 helper = std::abs(lv.w.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
+    lv.u = glm::normalize(glm::cross(lv.w, helper));
+    lv.v = glm::cross(lv.w, lv.u);
+    glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+    for (const PuffPlacement& p : puffs) {
+        const glm::dvec3 c(glm::dot(p.centre, lv.u), glm::dot(p.centre, lv.v), glm::dot(p.centre, lv.w));
+        lo = glm::min(lo, c - p.radius);
+        hi = glm::max(hi, c + p.radius);
+    }
+    // One node of margin on each side, and an odd node count so that the every-other-node subgrid spans the box.
+    auto nodes = [&](double extent) { return 2 * int(std::ceil((extent + 2.0 * spacing) / (2.0 * spacing))) + 1; };
+    lv.spacing = spacing;
+    lv.lo_u = lo.x - spacing;
+    lv.lo_v = lo.y - spacing;
+    lv.lo_w = lo.z - spacing;
+    lv.nu = nodes(hi.x - lo.x);
+    lv.nv = nodes(hi.y - lo.y);
+    lv.nw = nodes(hi.z - lo.z);
+    lv.tau.assign(std::size_t(lv.nu) * std::size_t(lv.nv) * std::size_t(lv.nw), 0.0f);
+    if (progress) progress->begin("light volume", std::uint64_t(lv.nv));
+
+    tbb::parallel_for(tbb::blocked_range<int>(0, lv.nv), [&](const tbb::blocked_range<int>& rows) {
+        Scratch& sc = scratch.local();
+        std::vector<double> tau(std::size_t(lv.nw));
+        for (int j = rows.begin(); j != rows.end(); ++j) {
+            for (int i = 0; i < lv.nu; ++i) {
+                // The column's ray starts one spacing below the box and runs toward the light; node k is at t_k.
+                const double t0 = spacing;
+                const glm::dvec3 o = (lv.lo_u + i * spacing) * lv.u + (lv.lo_v + j * spacing) * lv.v + (lv.lo_w - t0) * lv.w;
+                const Ray ray{glm::vec3(o), 0.0f, glm::vec3(lv.w), std::numeric_limits<float>::infinity()};
+                puffs_on(ray, std::numeric_limits<double>::infinity(), sc, sc.intervals_light);
+                const glm::dvec3 of(ray.origin);
+                std::fill(tau.begin(), tau.end(), 0.0);
+                // Each puff's share of each node-to-node segment, at most half a voxel per panel;
+                // then τ of a node is the sum of the segments above it.
+                for (const Interval& iv : sc.intervals_light) {
+                    const int k0 = std::max(0, int(std::floor((iv.t_in - t0) / spacing)));
+                    const int k1 = std::min(lv.nw - 1, int(std::ceil((iv.t_out - t0) / spacing)));
+                    for (int k = k0; k < k1; ++k) {
+                        const double a = std::max(iv.t_in, t0 + k * spacing), b = std::min(iv.t_out, t0 + (k + 1) * spacing);
+                        if (b > a) tau[std::size_t(k)] += integrate(iv.puff, of, lv.w, a, b, panels(iv.puff, b - a));
+                    }
+                }
+                double above = 0.0;
+                float* column = &lv.tau[(std::size_t(j) * std::size_t(lv.nu) + std::size_t(i)) * std::size_t(lv.nw)];
+                for (int k = lv.nw - 1; k >= 0; --k) {
+                    above += tau[std::size_t(k)];  // the segment from node k to node k + 1
+                    column[k] = float(double(sigma_t) * above);
+                }
+            }
+            if (progress) progress->add(1);
+        }
+    });
+}
+
+GroundTruth::Impl::Sample GroundTruth::Impl::march(const Ray& ray, double t_end, const std::vector<Interval>& intervals,
+                                                   const std::vector<std::pair<double, double>>& segments,
+                                                   const glm::vec3& background_lit, const glm::vec3& background_ambient,
+                                                   const glm::dvec3& ground_point, bool ground, double step,
+                                                   const LightVolume* lv, bool coarse, Scratch* exact) const {
+    (void)t_end;
+    const OctaveTransmittance light_t(scattering);
+    const glm::dvec3 c_light(view.light_color), c_amb(view.ambient);
+    const glm::dvec3 o(ray.origin), d(ray.direction);
+    Sample s;
+    double transmittance = 1.0;
+    for (const auto& [a, b] : segments) {
+        const int n = std::max(1, int(std::ceil((b - a) / step)));
+        const double dt = (b - a) / n;
+        for (int k = 0; k < n; ++k) {
+            const double t = a + (k + 0.5) * dt;
+            const glm::dvec3 xd = o + t * d;
+            const glm::vec3 x(xd);
+            const float sigma = sigma_at(x, t, intervals);
+            ++s.steps;
+            if (sigma == 0.0f) continue;
+            // The baker's voxel rule, per step: the share of the view ray the step stops, 1 − e^{−σΔ}, scatters
+            // the light that reaches it (T_ms of its τ toward the light) plus the ambient term.
+            const double opacity = transmittance * -std::expm1(-double(sigma) * dt);
+            const double tau = exact ? exact_tau(xd, *exact) : double(lv->lookup(xd, 1));
+            s.color += opacity * (c_light * double(light_t(float(tau))) + c_amb);
+            if (coarse) s.coarse += opacity * (c_light * double(light_t(lv->lookup(xd, 2))) + c_amb);
+            transmittance *= std::exp(-double(sigma) * dt);
+        }
+    }
+    glm::dvec3 back(view.background), back_coarse(view.background);
+    if (ground) {
+        const double tau = exact ? exact_tau(ground_point, *exact) : double(lv->lookup(ground_point, 1));
+        back = glm::dvec3(background_lit) * std::exp(-tau) + glm::dvec3(background_ambient);
+        if (coarse) back_coarse = glm::dvec3(background_lit) * std::exp(-double(lv->lookup(ground_point, 2))) + glm::dvec3(background_ambient);
+    }
+    s.color += transmittance * back;
+    if (coarse) s.coarse += transmittance * back_coarse;
+    return s;
+}
+
+GroundTruth::Impl::PixelResult GroundTruth::Impl::shade_pixel(int x, int y, const LightVolume* lv, int max_levels,
+                                                              Scratch& sc) const {
+    const PixelSamples samples(settings.spp);
+    const Camera& camera = renderer->camera();
+    const double h0 = double(settings.step_voxels) * min_voxel;
+    const double half_tol = 0.5 * double(settings.tolerance);
+    PixelResult r;
+    glm::dvec3 previous(0.0), coarse(0.0);
+    // Each level finds a sample's puffs again rather than keeping spp lists: one TLAS walk, far less than
+    // the sample's march.
+    for (int level = 0; level <= max_levels; ++level) {
+        const double step = h0 / double(1 << level);
+        glm::dvec3 sum(0.0), sum_coarse(0.0);
+        for (int i = 0; i < samples.count(); ++i) {
+            const glm::vec2 off = samples[i];
+            const Ray ray = camera.ray_through(float(x) + off.x, float(y) + off.y, kViewRayTmin);
+            double t_end;
+            bool ground;
+            glm::dvec3 gp;
+            prepare_ray(ray, sc, t_end, ground, gp);
+            const Sample s = march(ray, t_end, sc.intervals, sc.segments, ground_lit, ground_ambient, gp, ground, step,
+                                   lv, lv != nullptr, lv ? nullptr : &sc);
+            sum += s.color;
+            sum_coarse += s.coarse;
+            r.steps += s.steps;
+        }
+        const glm::dvec3 pixel = sum / double(samples.count());
+        coarse = sum_coarse / double(samples.count());
+        if (level > 0) {
+            const glm::dvec3 change = glm::abs(pixel - previous);
+            r.view_error = float(std::max({change.x, change.y, change.z}));
+            r.level = level;
+            previous = pixel;
+            if (double(r.view_error) < half_tol) break;
+            if (level == max_levels) r.limit = true;
+        } else {
+            previous = pixel;
+        }
+    }
+    r.color = glm::vec3(previous);
+    if (lv) {
+        // Trilinear interpolation is second order: the subgrid's error is about 4 times the grid's, so the grid's
+        // is about a third of their difference.
+        const glm::dvec3 diff = glm::abs(previous - coarse) / 3.0;
+        r.light_error = float(std::max({diff.x, diff.y, diff.z}));
+    }
+    return r;
+}
+
+void GroundTruth::Impl::init() {
+    if (width < 1 || height < 1 || width > kMaxImageSide || height > kMaxImageSide)
+        throw std::invalid_argument("truth: image size " + std::to_string(width) + "x" + std::to_string(height) + " is out of range");
+    if (!(settings.tolerance > 0.0f)) throw std::invalid_argument("truth: tolerance must be > 0");
+    if (settings.spp < 1 || settings.spp > kMaxSpp)
+        throw std::invalid_argument("truth: spp must be in [1, " + std::to_string(kMaxSpp) + "]");
+    if (settings.max_view_levels < 1 || settings.max_view_levels > 12)
+        throw std::invalid_argument("truth: max_view_levels must be in [1, 12]");
+    if (!(settings.step_voxels > 0.0f) || !(settings.light_spacing_voxels > 0.0f))
+        throw std::invalid_argument("truth: step_voxels and light_spacing_voxels must be > 0");
+    const int frames = int(flipbook.size());
+    const SixwayAtlasGrid grid = sixway_grid_for_frames(frames);
+    texture = SixwayTexture(Rgba8Image(grid.columns, grid.rows), Rgba8Image(grid.columns, grid.rows), grid);
+
+    RenderOptions options = RenderOptions::from_scene(scene);
+    options.render.mode = RenderMode::basic;  // no optical-depth pass: the truth finds its own
+    options.render.spp = 1;
+    options.shape = StandInShape{};           // spheres of radius r bound each puff
+    options.width = width;
+    options.height = height;
+    renderer = std::make_unique<FrameRenderer>(scene, options, texture);
+    renderer->skip_to(frame + 1);  // particles, light and TLAS as frame `frame` renders them
+    view = renderer->view_settings(frame);
+    to_light = glm::normalize(glm::dvec3(view.to_light));
+    sigma_t = view.sigma_t;
+
+    const std::span<const Particle> particles = renderer->particles().particles();
+    const glm::vec3 eye = renderer->camera().position();
+    puffs.resize(particles.size());
+    min_voxel = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < particles.size(); ++i) {
+        const AffineTransform m = SmokeScene::billboard_transform(particles[i], eye);
+        PuffPlacement& p = puffs[i];
+        p.centre = glm::dvec3(particles[i].center);
+        p.radius = double(particles[i].radius);
+        p.centre_f = particles[i].center;
+        p.ex = glm::vec3(glm::normalize(m.linear[0]));
+        p.ey = glm::vec3(glm::normalize(m.linear[1]));
+        p.ez = glm::vec3(glm::normalize(m.linear[2]));
+        p.inv_radius = 1.0f / particles[i].radius;
+        p.frame = (view.flipbook_frame + int(i)) % frames;
+        min_voxel = std::min(min_voxel, p.radius * double(flipbook[std::size_t(p.frame)].voxel()));
+    }
+    if (puffs.empty()) min_voxel = 1.0;
+    const SmokeScene& smoke = renderer->smoke();
+    const float n_dot_l = smoke.has_ground() ? std::max(glm::dot(glm::normalize(smoke.ground_normal()), view.to_light), 0.0f) : 0.0f;
+    ground_lit = view.ground_color * view.light_color * n_dot_l;
+    ground_ambient = view.ground_color * view.ambient;
+}
+
+namespace {
+std::vector<PuffVolume> baked_flipbook(const SceneDescription& scene, const SixwayBakeSettings& puff, std::uint64_t frame) {
+    validate(puff);
+    // Only the flipbook frames some particle shows: (frame % frames + i) % frames over the particles.
+    const std::size_t n = scene.smoke.particles.size();
+    const int frames = puff.frames;
+    std::vector<bool> used(std::size_t(frames), false);
+    const int first = int(frame % std::uint64_t(frames));
+    for (std::size_t i = 0; i < std::min<std::size_t>(n, std::size_t(frames)); ++i) used[std::size_t((first + int(i)) % frames)] = true;
+    auto flipbook = std::vector<PuffVolume>(std::size_t(frames));
+    for (int f = 0; f < frames; ++f)
+        if (used[std::size_t(f)]) flipbook[std::size_t(f)] = PuffVolume::baked(puff, f);  // each parallel inside
+    return flipbook;
+}
+}  // namespace
+
+GroundTruth::GroundTruth(const SceneDescription& scene, const SixwayBakeSettings& puff, std::uint64_t frame, int width,
+                         int height, const TruthSettings& settings)
+    : GroundTruth(scene, puff, baked_flipbook(scene, puff, frame), frame, width, height, settings) {}
+
+GroundTruth::GroundTruth(const SceneDescription& scene, const SixwayBakeSettings& scattering,
+                         std::vector<PuffVolume> flipbook, std::uint64_t frame, int width, int height,
+                         const TruthSettings& settings)
+    : impl_(std::make_unique<Impl>()) {
+    if (flipbook.empty()) throw std::invalid_argument("truth: the flipbook has no frames");
+    impl_->scene = scene;
+    impl_->scattering = scattering;
+    impl_->flipbook = std::move(flipbook);
+    impl_->settings = settings;
+    impl_->frame = frame;
+    impl_->width = width;
+    impl_->height = height;
+    impl_->init();
+}
+
+GroundTruth::~GroundTruth() = default;
+
+int GroundTruth::width() const { return impl_->width; }
+int GroundTruth::height() const { return impl_->height; }
+
+TruthReport GroundTruth::render(ImageRgba& image, WorkProgress* progress) const {
+    const auto start = std::chrono::steady_clock::now();
+    const Impl& m = *impl_;
+    TruthReport report;
+    image = ImageRgba(m.width, m.height, glm::vec4(0.0f, 0.0f, 0.0f, 1.0f));
+
+    // The light volume's spacing: start at light_spacing_voxels voxels and halve while a 1-sample probe of the
+    // pixel centres (first step level) shows an interpolation estimate above half the tolerance, within the
+    // memory cap and max_light_levels.
+    LightVolume lv;
+    double spacing = double(m.settings.light_spacing_voxels) * m.min_voxel;
+    int light_level = 0;
+    const double half_tol = 0.5 * double(m.settings.tolerance);
+    for (;;) {
+        m.build_light_volume(lv, spacing, progress);
+        if (light_level >= m.settings.max_light_levels) break;
+        const std::size_t next_bytes = std::size_t(2 * lv.nu - 1) * std::size_t(2 * lv.nv - 1) * std::size_t(2 * lv.nw - 1) * sizeof(float);
+        if (next_bytes > m.settings.light_volume_max_bytes) break;
+        std::vector<float> worst(std::size_t(m.height), 0.0f);
+        tbb::parallel_for(tbb::blocked_range<int>(0, m.height, 4), [&](const tbb::blocked_range<int>& rows) {
+            Scratch& sc = m.scratch.local();
+            for (int y = rows.begin(); y != rows.end(); ++y)
+                for (int x = 0; x < m.width; x += 4) {  // every fourth pixel of every row: a probe, not the answer
+                    const Ray ray = m.renderer->camera().ray(x, y, kViewRayTmin);
+                    double t_end;
+                    bool ground;
+                    glm::dvec3 gp;
+                    m.prepare_ray(ray, sc, t_end, ground, gp);
+                    const Impl::Sample s = m.march(ray, t_end, sc.intervals, sc.segments, m.ground_lit, m.ground_ambient,
+                                                   gp, ground, double(m.settings.step_voxels) * m.min_voxel, &lv, true, nullptr);
+                    const glm::dvec3 e = glm::abs(s.color - s.coarse) / 3.0;
+                    worst[std::size_t(y)] = std::max(worst[std::size_t(y)], float(std::max({e.x, e.y, e.z})));
+                }
+        });
+        if (double(*std::max_element(worst.begin(), worst.end())) <= half_tol) break;
+        spacing *= 0.5;
+        ++light_level;
+    }
+    report.light_levels_used = light_level;
+    report.light_columns_u = lv.nu;
+    report.light_columns_v = lv.nv;
+    report.light_nodes_w = lv.nw;
+    report.light_spacing = float(lv.spacing);
+
+    struct Row {
+        float view = 0, light = 0, total = 0;
+        int level = 0;
+        std::uint64_t limit = 0, steps = 0;
+    };
+    std::vector<Row> rows(std::size_t(m.height));
+    report.pixel_error_estimate.assign(std::size_t(m.width) * std::size_t(m.height), 0.0f);
+    report.pixel_unconverged.assign(std::size_t(m.width) * std::size_t(m.height), 0);
+    if (progress) progress->begin("truth", std::uint64_t(m.height));
+    tbb::parallel_for(tbb::blocked_range<int>(0, m.height, 1), [&](const tbb::blocked_range<int>& range) {
+        Scratch& sc = m.scratch.local();
+        for (int y = range.begin(); y != range.end(); ++y) {
+            Row& row = rows[std::size_t(y)];
+            for (int x = 0; x < m.width; ++x) {
+                const Impl::PixelResult p = m.shade_pixel(x, y, &lv, m.settings.max_view_levels, sc);
+                image.at(x, y) = glm::vec4(p.color, 1.0f);
+                row.view = std::max(row.view, p.view_error);
+                row.light = std::max(row.light, p.light_error);
+                row.total = std::max(row.total, p.view_error + p.light_error);
+                row.level = std::max(row.level, p.level);
+                const bool unconverged = p.limit || double(p.light_error) > half_tol;
+                row.limit += unconverged ? 1 : 0;
+                const std::size_t at = std::size_t(y) * std::size_t(m.width) + std::size_t(x);
+                report.pixel_error_estimate[at] = p.view_error + p.light_error;
+                report.pixel_unconverged[at] = unconverged ? 1 : 0;
+                row.steps += p.steps;
+            }
+            if (progress) progress->add(1);
+        }
+    });
+    for (const Row& r : rows) {
+        report.view_error_estimate = std::max(report.view_error_estimate, r.view);
+        report.light_error_estimate = std::max(report.light_error_estimate, r.light);
+        report.max_error_estimate = std::max(report.max_error_estimate, r.total);
+        report.view_levels_used = std::max(report.view_levels_used, r.level);
+        report.unconverged_pixels += r.limit;
+        report.camera_samples += r.steps;
+    }
+    report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return report;
+}
+
+glm::vec3 GroundTruth::pixel(int x, int y) const {
+    if (x < 0 || y < 0 || x >= impl_->width || y >= impl_->height)
+        throw std::out_of_range("truth: pixel (" + std::to_string(x) + ", " + std::to_string(y) + ") is outside the image");
+    Scratch sc;
+    return impl_->shade_pixel(x, y, nullptr, impl_->settings.max_view_levels, sc).color;
+}
+
+std::vector<double> GroundTruth::particle_optical_depths() const {
+    const Impl& m = *impl_;
+    std::vector<double> tau(m.puffs.size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tau.size(), 16), [&](const tbb::blocked_range<std::size_t>& r) {
+        Scratch& sc = m.scratch.local();
+        for (std::size_t i = r.begin(); i != r.end(); ++i) tau[i] = m.exact_tau(m.puffs[i].centre, sc);
+    });
+    return tau;
+}
+
+std::vector<std::uint8_t> GroundTruth::ground_shadow_mask() const {
+    const Impl& m = *impl_;
+    std::vector<std::uint8_t> mask(std::size_t(m.width) * std::size_t(m.height), 0);
+    tbb::parallel_for(tbb::blocked_range<int>(0, m.height), [&](const tbb::blocked_range<int>& rows) {
+        for (int y = rows.begin(); y != rows.end(); ++y)
+            for (int x = 0; x < m.width; ++x) {
+                const Ray ray = m.renderer->camera().ray(x, y, kViewRayTmin);
+                const TraceResult g = trace(m.accel(), ray, ray_flag_force_opaque, kGroundMask);
+                if (!g.hit) continue;
+                const glm::vec3 p = ray.origin + g.committed.t * ray.direction;
+                const Ray shadow{p, 0.0f, glm::vec3(m.to_light), std::numeric_limits<float>::infinity()};
+                const TraceResult s = trace(m.accel(), shadow,
+                                            ray_flag_force_opaque | ray_flag_accept_first_hit_and_end_search |
+                                                ray_flag_skip_closest_hit_shader,
+                                            kStandInMask);
+                mask[std::size_t(y) * std::size_t(m.width) + std::size_t(x)] = s.hit ? 1 : 0;
+            }
+    });
+    return mask;
+}
+
+}  // namespace smoketrace
