@@ -6,6 +6,8 @@
 #include <smoketrace/io/png_io.hpp>
 #include <smoketrace/smoke/optical_path_lengths.hpp>
 #include <smoketrace/io/scene_file.hpp>
+#include <smoketrace/io/sixway_files.hpp>
+#include <smoketrace/truth/ground_truth.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>
 
 #include <catch2/catch.hpp>
@@ -30,6 +32,7 @@ using namespace smoketrace;
 using smoketrace::test::CliRun;
 using smoketrace::test::file_bytes;
 using smoketrace::test::run_cli;
+using smoketrace::test::run_cli_stdout;
 using smoketrace::test::TempDir;
 
 namespace {
@@ -451,4 +454,54 @@ TEST_CASE("cli: render -o OUT.apng writes the sequence as one animated PNG", "[c
     std::size_t entries = 0;  // the files above and no temporary file
     for ([[maybe_unused]] const auto& entry : fs::directory_iterator(dir.path)) ++entries;
     CHECK(entries == 6);  // seq.json, bad.json, frames/, one, three, part
+}
+
+// truth and depths --truth read the puff from the textures' sidecar: a small bake keeps them fast.
+TEST_CASE("cli: truth writes the image and its bound, depths --truth adds the true optical depths", "[cli][truth]") {
+    TempDir dir;
+    const fs::path textures = dir.path / "textures";
+    fs::create_directories(textures);
+    REQUIRE(run_cli("bake-sixway -o " + textures.string() + " --frames 2 --tile 16").exit_code == 0);
+    const fs::path scene = dir.write("two.json", R"({
+        "light": { "direction": [0.3, 1, 0.2] },
+        "smoke": { "particles": [ { "center": [0, 0, 0], "radius": 0.6 }, { "center": [0.2, 0.7, 0], "radius": 0.5 } ],
+                   "sigma_t": 3 },
+        "ground": { "corners": [[-3, -1, 3], [3, -1, 3], [3, -1, -3], [-3, -1, -3]] },
+        "camera": { "position": [0, 1, 6], "look_at": [0, 0, 0], "fov_deg": 40 } })");
+    const fs::path image = dir.path / "t.png";
+    const CliRun r = run_cli_stdout("truth " + scene.string() + " -o " + image.string() + " --size 8x8 --spp 1 --assets " +
+                             textures.string());
+    INFO(r.out << r.err);
+    REQUIRE(r.exit_code == 0);
+    CHECK(fs::file_size(image) > 0);
+    CHECK_THAT(r.out, Catch::Contains("unconverged pixels: "));
+    CHECK_THAT(r.out, Catch::Contains("error bound"));
+
+    const fs::path csv = dir.path / "d.csv";
+    const CliRun d = run_cli("depths " + scene.string() + " -o " + csv.string() + " --truth --assets " + textures.string());
+    INFO(d.err);
+    REQUIRE(d.exit_code == 0);
+    std::ifstream in(csv);
+    std::string header, line;
+    std::getline(in, header);
+    CHECK(header == "particle,optical_path_length,hits,status,true_optical_depth");
+    const GroundTruth truth(load_scene_file(scene), read_sixway_bake_settings(textures / "sixway.json"), 0, 1, 1);
+    const std::vector<double> want = truth.particle_optical_depths();
+    for (std::size_t i = 0; std::getline(in, line); ++i) {
+        REQUIRE(i < want.size());
+        const std::string field = line.substr(line.rfind(',') + 1);
+        CHECK(std::strtod(field.c_str(), nullptr) == want[i]);  // shortest round-trip text: the same double
+        CHECK(want[i] > 0.0);
+    }
+
+    // A sidecar without the bake settings: the file and the field are named, nothing is written.
+    std::string sidecar = file_bytes(textures / "sixway.json");
+    sidecar = sidecar.substr(0, sidecar.find(",\n  \"bake\"")) + "\n}\n";
+    dir.write("textures/sixway.json", sidecar);
+    fs::remove(image);
+    const CliRun bad = run_cli("truth " + scene.string() + " -o " + image.string() + " --size 8x8 --assets " +
+                               textures.string());
+    CHECK(bad.exit_code == 1);
+    CHECK_THAT(bad.err, Catch::Contains("sixway.json") && Catch::Contains("/bake"));
+    CHECK_FALSE(fs::exists(image));
 }

@@ -99,7 +99,7 @@ TEST_CASE("cli help: --help lists every option of every command, each with its d
     const Run all = cli("--help");
     REQUIRE(all.exit_code == 0);
     const std::vector<std::string> commands = listed_commands(all.out);
-    REQUIRE(commands == std::vector<std::string>{"bake-sixway", "depths", "explain", "render"});
+    REQUIRE(commands == std::vector<std::string>{"bake-sixway", "depths", "explain", "render", "truth"});
     for (const std::string& command : commands) {
         INFO(command);
         const Run one = cli("help " + command);
@@ -199,7 +199,7 @@ TEST_CASE("cli help: a mistyped or missing command gets one line and the list of
         CHECK(r.exit_code == 2);
         CHECK(r.out.empty());
         CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 2);
-        CHECK_THAT(r.err, Catch::Contains("\ncommands: bake-sixway, depths, explain, render ("));
+        CHECK_THAT(r.err, Catch::Contains("\ncommands: bake-sixway, depths, explain, render, truth ("));
         CHECK_THAT(r.err, !Catch::Contains("--size"));
     }
     CHECK_THAT(cli("rendr").err, Catch::StartsWith("smoketrace: unknown command 'rendr' (did you mean render?)\n"));

@@ -141,7 +141,7 @@ TEST_CASE("truth: emission-absorption through a uniform ball and a uniform cube 
     }
 }
 
-TEST_CASE("truth: single scattering in a lit uniform ball; pixel() with exact light rays agrees with render()",
+TEST_CASE("truth: single scattering in a lit uniform ball, and pixel() with exact light rays agrees with render()",
           "[truth]") {
     const int w = 12, h = 12;
     SceneDescription s = ball_scene(1.0f, glm::vec3(1.0f), glm::vec3(0.05f));
@@ -160,13 +160,13 @@ TEST_CASE("truth: single scattering in a lit uniform ball; pixel() with exact li
             INFO("pixel " << x << "," << y << " estimate " << report.pixel_error_estimate[std::size_t(y * w + x)]);
             if (!report.pixel_unconverged[std::size_t(y * w + x)])
                 CHECK(std::abs(double(image.at(x, y).y) - expected) <= double(settings.tolerance));
-            if ((x + y) % 3 == 0) {  // a third of the pixels: exact light rays cost a light march per step
+            if ((x + 2 * y) % 5 == 0) {  // a fifth of the pixels: exact light rays cost a light march per step
                 CHECK(std::abs(double(truth.pixel(x, y).y) - expected) <= double(settings.tolerance));
             }
         }
 }
 
-TEST_CASE("truth: the error falls with the tolerance (second order in the step)", "[truth]") {
+TEST_CASE("truth: the error falls with the tolerance and stays below it", "[truth]") {
     const int w = 6, h = 6;
     SceneDescription s = ball_scene(2.0f, glm::vec3(1.0f), glm::vec3(0.0f));
     std::vector<PuffVolume> book{PuffVolume::uniform_ball(1.0f)};
@@ -237,7 +237,7 @@ TEST_CASE("truth: the same bytes for one thread and two", "[truth]") {
     CHECK(std::memcmp(one.pixels.data(), two.pixels.data(), one.pixels.size() * sizeof(one.pixels[0])) == 0);
 }
 
-TEST_CASE("truth: the baked puff is the baker's; the bake's bytes are those before the puff had its own file",
+TEST_CASE("truth: the baked puff is the baker's, and the bake's bytes are those before the puff had its own file",
           "[truth][sixway]") {
     SixwayBakeSettings s;
     s.frames = 3;

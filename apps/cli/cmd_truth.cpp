@@ -67,7 +67,7 @@ int run_truth(const Args& args) {
     progress.finish();
     std::ostream& report = output.kind == OutputKind::standard_output ? std::cerr : std::cout;
     report << "truth of frame " << f << " at " << options.width << "x" << options.height << ", " << settings.spp
-           << " samples per pixel: " << r.seconds << " s\n"
+           << " samples per pixel: " << r.seconds << " s (light volume " << r.light_seconds << " s)\n"
            << "error bound (per pixel and channel, linear): " << r.max_error_estimate << " (tolerance "
            << settings.tolerance << "; view steps " << r.view_error_estimate << ", light volume "
            << r.light_error_estimate << ")\n"

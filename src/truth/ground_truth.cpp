@@ -199,14 +199,16 @@ struct GroundTruth::Impl {
         glm::dvec3 color{0.0}, coarse{0.0};
         std::uint64_t steps = 0;
     };
-    Sample march(const Ray& ray, double t_end, const std::vector<Interval>& intervals, const std::vector<std::pair<double, double>>& segments,
-                 const glm::vec3& background_lit, const glm::vec3& background_ambient, const glm::dvec3& ground_point,
-                 bool ground, double step, const LightVolume* lv, bool coarse, Scratch* exact) const;
+    Sample march(const Ray& ray, const std::vector<Interval>& intervals, const std::vector<std::pair<double, double>>& segments,
+                 const glm::dvec3& ground_point, bool ground, double step, const LightVolume* lv, bool coarse,
+                 Scratch* exact) const;
 
-    void prepare_ray(const Ray& ray, Scratch& sc, double& t_end, bool& ground, glm::dvec3& ground_point) const {
+    // A camera ray's ground hit (closest hit on the ground mask), and the puffs in front of it with the union of
+    // their stretches, in sc.intervals and sc.segments.
+    void prepare_ray(const Ray& ray, Scratch& sc, bool& ground, glm::dvec3& ground_point) const {
         const TraceResult g = trace(accel(), ray, ray_flag_force_opaque, kGroundMask);
         ground = g.hit;
-        t_end = g.hit ? double(g.committed.t) : std::numeric_limits<double>::infinity();
+        const double t_end = g.hit ? double(g.committed.t) : std::numeric_limits<double>::infinity();
         ground_point = g.hit ? glm::dvec3(ray.origin) + double(g.committed.t) * glm::dvec3(ray.direction) : glm::dvec3(0.0);
         puffs_on(ray, t_end, sc, sc.intervals);
         sc.segments.clear();
@@ -288,12 +290,10 @@ void GroundTruth::Impl::build_light_volume(LightVolume& lv, double spacing, Work
     });
 }
 
-GroundTruth::Impl::Sample GroundTruth::Impl::march(const Ray& ray, double t_end, const std::vector<Interval>& intervals,
+GroundTruth::Impl::Sample GroundTruth::Impl::march(const Ray& ray, const std::vector<Interval>& intervals,
                                                    const std::vector<std::pair<double, double>>& segments,
-                                                   const glm::vec3& background_lit, const glm::vec3& background_ambient,
                                                    const glm::dvec3& ground_point, bool ground, double step,
                                                    const LightVolume* lv, bool coarse, Scratch* exact) const {
-    (void)t_end;
     const OctaveTransmittance light_t(scattering);
     const glm::dvec3 c_light(view.light_color), c_amb(view.ambient);
     const glm::dvec3 o(ray.origin), d(ray.direction);
@@ -321,8 +321,9 @@ GroundTruth::Impl::Sample GroundTruth::Impl::march(const Ray& ray, double t_end,
     glm::dvec3 back(view.background), back_coarse(view.background);
     if (ground) {
         const double tau = exact ? exact_tau(ground_point, *exact) : double(lv->lookup(ground_point, 1));
-        back = glm::dvec3(background_lit) * std::exp(-tau) + glm::dvec3(background_ambient);
-        if (coarse) back_coarse = glm::dvec3(background_lit) * std::exp(-double(lv->lookup(ground_point, 2))) + glm::dvec3(background_ambient);
+        // Eqs. 4.3/4.4 with the field's transmittance as the shadow: c_base·(c_light·max(N·L, 0)·e^{−τ} + c_amb).
+        back = glm::dvec3(ground_lit) * std::exp(-tau) + glm::dvec3(ground_ambient);
+        if (coarse) back_coarse = glm::dvec3(ground_lit) * std::exp(-double(lv->lookup(ground_point, 2))) + glm::dvec3(ground_ambient);
     }
     s.color += transmittance * back;
     if (coarse) s.coarse += transmittance * back_coarse;
@@ -345,12 +346,10 @@ GroundTruth::Impl::PixelResult GroundTruth::Impl::shade_pixel(int x, int y, cons
         for (int i = 0; i < samples.count(); ++i) {
             const glm::vec2 off = samples[i];
             const Ray ray = camera.ray_through(float(x) + off.x, float(y) + off.y, kViewRayTmin);
-            double t_end;
             bool ground;
             glm::dvec3 gp;
-            prepare_ray(ray, sc, t_end, ground, gp);
-            const Sample s = march(ray, t_end, sc.intervals, sc.segments, ground_lit, ground_ambient, gp, ground, step,
-                                   lv, lv != nullptr, lv ? nullptr : &sc);
+            prepare_ray(ray, sc, ground, gp);
+            const Sample s = march(ray, sc.intervals, sc.segments, gp, ground, step, lv, lv != nullptr, lv ? nullptr : &sc);
             sum += s.color;
             sum_coarse += s.coarse;
             r.steps += s.steps;
@@ -492,12 +491,11 @@ TruthReport GroundTruth::render(ImageRgba& image, WorkProgress* progress) const 
             for (int y = rows.begin(); y != rows.end(); ++y)
                 for (int x = 0; x < m.width; x += 4) {  // every fourth pixel of every row: a probe, not the answer
                     const Ray ray = m.renderer->camera().ray(x, y, kViewRayTmin);
-                    double t_end;
                     bool ground;
                     glm::dvec3 gp;
-                    m.prepare_ray(ray, sc, t_end, ground, gp);
-                    const Impl::Sample s = m.march(ray, t_end, sc.intervals, sc.segments, m.ground_lit, m.ground_ambient,
-                                                   gp, ground, double(m.settings.step_voxels) * m.min_voxel, &lv, true, nullptr);
+                    m.prepare_ray(ray, sc, ground, gp);
+                    const Impl::Sample s = m.march(ray, sc.intervals, sc.segments, gp, ground,
+                                                   double(m.settings.step_voxels) * m.min_voxel, &lv, true, nullptr);
                     const glm::dvec3 e = glm::abs(s.color - s.coarse) / 3.0;
                     worst[std::size_t(y)] = std::max(worst[std::size_t(y)], float(std::max({e.x, e.y, e.z})));
                 }
@@ -507,6 +505,7 @@ TruthReport GroundTruth::render(ImageRgba& image, WorkProgress* progress) const 
         ++light_level;
     }
     report.light_levels_used = light_level;
+    report.light_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     report.light_columns_u = lv.nu;
     report.light_columns_v = lv.nv;
     report.light_nodes_w = lv.nw;

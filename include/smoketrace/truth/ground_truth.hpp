@@ -35,21 +35,23 @@ struct TruthSettings {
     // Pixel footprint samples at the points of pixel_samples.hpp: the truth of a frame is its pixel's box-filtered
     // mean, so a frame rendered with spp N is measured against an anti-aliased image.
     int spp = 16;
-    // Halvings of the camera rays' step beyond the first level (step_voxels of a voxel): 7 reaches 1/32 of
-    // a voxel, where the piecewise-trilinear density is integrated far below any tolerance worth asking.
+    // Halvings of the camera rays' step beyond the first (step_voxels voxels): 7 reach 1/64 of a voxel, where
+    // the piecewise-trilinear density is integrated far below any tolerance worth asking.
     int max_view_levels = 7;
     // The camera rays' first step, in voxels of the smallest puff (the density's own scale).
     float step_voxels = 2.0f;
     // The light volume's first spacing, in voxels of the smallest puff, and how many times it may halve.
     float light_spacing_voxels = 4.0f;
     int max_light_levels = 3;
-    // The most memory the light volume may take (floats of τ): 1 GiB, half of what a 2-core build machine
-    // holds free; the refinement stops there and the report then states the achieved bound.
+    // The most memory the light volume may take (floats of τ): 1 GiB holds a shipped scene's volume at 2
+    // voxels (740 MB), not its next halving (5.9 GB); the refinement stops there, the pixels whose estimate is
+    // still above the tolerance are counted unconverged and the report states the bound reached.
     std::size_t light_volume_max_bytes = std::size_t(1) << 30;
 };
 
 struct TruthReport {
     double seconds = 0;                    // wall time of render()
+    double light_seconds = 0;              // of which building (and refining) the light volume
     float max_error_estimate = 0;          // the largest per-pixel error estimate (view steps + light volume)
     std::uint64_t unconverged_pixels = 0;  // pixels that hit a refinement limit
     float view_error_estimate = 0;         // the largest step-halving change of a pixel at its last level
