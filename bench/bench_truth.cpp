@@ -12,8 +12,9 @@
 // samples per pixel, compositing rule and transmittance threshold; and named rows: the thesis's settings
 // (icosahedron, cutoff 60, one group, eq. 4.1, one sample), the project's own exact model (spheres, no
 // cutoff, one group, threshold 0, 16 samples: the `error` section's reference) and the scene's settings
-// drawn with the true optical depth of each particle instead of the stand-ins' l·σt (the first
-// approximation put back to its exact form; not a configuration one can ship: it needs the truth).
+// drawn with the true optical depth of each particle instead of the stand-ins' l·σt, as are the own exact
+// model's (the first approximation put back to its exact form; not configurations one can ship: they need
+// the truth).
 //
 // Timing: each repeat builds a fresh FrameRenderer (untimed), brings it to the frame (skip_to, untimed) and
 // times render(frame), its stages from FrameTimings; the configurations take turns repeat by repeat in a
@@ -228,8 +229,9 @@ int truth_size(const BenchOptions& options) {
     if (options.quick) return kQuickTruthSize;
     if (const char* s = std::getenv("SMOKETRACE_TRUTH_SIZE")) {
         const int n = std::atoi(s);
-        if (n >= 16 && n <= 4096) return n;
-        std::cerr << "  SMOKETRACE_TRUTH_SIZE=" << s << " ignored (16..4096)\n";
+        if (n >= 16 && n <= 4096 && std::to_string(n) == s) return n;
+        std::cerr << "smoketrace_bench: SMOKETRACE_TRUTH_SIZE='" << s << "' is not a whole number in 16..4096\n";
+        std::exit(2);
     }
     return kTruthSize;
 }
