@@ -31,6 +31,7 @@
 #include "bench_registry.hpp"
 #include "bench_util.hpp"
 #include "error_metrics.hpp"
+#include "pareto.hpp"
 #include "timing.hpp"
 
 #include <smoketrace/render/frame_renderer.hpp>
@@ -86,25 +87,6 @@ std::array<Stats, 6> stage_stats(const std::vector<FrameTimings>& samples) {
         s[k] = stats_of(v);
     }
     return s;
-}
-
-// Marks the Pareto front of (time, error) over the candidates: nothing else is both at least as fast and
-// at least as accurate, and better in one of the two.
-void mark_pareto(const std::vector<double>& time, const std::vector<double>& error, const std::vector<bool>& candidate,
-                 std::vector<bool>& front) {
-    std::vector<std::size_t> order;
-    for (std::size_t i = 0; i < time.size(); ++i)
-        if (candidate[i]) order.push_back(i);
-    std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-        return time[a] < time[b] || (time[a] == time[b] && error[a] < error[b]);
-    });
-    front.assign(time.size(), false);
-    double best = std::numeric_limits<double>::infinity();
-    for (std::size_t i : order)
-        if (error[i] < best) {
-            front[i] = true;
-            best = error[i];
-        }
 }
 
 struct Config {

@@ -17,8 +17,12 @@
 #   embree.png    time ours / time Embree 3 for each side-by-side measurement (summary.txt)
 #   grid.png      the reference render, the thesis's configuration, the best configuration and the
 #                 best one's error heat map (images/, section "error")
+#   truth_pareto.png  run time against image error against the ground truth, one panel per scene, the
+#                 Pareto front marked (truth_sweeps.csv, section "truth")
+#   truth_grid.png    per scene: the truth, the scene's settings, the thesis's settings and the error heat
+#                 map of the scene's settings (images/truth_*, section "truth")
 # A plot whose input is missing (its section was not run) is skipped with a note.
-# --assets also copies the plots docs/performance.md shows into assets/plots/.
+# --assets also copies the plots docs/performance.md and docs/accuracy.md show into assets/plots/.
 set -euo pipefail
 
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -27,7 +31,7 @@ results=""
 for a in "$@"; do
   case "$a" in
     --assets) assets=1 ;;
-    -h|--help) sed -n '2,22p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,25p' "$0"; exit 0 ;;
     *) results="$a" ;;
   esac
 done
@@ -260,11 +264,80 @@ EOF
   made+=(grid.png)
 fi
 
+# ---- run time against error, against the ground truth ---------------------------------------------------
+if have truth_sweeps.csv "truth_pareto.png"; then
+  scenes=$(pick "$results/truth_sweeps.csv" "" "" scene | awk '!seen[$0]++' | tr '\n' ' ')
+  size=$(pick "$results/truth_sweeps.csv" "" "" size | head -1)
+  panels=""
+  for sc in $scenes; do
+    { echo "error,ms"; pick "$results/truth_sweeps.csv" scene "$sc" pareto image_rmse total_median |
+        awk '$1 == 1 { print $2 "," $3 }' | sort -g; } > "$tmp/truth_front_$sc.csv"
+    { head -1 "$results/truth_sweeps.csv"; awk -F, -v sc="$sc" 'NR > 1 && $1 == sc' "$results/truth_sweeps.csv"; } \
+      > "$tmp/truth_$sc.csv"
+    # The row drawn with the true optical depths has no time of its own (repeats 0): not drawn.
+    panels+="set title \"$sc (grey: the Pareto front)\"
+plot \"$tmp/truth_front_$sc.csv\" using 1:2 with steps lw 3 lc rgb \"#bbbbbb\" title \"Pareto front\", \\
+     for [i = 1:words(sweeps)] \"$tmp/truth_$sc.csv\" using (strcol(\"sweep\") eq word(sweeps, i) && column(\"repeats\") > 0 ? column(\"image_rmse\") : NaN):(column(\"total_median\")) with points pt 7 ps 1.2 lc rgb word(colors, i) title word(sweeps, i), \\
+     \"$tmp/truth_$sc.csv\" using (column(\"repeats\") > 0 ? column(\"image_rmse\") : NaN):(column(\"total_median\")):(strcol(\"value\")) with labels offset 0.5,0.5 left font \"sans,7\" notitle
+"
+  done
+  gnuplot <<EOF
+$common
+set terminal pngcairo size 1800,640 font "sans,11" noenhanced
+set output "$out/truth_pareto.png"
+sweeps = "scene mode shape cutoff groups spp compositing threshold named"
+colors = "#000000 #e377c2 #1f77b4 #ff7f0e #2ca02c #17becf #d62728 #9467bd #8c564b"
+set multiplot layout 1,$(echo $scenes | wc -w) title "Run time against error against the ground truth (${size}x${size}; frame time: median of interleaved repeats)"
+set logscale xy
+set format x "%g"; set format y "%g"
+set xlabel "image RMSE against the truth (linear RGB)"
+set ylabel "frame time, median ms"
+set key top right maxrows 5 box opaque font "sans,9"
+$panels
+unset multiplot
+EOF
+  made+=(truth_pareto.png)
+fi
+
+if have images/truth_grid.txt "truth_grid.png"; then
+  g="$results/images/truth_grid.txt"
+  size=$(awk '$1 == "size" { print $2 }' "$g")
+  scenes=$(awk '$2 == "truth" { print $1 }' "$g" | tr '\n' ' ')
+  field() { awk -v s="$1" -v r="$2" -v f="$3" '$1 == s && $2 == r { print $f }' "$g"; }
+  n=$(echo $scenes | wc -w)
+  rows=""
+  for sc in $scenes; do
+    t=$(field "$sc" truth 3)
+    rows+="set title \"$sc: the truth ($(field "$sc" truth 4) s)\"
+plot \"$results/images/$t.png\" binary filetype=png with rgbimage
+set title \"the scene's settings\\nPSNR $(field "$sc" scene 4) dB, $(field "$sc" scene 5) ms\"
+plot \"$results/images/${t}_$(field "$sc" scene 3).png\" binary filetype=png with rgbimage
+set title \"the thesis's settings\\nPSNR $(field "$sc" thesis 4) dB, $(field "$sc" thesis 5) ms\"
+plot \"$results/images/${t}_$(field "$sc" thesis 3).png\" binary filetype=png with rgbimage
+set title \"error of the scene's settings\\n(per-pixel RMS, linear)\"
+plot \"$results/images/truth_heat_${sc}_$(field "$sc" scene 3).f32\" binary array=(${size},${size}) format=\"%float\" flipy with image
+"
+  done
+  gnuplot <<EOF
+set terminal pngcairo size 1600,$((400 * n + 40)) font "sans,11" noenhanced
+set output "$out/truth_grid.png"
+set multiplot layout $n,4 title "The ground truth, the scene's settings, the thesis's settings and the error of the scene's (${size}x${size})" font "sans,13"
+unset key; unset tics; unset border
+set size ratio -1
+set lmargin 1; set rmargin 1
+set palette defined (0 "black", 1 "#5c1a8a", 2 "#d6456c", 3 "#fca50a", 4 "#fcffa4")
+set cbtics font "sans,9"
+$rows
+unset multiplot
+EOF
+  made+=(truth_grid.png)
+fi
+
 echo "plot: wrote ${made[*]/#/$out/}"
 
 if [ "$assets" = 1 ]; then
   mkdir -p "$root/assets/plots"
-  for p in pareto.png grid.png stages.png resolver.png embree.png groups.png; do
+  for p in pareto.png grid.png stages.png resolver.png embree.png groups.png truth_pareto.png truth_grid.png; do
     [ -f "$out/$p" ] && cp "$out/$p" "$root/assets/plots/$p"
   done
   echo "plot: copied the README's plots to $root/assets/plots/"
