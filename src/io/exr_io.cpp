@@ -4,6 +4,8 @@
 #include <smoketrace/io/file_bytes.hpp>
 #include <smoketrace/io/output_path.hpp>
 
+#include "float_image_rules.hpp"
+
 #include <IexBaseExc.h>
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
@@ -26,23 +28,16 @@ namespace smoketrace {
 
 namespace fs = std::filesystem;
 
+using float_image::check_writable;
+using float_image::pixel_name;
+using float_image::read_error;
+using float_image::write_error;
+
 namespace {
 
 // The largest file read: the largest image as four uncompressed float channels, and room for the header
 // and the offset table. A compressed file of a permitted size is far smaller.
 constexpr std::uint64_t kMaxExrFileBytes = kMaxImagePixels * 16 + (std::uint64_t(1) << 24);
-
-[[noreturn]] void write_error(const fs::path& path, const std::string& problem) {
-    throw std::runtime_error("cannot write '" + path.string() + "': " + problem);
-}
-
-[[noreturn]] void read_error(const fs::path& path, const std::string& problem) {
-    throw std::runtime_error("cannot read '" + path.string() + "': " + problem);
-}
-
-std::string pixel_name(std::size_t x, std::size_t y) {
-    return "pixel (" + std::to_string(x) + ", " + std::to_string(y) + ")";
-}
 
 // An EXR file's bytes in memory, grown as OpenEXR writes them. OpenEXR seeks back to fill in the offset
 // table once the pixels are written, so a stream that cannot seek (a pipe, standard output) cannot take the
@@ -135,16 +130,7 @@ void check_exr_header(const fs::path& path, const std::vector<std::uint8_t>& byt
 }  // namespace
 
 void write_exr(const fs::path& path, const ImageRgba& image) {
-    if (image.width < 1 || image.height < 1 ||
-        image.pixels.size() != std::size_t(image.width) * std::size_t(image.height))
-        write_error(path, "image size " + std::to_string(image.width) + "x" + std::to_string(image.height) +
-                              " with " + std::to_string(image.pixels.size()) + " pixels is not an EXR image");
-    const std::size_t width = std::size_t(image.width);
-    for (std::size_t i = 0; i < image.pixels.size(); ++i) {
-        const glm::vec4 p = image.pixels[i];
-        if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-            write_error(path, pixel_name(i % width, i / width) + " is not finite");
-    }
+    check_writable(path, image, "an EXR");
     std::string bytes;
     try {
         Imf::Header header(image.width, image.height);
@@ -156,7 +142,7 @@ void write_exr(const fs::path& path, const ImageRgba& image) {
         for (int c = 0; c < 3; ++c) {
             header.channels().insert(names[c], Imf::Channel(Imf::FLOAT));
             frame.insert(names[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), sizeof(glm::vec4),
-                                              sizeof(glm::vec4) * width));
+                                              sizeof(glm::vec4) * std::size_t(image.width)));
         }
         MemoryOutput out(path.c_str(), bytes);
         // One thread: OpenEXR's compression threads would make no other bytes, but the library's threads are

@@ -4,6 +4,8 @@
 #include <smoketrace/io/file_bytes.hpp>
 #include <smoketrace/io/output_path.hpp>
 
+#include "float_image_rules.hpp"
+
 #include <bit>
 #include <charconv>
 #include <cmath>
@@ -18,24 +20,17 @@ namespace smoketrace {
 
 namespace fs = std::filesystem;
 
+using float_image::check_writable;
+using float_image::pixel_name;
+using float_image::read_error;
+using float_image::write_error;
+
 namespace {
 
 // The header is a few dozen bytes; its three fields must be found within this many.
 constexpr std::size_t kMaxHeaderBytes = 256;
 // The largest file: the largest image of three floats per pixel, and its header.
 constexpr std::uint64_t kMaxPfmFileBytes = kMaxImagePixels * 12 + kMaxHeaderBytes;
-
-[[noreturn]] void write_error(const fs::path& path, const std::string& problem) {
-    throw std::runtime_error("cannot write '" + path.string() + "': " + problem);
-}
-
-[[noreturn]] void read_error(const fs::path& path, const std::string& problem) {
-    throw std::runtime_error("cannot read '" + path.string() + "': " + problem);
-}
-
-std::string pixel_name(std::size_t x, std::size_t y) {
-    return "pixel (" + std::to_string(x) + ", " + std::to_string(y) + ")";
-}
 
 std::uint32_t byte_swapped(std::uint32_t bits) {
     return (bits >> 24) | ((bits >> 8) & 0xFF00u) | ((bits << 8) & 0xFF0000u) | (bits << 24);
@@ -99,16 +94,8 @@ private:
 }  // namespace
 
 void write_pfm(const fs::path& path, const ImageRgba& image) {
-    if (image.width < 1 || image.height < 1 ||
-        image.pixels.size() != std::size_t(image.width) * std::size_t(image.height))
-        write_error(path, "image size " + std::to_string(image.width) + "x" + std::to_string(image.height) +
-                              " with " + std::to_string(image.pixels.size()) + " pixels is not a PFM image");
+    check_writable(path, image, "a PFM");
     const std::size_t width = std::size_t(image.width);
-    for (std::size_t i = 0; i < image.pixels.size(); ++i) {
-        const glm::vec4 p = image.pixels[i];
-        if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-            write_error(path, pixel_name(i % width, i / width) + " is not finite");
-    }
     const std::string header = "PF\n" + std::to_string(image.width) + " " + std::to_string(image.height) + "\n-1\n";
     write_output(path, [&](std::ostream& out) {
         out.write(header.data(), std::streamsize(header.size()));
