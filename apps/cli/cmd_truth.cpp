@@ -29,6 +29,7 @@ int run_truth(const Args& args) {
     const auto frame = in.integer("--frame", 0, kMaxSceneFrames - 1);
     const auto tolerance = in.number("--tolerance", 1e-6, 1.0);
     const auto spp = in.integer("--spp", 1, kMaxSpp);
+    const auto light_spacing = in.number("--light-spacing", 0.25, 1024.0);
     const auto threads = in.integer("--threads", 1, 4096);
     const auto assets = in.string("--assets");
     // After every flag has taken its value, so that "-o OUT" is never mistaken for the scene file.
@@ -58,6 +59,7 @@ int run_truth(const Args& args) {
     TruthSettings settings;
     if (tolerance) settings.tolerance = float(*tolerance);
     if (spp) settings.spp = int(*spp);
+    if (light_spacing) settings.light_spacing_voxels = float(*light_spacing);
     ProgressBar progress(1, "frame");
     WorkProgress* const work = progress.work();
     if (work) work->begin("sampling the puffs", 0);
@@ -73,12 +75,14 @@ int run_truth(const Args& args) {
     report << "truth of frame " << f << " at " << options.width << "x" << options.height << ", " << settings.spp
            << " samples per pixel: " << r.seconds << " s (light volume " << r.light_seconds << " s)\n"
            << "error bound (per pixel and channel, linear): " << r.max_error_estimate << " (tolerance "
-           << settings.tolerance << "; view steps " << r.view_error_estimate << ", light volume "
-           << r.light_error_estimate << ")\n"
+           << settings.tolerance << "; view steps " << r.view_error_estimate << ", light "
+           << r.light_error_estimate << "; the light volume alone " << r.light_volume_error_estimate << ")\n"
            << "unconverged pixels: " << r.unconverged_pixels << "\n"
            << "view step levels: " << r.view_levels_used << ", light volume " << r.light_columns_u << "x"
-           << r.light_columns_v << "x" << r.light_nodes_w << " nodes at " << r.light_spacing << " ("
-           << r.light_levels_used << " halvings), " << r.camera_samples << " density samples\n";
+           << r.light_columns_v << "x" << r.light_nodes_w << " nodes at " << r.light_spacing << ", "
+           << r.camera_samples << " density samples\n"
+           << "exact light rays: " << r.exact_light_samples << " of " << r.light_samples << " lit samples, in "
+           << r.exact_light_pixels << " pixels\n";
     std::cerr << (output.kind == OutputKind::standard_output ? std::string("wrote the PNG to standard output")
                                                              : "wrote " + shown_text(out.string(), kMaxShownPathBytes))
               << "\n";
@@ -91,8 +95,10 @@ constexpr OptionHelp kOptions[] = {
      "RGB; -: a PNG on standard output"},
     kSizeHelp,
     {"--frame", "N", "0", "the frame of the scene's sequence (particles and light as render draws frame N)"},
-    {"--tolerance", "X", "1/512", "per pixel and channel, linear radiance: steps and the light volume are refined "
-                                  "until the pixel's error estimate is below X"},
+    {"--tolerance", "X", "1/512", "per pixel and channel, linear radiance: steps are halved and exact light rays "
+                                  "replace the light volume until the pixel's error estimate is below X"},
+    {"--light-spacing", "V", "2", "the light volume's node spacing in voxels of the smallest puff; exact light rays "
+                                  "make up for it where a pixel needs them, so it changes the time, not the bound"},
     {"--spp", "N", "16", "samples per pixel (the pixel_samples pattern render uses), averaged: an anti-aliased truth"},
     {"--threads", "T", "all cores", "worker threads; the image is the same for any T"},
     {"--assets", "DIR", "as render's", "folder of the six-way textures: the puff is read from sixway.json's \"bake\""},

@@ -41,11 +41,26 @@ struct Interval {
     std::uint32_t puff;
 };
 
+// A lit point of a camera ray whose τ_light came from the light volume: where it is, the weight its light
+// enters the pixel with (view transmittance · opacity · c_light per channel, or T_view · the ground's lit term),
+// τ from the grid, and its error estimate (the weight's largest channel times the light's change between the
+// grid and the subgrid, over 3).
+struct LitSample {
+    glm::dvec3 x;
+    glm::dvec3 weight;
+    double tau;
+    double estimate;
+    bool ground;  // the ground's light is e^{-τ}, the smoke's T_ms(τ)
+};
+
 // Per-thread scratch, reused across rays: no allocation per ray once warm.
 struct Scratch {
+    std::vector<LitSample> lit;                        // a pixel's lit samples at the current step level
+    std::vector<std::pair<double, std::uint32_t>> order;  // (estimate, index) of lit, largest first
     std::vector<std::uint32_t> ids;
     std::vector<Interval> intervals;
     std::vector<Interval> intervals_light;
+    std::vector<double> stretch_tau;  // exact_tau's integral of each of intervals_light at the current level
     std::vector<std::pair<double, double>> segments;  // the union of the intervals
 };
 
@@ -99,6 +114,19 @@ struct GroundTruth::Impl {
     double min_voxel = 1.0;  // the smallest puff's voxel, world units
     glm::vec3 ground_lit{0.0f};  // c_base · c_light · max(N·L, 0)
     glm::vec3 ground_ambient{0.0f};
+    // The light's half of a pixel's tolerance is split: kExactShare of the whole tolerance for the exact light
+    // rays' own error, the rest for the volume's samples left. exact_tau_error is the τ error allowed per exact
+    // ray: times the largest light a pixel can receive (its samples' weights sum to at most that: opacities and
+    // the final transmittance add up to 1 per camera ray) it stays within that share.
+    static constexpr double kExactShare = 1.0 / 16.0;
+    // A lit sample's volume error per unit of its light's change between the grid and the subgrid. Trilinear
+    // interpolation is second order where τ is smooth (the grid's error a third of the change), but τ has a
+    // square-root edge below a hard-edged density, where the subgrid's error is only √2 times the grid's;
+    // the change itself bounds the grid's error wherever the subgrid's is at least twice it (any first-order
+    // convergence), and is what each sample is charged.
+    static constexpr double kVolumeErrorPerChange = 1.0;
+    static constexpr double kReferenceTauError = 1e-7;  // pixel() and particle_optical_depths(): far below any pixel
+    double exact_tau_error = kReferenceTauError;
     mutable tbb::enumerable_thread_specific<Scratch> scratch;
 
     void init();
@@ -162,46 +190,52 @@ struct GroundTruth::Impl {
         }
         return sum * 0.5 * h;
     }
-    // Panels of at most half the puff's voxel: the interpolated density is cubic along a line within a voxel,
-    // where two-point Gauss–Legendre is exact; the error comes from the voxel faces only.
-    int panels(std::uint32_t puff, double length) const {
+    // Panels of at most `voxels` of the puff's voxel: the interpolated density is cubic along a line within a
+    // voxel, where two-point Gauss–Legendre is exact; the error comes from the voxel faces only.
+    int panels(std::uint32_t puff, double length, double voxels = 0.5) const {
         const double voxel = puffs[puff].radius * double(flipbook[std::size_t(puffs[puff].frame)].voxel());
-        return std::max(1, int(std::ceil(length / (0.5 * voxel))));
+        return std::max(1, int(std::ceil(length / (voxels * voxel))));
     }
 
-    // Exact τ from x to the light: a light ray through the TLAS, each puff's stretch integrated by Gauss–Legendre with
-    // its panels halved until τ changes by less than 1e-7 (far below what any pixel can show).
-    double exact_tau(const glm::dvec3& x, Scratch& sc) const {
+    // Exact τ from x to the light: a light ray through the TLAS, each puff's stretch integrated by Gauss–Legendre
+    // on panels of one voxel, all panels halved together until the stretches' changes add up to less than
+    // `max_error` (the change bounds the finer sum's error as long as a halving at least halves it: order 2 at
+    // the voxel faces, 4 inside them).
+    double exact_tau(const glm::dvec3& x, Scratch& sc, double max_error) const {
         const Ray ray{glm::vec3(x), 0.0f, glm::vec3(to_light), std::numeric_limits<float>::infinity()};
         puffs_on(ray, std::numeric_limits<double>::infinity(), sc, sc.intervals_light);
-        double tau = 0.0;
         const glm::dvec3 o{glm::vec3(x)};
-        for (const Interval& iv : sc.intervals_light) {
-            int n = panels(iv.puff, iv.t_out - iv.t_in);
-            double prev = integrate(iv.puff, o, to_light, iv.t_in, iv.t_out, n);
-            for (int level = 0; level < 6; ++level) {
-                n *= 2;
-                const double next = integrate(iv.puff, o, to_light, iv.t_in, iv.t_out, n);
-                const bool done = std::abs(next - prev) < 1e-7;
-                prev = next;
-                if (done) break;
+        const std::vector<Interval>& ivs = sc.intervals_light;
+        sc.stretch_tau.resize(ivs.size());
+        for (std::size_t i = 0; i < ivs.size(); ++i)
+            sc.stretch_tau[i] = integrate(ivs[i].puff, o, to_light, ivs[i].t_in, ivs[i].t_out, panels(ivs[i].puff, ivs[i].t_out - ivs[i].t_in, 1.0));
+        for (int level = 1; level <= 7; ++level) {
+            double change = 0.0;
+            for (std::size_t i = 0; i < ivs.size(); ++i) {
+                const int n = panels(ivs[i].puff, ivs[i].t_out - ivs[i].t_in, 1.0) << level;
+                const double next = integrate(ivs[i].puff, o, to_light, ivs[i].t_in, ivs[i].t_out, n);
+                change += std::abs(next - sc.stretch_tau[i]);
+                sc.stretch_tau[i] = next;
             }
-            tau += prev;
+            if (double(sigma_t) * change < max_error) break;
         }
+        double tau = 0.0;
+        for (const double t : sc.stretch_tau) tau += t;
         return double(sigma_t) * tau;
     }
 
-    void build_light_volume(LightVolume& lv, double spacing, WorkProgress* progress) const;
+    // The light volume's frame and node grid at `spacing` (nothing allocated yet), and the volume filled on it.
+    void layout_light_volume(LightVolume& lv, double spacing) const;
+    void build_light_volume(LightVolume& lv, WorkProgress* progress) const;
 
-    // One camera sample's radiance with midpoint steps of `step`; τ_light from the volume (stride 1 and, when
-    // `coarse` is given, stride 2 too) or, with `exact`, from exact light rays.
+    // One camera sample's radiance with midpoint steps of `step`; τ_light from the volume, each lit point
+    // appended to sc.lit with its estimate, or (no volume) from exact light rays to the reference precision.
     struct Sample {
-        glm::dvec3 color{0.0}, coarse{0.0};
+        glm::dvec3 color{0.0};
         std::uint64_t steps = 0;
     };
     Sample march(const Ray& ray, const std::vector<Interval>& intervals, const std::vector<std::pair<double, double>>& segments,
-                 const glm::dvec3& ground_point, bool ground, double step, const LightVolume* lv, bool coarse,
-                 Scratch* exact) const;
+                 const glm::dvec3& ground_point, bool ground, double step, const LightVolume* lv, Scratch& sc) const;
 
     // A camera ray's ground hit (closest hit on the ground mask), and the puffs in front of it with the union of
     // their stretches, in sc.intervals and sc.segments.
@@ -226,14 +260,19 @@ struct GroundTruth::Impl {
     struct PixelResult {
         glm::vec3 color{0.0f};
         float view_error = 0, light_error = 0;
+        float volume_error = 0;  // the light error estimate had every lit sample kept the volume's τ
         int level = 0;
         bool limit = false;
         std::uint64_t steps = 0;
+        std::uint64_t lit = 0, exact = 0;  // lit samples at the last level, and those given exact light rays
     };
     PixelResult shade_pixel(int x, int y, const LightVolume* lv, int max_levels, Scratch& sc) const;
+    // The exact light rays that bring the pixel's light error within its share (see the definition); returns
+    // what they change the pixel by and sets r.light_error, r.lit and r.exact.
+    glm::dvec3 light_correction(Scratch& sc, int spp, double half_tol, PixelResult& r) const;
 };
 
-void GroundTruth::Impl::build_light_volume(LightVolume& lv, double spacing, WorkProgress* progress) const {
+void GroundTruth::Impl::layout_light_volume(LightVolume& lv, double spacing) const {
     lv.w = to_light;
     const glm::dvec3 helper = std::abs(lv.w.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
     lv.u = glm::normalize(glm::cross(lv.w, helper));
@@ -253,6 +292,10 @@ void GroundTruth::Impl::build_light_volume(LightVolume& lv, double spacing, Work
     lv.nu = nodes(hi.x - lo.x);
     lv.nv = nodes(hi.y - lo.y);
     lv.nw = nodes(hi.z - lo.z);
+}
+
+void GroundTruth::Impl::build_light_volume(LightVolume& lv, WorkProgress* progress) const {
+    const double spacing = lv.spacing;
     lv.tau.assign(std::size_t(lv.nu) * std::size_t(lv.nv) * std::size_t(lv.nw), 0.0f);
     if (progress) progress->begin("light volume", std::uint64_t(lv.nv));
 
@@ -293,9 +336,10 @@ void GroundTruth::Impl::build_light_volume(LightVolume& lv, double spacing, Work
 GroundTruth::Impl::Sample GroundTruth::Impl::march(const Ray& ray, const std::vector<Interval>& intervals,
                                                    const std::vector<std::pair<double, double>>& segments,
                                                    const glm::dvec3& ground_point, bool ground, double step,
-                                                   const LightVolume* lv, bool coarse, Scratch* exact) const {
+                                                   const LightVolume* lv, Scratch& sc) const {
     const OctaveTransmittance light_t(scattering);
     const glm::dvec3 c_light(view.light_color), c_amb(view.ambient);
+    const double c_light_max = std::max({c_light.x, c_light.y, c_light.z});
     const glm::dvec3 o(ray.origin), d(ray.direction);
     Sample s;
     double transmittance = 1.0;
@@ -312,21 +356,33 @@ GroundTruth::Impl::Sample GroundTruth::Impl::march(const Ray& ray, const std::ve
             // The baker's voxel rule, per step: the share of the view ray the step stops, 1 − e^{−σΔ}, scatters
             // the light that reaches it (T_ms of its τ toward the light) plus the ambient term.
             const double opacity = transmittance * -std::expm1(-double(sigma) * dt);
-            const double tau = exact ? exact_tau(xd, *exact) : double(lv->lookup(xd, 1));
+            double tau;
+            if (lv) {
+                tau = double(lv->lookup(xd, 1));
+                const double change = std::abs(double(light_t(float(tau))) - double(light_t(lv->lookup(xd, 2))));
+                sc.lit.push_back({xd, opacity * c_light, tau, opacity * c_light_max * change * kVolumeErrorPerChange, false});
+            } else {
+                tau = exact_tau(xd, sc, kReferenceTauError);
+            }
             s.color += opacity * (c_light * double(light_t(float(tau))) + c_amb);
-            if (coarse) s.coarse += opacity * (c_light * double(light_t(lv->lookup(xd, 2))) + c_amb);
             transmittance *= std::exp(-double(sigma) * dt);
         }
     }
-    glm::dvec3 back(view.background), back_coarse(view.background);
+    glm::dvec3 back(view.background);
     if (ground) {
-        const double tau = exact ? exact_tau(ground_point, *exact) : double(lv->lookup(ground_point, 1));
+        double tau;
+        const glm::dvec3 lit = transmittance * glm::dvec3(ground_lit);
+        if (lv) {
+            tau = double(lv->lookup(ground_point, 1));
+            const double change = std::abs(std::exp(-tau) - std::exp(-double(lv->lookup(ground_point, 2))));
+            sc.lit.push_back({ground_point, lit, tau, std::max({lit.x, lit.y, lit.z}) * change * kVolumeErrorPerChange, true});
+        } else {
+            tau = exact_tau(ground_point, sc, kReferenceTauError);
+        }
         // Eqs. 4.3/4.4 with the field's transmittance as the shadow: c_base·(c_light·max(N·L, 0)·e^{−τ} + c_amb).
         back = glm::dvec3(ground_lit) * std::exp(-tau) + glm::dvec3(ground_ambient);
-        if (coarse) back_coarse = glm::dvec3(ground_lit) * std::exp(-double(lv->lookup(ground_point, 2))) + glm::dvec3(ground_ambient);
     }
     s.color += transmittance * back;
-    if (coarse) s.coarse += transmittance * back_coarse;
     return s;
 }
 
@@ -337,25 +393,24 @@ GroundTruth::Impl::PixelResult GroundTruth::Impl::shade_pixel(int x, int y, cons
     const double h0 = double(settings.step_voxels) * min_voxel;
     const double half_tol = 0.5 * double(settings.tolerance);
     PixelResult r;
-    glm::dvec3 previous(0.0), coarse(0.0);
+    glm::dvec3 previous(0.0);
     // Each level finds a sample's puffs again rather than keeping spp lists: one TLAS walk, far less than
     // the sample's march.
     for (int level = 0; level <= max_levels; ++level) {
         const double step = h0 / double(1 << level);
-        glm::dvec3 sum(0.0), sum_coarse(0.0);
+        glm::dvec3 sum(0.0);
+        sc.lit.clear();  // the last level's lit samples are the ones the light correction below works on
         for (int i = 0; i < samples.count(); ++i) {
             const glm::vec2 off = samples[i];
             const Ray ray = camera.ray_through(float(x) + off.x, float(y) + off.y, kViewRayTmin);
             bool ground;
             glm::dvec3 gp;
             prepare_ray(ray, sc, ground, gp);
-            const Sample s = march(ray, sc.intervals, sc.segments, gp, ground, step, lv, lv != nullptr, lv ? nullptr : &sc);
+            const Sample s = march(ray, sc.intervals, sc.segments, gp, ground, step, lv, sc);
             sum += s.color;
-            sum_coarse += s.coarse;
             r.steps += s.steps;
         }
         const glm::dvec3 pixel = sum / double(samples.count());
-        coarse = sum_coarse / double(samples.count());
         if (level > 0) {
             const glm::dvec3 change = glm::abs(pixel - previous);
             r.view_error = float(std::max({change.x, change.y, change.z}));
@@ -367,14 +422,48 @@ GroundTruth::Impl::PixelResult GroundTruth::Impl::shade_pixel(int x, int y, cons
             previous = pixel;
         }
     }
+    if (lv) previous += light_correction(sc, samples.count(), half_tol, r);
     r.color = glm::vec3(previous);
-    if (lv) {
-        // Trilinear interpolation is second order: the subgrid's error is about 4 times the grid's, so the grid's
-        // is about a third of their difference.
-        const glm::dvec3 diff = glm::abs(previous - coarse) / 3.0;
-        r.light_error = float(std::max({diff.x, diff.y, diff.z}));
-    }
     return r;
+}
+
+glm::dvec3 GroundTruth::Impl::light_correction(Scratch& sc, int spp, double half_tol, PixelResult& r) const {
+    // The pixel's light error is at most the sum of its samples' errors (each enters the pixel mean with
+    // weight 1/spp): a conservative bound from the per-sample estimates. While it is above the volume's share
+    // of the half tolerance, the sample with the largest estimate takes an exact light ray instead.
+    const double inv_n = 1.0 / double(spp);
+    const double share = half_tol - kExactShare * 2.0 * half_tol;
+    double remaining = 0.0;
+    for (const LitSample& l : sc.lit) remaining += l.estimate;
+    remaining *= inv_n;
+    r.volume_error = float(remaining);
+    r.lit = sc.lit.size();
+    glm::dvec3 correction(0.0);
+    double exact_bound = 0.0;
+    if (remaining > share) {
+        sc.order.clear();
+        for (std::size_t i = 0; i < sc.lit.size(); ++i) sc.order.emplace_back(sc.lit[i].estimate, std::uint32_t(i));
+        // Largest first, ties by index: the same samples whatever the thread.
+        std::sort(sc.order.begin(), sc.order.end(), [](const auto& a, const auto& b) {
+            return a.first > b.first || (a.first == b.first && a.second < b.second);
+        });
+        const OctaveTransmittance light_t(scattering);
+        auto light = [&](const LitSample& l, double tau) {
+            return l.ground ? std::exp(-tau) : double(light_t(float(tau)));
+        };
+        for (const auto& [estimate, i] : sc.order) {
+            if (remaining <= share) break;
+            const LitSample& l = sc.lit[i];
+            const double tau = exact_tau(l.x, sc, exact_tau_error);
+            correction += l.weight * (light(l, tau) - light(l, l.tau));
+            remaining -= estimate * inv_n;
+            // T_ms and e^{-τ} fall with slope at most 1: an error δ in τ moves the sample by at most δ·weight.
+            exact_bound += std::max({l.weight.x, l.weight.y, l.weight.z}) * exact_tau_error * inv_n;
+            ++r.exact;
+        }
+    }
+    r.light_error = float(std::max(remaining, 0.0) + exact_bound);
+    return correction * inv_n;
 }
 
 void GroundTruth::Impl::init() {
@@ -425,6 +514,9 @@ void GroundTruth::Impl::init() {
     const float n_dot_l = smoke.has_ground() ? std::max(glm::dot(glm::normalize(smoke.ground_normal()), view.to_light), 0.0f) : 0.0f;
     ground_lit = view.ground_color * view.light_color * n_dot_l;
     ground_ambient = view.ground_color * view.ambient;
+    const glm::vec3 brightest = glm::max(view.light_color, ground_lit);
+    const double c_max = double(std::max({brightest.x, brightest.y, brightest.z}));
+    if (c_max > 0.0) exact_tau_error = kExactShare * double(settings.tolerance) / c_max;
 }
 
 namespace {
@@ -473,38 +565,18 @@ TruthReport GroundTruth::render(ImageRgba& image, WorkProgress* progress) const 
     TruthReport report;
     image = ImageRgba(m.width, m.height, glm::vec4(0.0f, 0.0f, 0.0f, 1.0f));
 
-    // The light volume's spacing: start at light_spacing_voxels voxels and halve while a 1-sample probe of the
-    // pixel centres (first step level) shows an interpolation estimate above half the tolerance, within the
-    // memory cap and max_light_levels.
+    // The light volume at light_spacing_voxels, coarser if it would exceed the memory cap: the exact light
+    // rays make up for its interpolation wherever a pixel needs them.
     LightVolume lv;
     double spacing = double(m.settings.light_spacing_voxels) * m.min_voxel;
-    int light_level = 0;
     const double half_tol = 0.5 * double(m.settings.tolerance);
     for (;;) {
-        m.build_light_volume(lv, spacing, progress);
-        if (light_level >= m.settings.max_light_levels) break;
-        const std::size_t next_bytes = std::size_t(2 * lv.nu - 1) * std::size_t(2 * lv.nv - 1) * std::size_t(2 * lv.nw - 1) * sizeof(float);
-        if (next_bytes > m.settings.light_volume_max_bytes) break;
-        std::vector<float> worst(std::size_t(m.height), 0.0f);
-        tbb::parallel_for(tbb::blocked_range<int>(0, m.height, 4), [&](const tbb::blocked_range<int>& rows) {
-            Scratch& sc = m.scratch.local();
-            for (int y = rows.begin(); y != rows.end(); ++y)
-                for (int x = 0; x < m.width; x += 4) {  // every fourth pixel of every row: a probe, not the answer
-                    const Ray ray = m.renderer->camera().ray(x, y, kViewRayTmin);
-                    bool ground;
-                    glm::dvec3 gp;
-                    m.prepare_ray(ray, sc, ground, gp);
-                    const Impl::Sample s = m.march(ray, sc.intervals, sc.segments, gp, ground,
-                                                   double(m.settings.step_voxels) * m.min_voxel, &lv, true, nullptr);
-                    const glm::dvec3 e = glm::abs(s.color - s.coarse) / 3.0;
-                    worst[std::size_t(y)] = std::max(worst[std::size_t(y)], float(std::max({e.x, e.y, e.z})));
-                }
-        });
-        if (double(*std::max_element(worst.begin(), worst.end())) <= half_tol) break;
-        spacing *= 0.5;
-        ++light_level;
+        m.layout_light_volume(lv, spacing);
+        const std::size_t bytes = std::size_t(lv.nu) * std::size_t(lv.nv) * std::size_t(lv.nw) * sizeof(float);
+        if (bytes <= m.settings.light_volume_max_bytes) break;
+        spacing *= 2.0;
     }
-    report.light_levels_used = light_level;
+    m.build_light_volume(lv, progress);
     report.light_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     report.light_columns_u = lv.nu;
     report.light_columns_v = lv.nv;
@@ -512,9 +584,9 @@ TruthReport GroundTruth::render(ImageRgba& image, WorkProgress* progress) const 
     report.light_spacing = float(lv.spacing);
 
     struct Row {
-        float view = 0, light = 0, total = 0;
+        float view = 0, light = 0, total = 0, volume = 0;
         int level = 0;
-        std::uint64_t limit = 0, steps = 0;
+        std::uint64_t limit = 0, steps = 0, lit = 0, exact = 0, exact_pixels = 0;
     };
     std::vector<Row> rows(std::size_t(m.height));
     report.pixel_error_estimate.assign(std::size_t(m.width) * std::size_t(m.height), 0.0f);
@@ -529,6 +601,7 @@ TruthReport GroundTruth::render(ImageRgba& image, WorkProgress* progress) const 
                 image.at(x, y) = glm::vec4(p.color, 1.0f);
                 row.view = std::max(row.view, p.view_error);
                 row.light = std::max(row.light, p.light_error);
+                row.volume = std::max(row.volume, p.volume_error);
                 row.total = std::max(row.total, p.view_error + p.light_error);
                 row.level = std::max(row.level, p.level);
                 const bool unconverged = p.limit || double(p.light_error) > half_tol;
@@ -537,6 +610,9 @@ TruthReport GroundTruth::render(ImageRgba& image, WorkProgress* progress) const 
                 report.pixel_error_estimate[at] = p.view_error + p.light_error;
                 report.pixel_unconverged[at] = unconverged ? 1 : 0;
                 row.steps += p.steps;
+                row.lit += p.lit;
+                row.exact += p.exact;
+                row.exact_pixels += p.exact > 0 ? 1 : 0;
             }
             if (progress) progress->add(1);
         }
@@ -544,10 +620,14 @@ TruthReport GroundTruth::render(ImageRgba& image, WorkProgress* progress) const 
     for (const Row& r : rows) {
         report.view_error_estimate = std::max(report.view_error_estimate, r.view);
         report.light_error_estimate = std::max(report.light_error_estimate, r.light);
+        report.light_volume_error_estimate = std::max(report.light_volume_error_estimate, r.volume);
         report.max_error_estimate = std::max(report.max_error_estimate, r.total);
         report.view_levels_used = std::max(report.view_levels_used, r.level);
         report.unconverged_pixels += r.limit;
         report.camera_samples += r.steps;
+        report.light_samples += r.lit;
+        report.exact_light_samples += r.exact;
+        report.exact_light_pixels += r.exact_pixels;
     }
     report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return report;
@@ -565,7 +645,7 @@ std::vector<double> GroundTruth::particle_optical_depths() const {
     std::vector<double> tau(m.puffs.size());
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tau.size(), 16), [&](const tbb::blocked_range<std::size_t>& r) {
         Scratch& sc = m.scratch.local();
-        for (std::size_t i = r.begin(); i != r.end(); ++i) tau[i] = m.exact_tau(m.puffs[i].centre, sc);
+        for (std::size_t i = r.begin(); i != r.end(); ++i) tau[i] = m.exact_tau(m.puffs[i].centre, sc, Impl::kReferenceTauError);
     });
     return tau;
 }

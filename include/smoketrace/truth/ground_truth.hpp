@@ -11,7 +11,9 @@
 //     L = ∫ T_view(s) σ(s) [c_light T_ms(τ_light(s)) + c_amb] ds + T_view(end) · B.
 // Puffs are found with the project's TLAS (their sphere stand-ins bound them). τ_light comes from a light
 // optical-depth volume (a deep shadow map along the one light direction) whose interpolation error is
-// estimated against its every-other-node subgrid; camera rays halve their step until the pixel settles.
+// estimated per sample against its every-other-node subgrid; where a pixel's estimates add up to more than
+// its share of the tolerance, its largest ones are replaced by exact light rays. Camera rays halve their
+// step until the pixel settles.
 #include <smoketrace/core/image.hpp>
 #include <smoketrace/core/work_progress.hpp>
 #include <smoketrace/render/scene_description.hpp>
@@ -40,30 +42,33 @@ struct TruthSettings {
     int max_view_levels = 7;
     // The camera rays' first step, in voxels of the smallest puff (the density's own scale).
     float step_voxels = 2.0f;
-    // The light volume's first spacing, in voxels of the smallest puff, and how many times it may halve.
-    float light_spacing_voxels = 4.0f;
-    int max_light_levels = 3;
-    // The most memory the light volume may take (floats of τ): 1 GiB holds a shipped scene's volume at 2
-    // voxels (740 MB), not its next halving (5.9 GB); the refinement stops there, the pixels whose estimate is
-    // still above the tolerance are counted unconverged and the report states the bound reached.
+    // The light volume's node spacing, in voxels of the smallest puff. Exact light rays mop up where its
+    // interpolation is not good enough, so this trades the volume's build against the rays taken; 2 voxels
+    // was the fastest at 256² on the shipped scenes (docs/ground-truth.md).
+    float light_spacing_voxels = 2.0f;
+    // The most memory the light volume may take (floats of τ); above it the spacing is doubled until it fits,
+    // and more samples take exact light rays.
     std::size_t light_volume_max_bytes = std::size_t(1) << 30;
 };
 
 struct TruthReport {
     double seconds = 0;                    // wall time of render()
-    double light_seconds = 0;              // of which building (and refining) the light volume
-    float max_error_estimate = 0;          // the largest per-pixel error estimate (view steps + light volume)
-    std::uint64_t unconverged_pixels = 0;  // pixels that hit a refinement limit
+    double light_seconds = 0;              // of which building the light volume
+    float max_error_estimate = 0;          // the largest per-pixel error estimate (view steps + light)
+    std::uint64_t unconverged_pixels = 0;  // pixels that hit the step-level limit above their share
     float view_error_estimate = 0;         // the largest step-halving change of a pixel at its last level
-    float light_error_estimate = 0;        // the largest light-volume interpolation estimate of a pixel
+    float light_error_estimate = 0;        // the largest light estimate of a pixel (volume + exact rays)
+    float light_volume_error_estimate = 0; // the largest a pixel's light estimate would be with the volume alone
     int view_levels_used = 0;              // the deepest step level any pixel needed (0 = the first step)
-    int light_levels_used = 0;             // light-volume halvings done
     int light_columns_u = 0, light_columns_v = 0, light_nodes_w = 0;  // the light volume's grid
     float light_spacing = 0;               // its node spacing, world units
     std::uint64_t camera_samples = 0;      // density samples taken along camera rays, all levels
-    // Per pixel (width*height, row 0 at the top): its error estimate (view steps + light volume), and whether
-    // it hit a refinement limit (a step level or the light volume's spacing) with the estimate above its share
-    // of the tolerance. An error map for the error study, and what tests hold the bound to.
+    std::uint64_t light_samples = 0;       // of those (and ground points) lit, at each pixel's last level
+    std::uint64_t exact_light_samples = 0; // of those, shaded with an exact light ray instead of the volume
+    std::uint64_t exact_light_pixels = 0;  // pixels with at least one exact light ray
+    // Per pixel (width*height, row 0 at the top): its error estimate (view steps + light), and whether it hit
+    // the step-level limit with the estimate above its share of the tolerance. An error map for the error
+    // study, and what tests hold the bound to.
     std::vector<float> pixel_error_estimate;
     std::vector<std::uint8_t> pixel_unconverged;
 };
