@@ -3,7 +3,7 @@
 #  1. AddressSanitizer + UndefinedBehaviorSanitizer over the WHOLE test suite (unit tests, CLI tests, Embree
 #     comparisons) in build-asan/;
 #  2. ThreadSanitizer over the tests of the parallel passes (optical-depth pass, resolver, view compositor,
-#     BVH and TLAS builds, six-way bake, the stress suite) in build-tsan/.
+#     BVH and TLAS builds, six-way bake, the ground truth, the stress suite) in build-tsan/.
 # Both trees: no -march=native, no benchmark, -O1 -g1 with assertions on (-g1: the line tables a report's stack
 # trace needs; full -g's variable tracking made one test file's compile 11x slower, 26 min against 2.4). They
 # also cover the SIMD paths the native build (AVX-512 here) does not take (docs/simd.md): the ASan tree is built
@@ -37,8 +37,9 @@ if [ "$which" = all ] || [ "$which" = tsan ]; then
   cmake --build "$root/build-tsan" --parallel "$jobs" --target smoketrace_tests
   # Test names (ctest -R): optical-depth pass, hit resolver, view compositor and frame loop, BVH/TLAS builds
   # and refits, the six-way bake's thread-count test, and the stress suite (which renders with 1 and 2 threads);
-  # and the scalar kernels: the lanes, ray bundles, box tests, the triangle block and the sorts.
-  parallel='^(optical depth: |resolve_optical_path_lengths|the three HitSort|occluded and cutoff|view: |BVH builder: |BVH refit|Grouped build|scene: |sixway bake: same settings|stability: |trace_bundle: |trace_tile: |ray tile: |bundle_order: |radix, rank and insertion|sort_by_float_key|simd lanes: |stable_ranks: |BVH traversal: the paired|Wide BVH traversal: |Watertight triangle: the 8-wide)'
+  # the ground truth's thread-count test; and the scalar kernels: the lanes, ray bundles, box tests, the triangle
+  # block and the sorts.
+  parallel='^(optical depth: |resolve_optical_path_lengths|the three HitSort|occluded and cutoff|view: |BVH builder: |BVH refit|Grouped build|scene: |sixway bake: same settings|stability: |trace_bundle: |trace_tile: |ray tile: |bundle_order: |radix, rank and insertion|sort_by_float_key|simd lanes: |stable_ranks: |BVH traversal: the paired|Wide BVH traversal: |Watertight triangle: the 8-wide|truth: the same bytes)'
   # No suppressions: Debian's oneTBB is not built with TSan, so tests/support/tsan_tbb.cpp (linked into this
   # build only) tells TSan about the scheduler's hand-overs instead; every report is a finding.
   (cd "$root/build-tsan" &&
