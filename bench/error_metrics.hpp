@@ -93,23 +93,34 @@ struct ImageError {
     double max_abs = 0;
 };
 
-inline ImageError image_error(const ImageRgba& image, const ImageRgba& ref) {
+// RMSE, PSNR (peak 1) and the largest channel difference on linear RGB (alpha ignored) over the pixels i for
+// which keep(i) holds; `counted` (if given) receives how many. No pixel kept: rmse 0, PSNR +inf.
+template <class Keep>
+ImageError image_error_where(const ImageRgba& image, const ImageRgba& ref, Keep&& keep, std::size_t* counted = nullptr) {
     if (image.width != ref.width || image.height != ref.height)
         throw std::invalid_argument("image_error: sizes differ");
     double sum = 0, max_abs = 0;
-    for (std::size_t i = 0; i < image.pixels.size(); ++i)
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < image.pixels.size(); ++i) {
+        if (!keep(i)) continue;
+        ++kept;
         for (int c = 0; c < 3; ++c) {
             const double d = double(image.pixels[i][c]) - double(ref.pixels[i][c]);
             sum += d * d;
             max_abs = std::max(max_abs, std::abs(d));
         }
+    }
     ImageError e;
-    const double n = 3.0 * double(image.pixels.size());
-    const double mse = n > 0 ? sum / n : 0.0;
+    const double mse = kept ? sum / (3.0 * double(kept)) : 0.0;
     e.rmse = std::sqrt(mse);
     e.psnr_db = mse > 0 ? 10.0 * std::log10(1.0 / mse) : std::numeric_limits<double>::infinity();
     e.max_abs = max_abs;
+    if (counted) *counted = kept;
     return e;
+}
+
+inline ImageError image_error(const ImageRgba& image, const ImageRgba& ref) {
+    return image_error_where(image, ref, [](std::size_t) { return true; });
 }
 
 // Per-pixel error for a heat map: the RMS over the three channels of the linear difference, row-major,

@@ -34,24 +34,9 @@ struct MaskedImageError {
 
 inline MaskedImageError masked_image_error(const ImageRgba& image, const ImageRgba& ref,
                                            std::span<const std::uint8_t> mask) {
-    if (image.width != ref.width || image.height != ref.height)
-        throw std::invalid_argument("masked_image_error: sizes differ");
     if (mask.size() != image.pixels.size()) throw std::invalid_argument("masked_image_error: mask size differs");
-    double sum = 0, max_abs = 0;
     MaskedImageError e;
-    for (std::size_t i = 0; i < mask.size(); ++i) {
-        if (!mask[i]) continue;
-        ++e.pixels;
-        for (int c = 0; c < 3; ++c) {
-            const double d = double(image.pixels[i][c]) - double(ref.pixels[i][c]);
-            sum += d * d;
-            max_abs = std::max(max_abs, std::abs(d));
-        }
-    }
-    const double mse = e.pixels ? sum / (3.0 * double(e.pixels)) : 0.0;
-    e.error.rmse = std::sqrt(mse);
-    e.error.psnr_db = mse > 0 ? 10.0 * std::log10(1.0 / mse) : std::numeric_limits<double>::infinity();
-    e.error.max_abs = max_abs;
+    e.error = image_error_where(image, ref, [&](std::size_t i) { return mask[i] != 0; }, &e.pixels);
     return e;
 }
 
