@@ -354,7 +354,7 @@ GroundTruth::Impl::Sample GroundTruth::Impl::march(const Ray& ray, const std::ve
             ++s.steps;
             if (sigma == 0.0f) continue;
             // The baker's voxel rule, per step: the share of the view ray the step stops, 1 − e^{−σΔ}, scatters
-            // the light that reaches it (T_ms of its τ toward the light) plus the ambient term.
+            // the light that reaches it (T_ms of its τ toward the light) plus the ambient term; Beer–Lambert (eq. 2.10).
             const double opacity = transmittance * -std::expm1(-double(sigma) * dt);
             double tau;
             if (lv) {
