@@ -478,6 +478,14 @@ TEST_CASE("cli: truth writes the image and its bound, depths --truth adds the tr
     CHECK(fs::file_size(image) > 0);
     CHECK_THAT(r.out, Catch::Contains("unconverged pixels: "));
     CHECK_THAT(r.out, Catch::Contains("error bound"));
+    const CliRun checked = run_cli_stdout("truth " + scene.string() + " -o " + image.string() +
+                                          " --size 8x8 --spp 1 --check 4 --assets " + textures.string());
+    INFO(checked.out << checked.err);
+    CHECK(checked.exit_code == 0);
+    CHECK_THAT(checked.out, Catch::Contains("checked 4 pixels (every 4th)") && Catch::Contains("0 above the tolerance"));
+    const CliRun both = run_cli("truth " + scene.string() + " -o " + image.string() + " --check 4 --rung six-axis");
+    CHECK(both.exit_code == 2);
+    CHECK_THAT(both.err, Catch::Contains("--check"));
 
     const fs::path csv = dir.path / "d.csv";
     const CliRun d = run_cli("depths " + scene.string() + " -o " + csv.string() + " --truth --assets " + textures.string());

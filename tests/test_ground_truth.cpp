@@ -192,6 +192,31 @@ TEST_CASE("truth: a light volume too coarse alone is mended by exact light rays,
         }
 }
 
+TEST_CASE("truth: check() holds render() to pixel() on a sample of pixels, and finds a wrong image", "[truth]") {
+    const int w = 12, h = 12;
+    SceneDescription s = ball_scene(1.5f, glm::vec3(1.0f), glm::vec3(0.05f));
+    std::vector<PuffVolume> book{PuffVolume::uniform_ball(1.0f)};
+    TruthSettings settings = one_sample();
+    settings.light_spacing_voxels = 4.0f;  // the coarse volume of the test above: exact light rays mend it
+    const GroundTruth truth(s, single_scattering(), book, 0, w, h, settings);
+    ImageRgba image;
+    const TruthReport report = truth.render(image);
+    const TruthCheck c = truth.check(image, report, 3);
+    CHECK(c.pixels == 16);  // the centres of the 3x3 blocks: x, y in {1, 4, 7, 10}
+    CHECK(c.above_tolerance == 0);
+    CHECK(c.above_estimate == 0);
+    CHECK(double(c.largest_difference) <= double(settings.tolerance));
+    // One checked pixel made wrong by twice the tolerance: found, where it is.
+    ImageRgba wrong = image;
+    wrong.at(4, 7).y += 2.0f * settings.tolerance;
+    const TruthCheck bad = truth.check(wrong, report, 3);
+    CHECK(bad.above_tolerance == 1);
+    CHECK(bad.above_estimate == 1);
+    CHECK(bad.x == 4);
+    CHECK(bad.y == 7);
+    CHECK_THROWS_AS(truth.check(image, report, 0), std::invalid_argument);
+}
+
 TEST_CASE("truth: the error falls with the tolerance and stays below it", "[truth]") {
     const int w = 6, h = 6;
     SceneDescription s = ball_scene(2.0f, glm::vec3(1.0f), glm::vec3(0.0f));

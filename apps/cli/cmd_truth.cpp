@@ -45,6 +45,7 @@ int run_truth(const Args& args) {
     const auto threads = in.integer("--threads", 1, 4096);
     const auto assets = in.string("--assets");
     const auto rung_name = in.string("--rung");
+    const auto check_stride = in.integer("--check", 1, kMaxImageSide);
     // After every flag has taken its value, so that "-o OUT" is never mistaken for the scene file.
     const std::string scene_path = in.positional("scene file (smoketrace truth SCENE.json -o OUT.png)");
     in.finish();
@@ -66,6 +67,7 @@ int run_truth(const Args& args) {
             for (int k = 0; k < kTruthRungs; ++k) names += std::string(k ? ", " : "") + to_string(TruthRung(k));
             throw CliError("--rung: unknown rung '" + shown_text(*rung_name) + "' (use " + names + ")");
         }
+        if (check_stride) throw CliError("--check checks the truth's bound, and a rung has none: give one of the two");
     }
 
     const ThreadLimit limit(threads ? int(*threads) : 0);
@@ -101,6 +103,8 @@ int run_truth(const Args& args) {
                << r.unconverged_pixels << ", " << r.camera_samples << " density samples\n";
     } else {
         const TruthReport r = truth.render(image, work);
+        const std::optional<TruthCheck> c =
+            check_stride ? std::optional<TruthCheck>(truth.check(image, r, int(*check_stride), work)) : std::nullopt;
         write_truth_image(out, image, kind, work, progress);
         report << "truth of frame " << f << " at " << options.width << "x" << options.height << ", " << settings.spp
                << " samples per pixel: " << r.seconds << " s (light volume " << r.light_seconds << " s)\n"
@@ -113,6 +117,11 @@ int run_truth(const Args& args) {
                << r.camera_samples << " density samples\n"
                << "exact light rays: " << r.exact_light_samples << " of " << r.light_samples << " lit samples, in "
                << r.exact_light_pixels << " pixels\n";
+        if (c)
+            report << "checked " << c->pixels << " pixels (every " << *check_stride << "th) against exact light rays in "
+                   << c->seconds << " s: largest difference " << c->largest_difference << " at (" << c->x << ", " << c->y
+                   << "), its estimate " << c->estimate_there << "; " << c->above_tolerance
+                   << " above the tolerance, " << c->above_estimate << " above their estimate + half the tolerance\n";
     }
     std::cerr << (output.kind == OutputKind::standard_output ? std::string("wrote the PNG to standard output")
                                                              : "wrote " + shown_text(out.string(), kMaxShownPathBytes))
@@ -133,6 +142,8 @@ constexpr OptionHelp kOptions[] = {
     {"--spp", "N", "16", "samples per pixel (the pixel_samples pattern render uses), averaged: an anti-aliased truth"},
     {"--threads", "T", "all cores", "worker threads; the image is the same for any T"},
     {"--assets", "DIR", "as render's", "folder of the six-way textures: the puff is read from sixway.json's \"bake\""},
+    {"--check", "K", "", "after the image, every Kth pixel (the centre of each KxK block) again with every light ray "
+                         "exact (pixel()), and the largest difference against the bound; slow: a pixel takes seconds"},
     {"--rung", "NAME", "", "a rung of the ladder instead of the truth: the volume with the frame's approximations of "
                            "the light put in up to NAME (one-transmittance, light-map, six-axis, bake-extinction; "
                            "docs/ground-truth.md)"},
@@ -141,7 +152,7 @@ constexpr OptionHelp kOptions[] = {
 const RegisterCommand registration{
     {"truth",
      "truth SCENE.json -o OUT.png|OUT.exr|OUT.pfm|- [--size WxH] [--frame N] [--tolerance X] [--spp N] "
-     "[--threads T] [--assets DIR] [--rung NAME]",
+     "[--threads T] [--assets DIR] [--check K] [--rung NAME]",
      "the ground truth of a frame: the smoke it depicts rendered as a volume, converged to a stated bound",
      &run_truth, kOptions}};
 

@@ -942,6 +942,45 @@ glm::vec3 GroundTruth::pixel(int x, int y) const {
     return impl_->shade_pixel(x, y, nullptr, impl_->settings.max_view_levels, sc).color;
 }
 
+TruthCheck GroundTruth::check(const ImageRgba& image, const TruthReport& report, int stride, WorkProgress* progress) const {
+    const auto start = std::chrono::steady_clock::now();
+    const Impl& m = *impl_;
+    if (stride < 1) throw std::invalid_argument("truth: the check's stride must be >= 1");
+    if (image.width != m.width || image.height != m.height ||
+        report.pixel_error_estimate.size() != std::size_t(m.width) * std::size_t(m.height))
+        throw std::invalid_argument("truth: check() wants the image and report of this truth's render()");
+    std::vector<std::array<int, 2>> at;
+    for (int y = stride / 2; y < m.height; y += stride)
+        for (int x = stride / 2; x < m.width; x += stride) at.push_back({x, y});
+    std::vector<float> difference(at.size());
+    if (progress) progress->begin("checking against exact light", std::uint64_t(at.size()));
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, at.size(), 1), [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t k = r.begin(); k != r.end(); ++k) {
+            const auto [x, y] = at[k];
+            const glm::vec3 d = glm::abs(glm::vec3(image.at(x, y)) - pixel(x, y));
+            difference[k] = std::max({d.x, d.y, d.z});
+            if (progress) progress->add(1);
+        }
+    });
+    TruthCheck c;
+    c.pixels = at.size();
+    const float half_tol = 0.5f * m.settings.tolerance;
+    for (std::size_t k = 0; k < at.size(); ++k) {  // in order: ties go to the first, whatever the threads
+        const auto [x, y] = at[k];
+        const float estimate = report.pixel_error_estimate[std::size_t(y) * std::size_t(m.width) + std::size_t(x)];
+        if (difference[k] > c.largest_difference) {
+            c.largest_difference = difference[k];
+            c.x = x;
+            c.y = y;
+            c.estimate_there = estimate;
+        }
+        c.above_tolerance += difference[k] > m.settings.tolerance ? 1 : 0;
+        c.above_estimate += difference[k] > estimate + half_tol ? 1 : 0;
+    }
+    c.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return c;
+}
+
 std::vector<double> GroundTruth::particle_optical_depths() const {
     const Impl& m = *impl_;
     std::vector<double> tau(m.puffs.size());

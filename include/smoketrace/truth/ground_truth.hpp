@@ -112,6 +112,17 @@ struct LadderReport {
     float own_light_error_estimate = 0;
 };
 
+// render()'s image checked against pixel() (every light ray exact) at a sample of pixels (GroundTruth::check()).
+struct TruthCheck {
+    std::uint64_t pixels = 0;        // pixels checked
+    float largest_difference = 0;    // the largest |render() − pixel()| of a channel
+    int x = -1, y = -1;              // where
+    float estimate_there = 0;        // render()'s error estimate of that pixel
+    std::uint64_t above_tolerance = 0;  // pixels whose difference exceeds the tolerance
+    std::uint64_t above_estimate = 0;   // pixels whose difference exceeds their estimate + half the tolerance
+    double seconds = 0;
+};
+
 class GroundTruth {
 public:
     // The smoke of frame `frame` of `scene` (particles advanced as FrameRenderer advances them) seen by the
@@ -136,6 +147,11 @@ public:
     // One pixel, its light rays traced exactly (no light volume): the reference render() is tested against,
     // and what `explain --pixel` can show beside a frame's pixel.
     [[nodiscard]] glm::vec3 pixel(int x, int y) const;
+    // render()'s `image` (and its `report`) against pixel() at the centre pixel of every stride × stride block:
+    // a check of the bound on a sample of pixels (pixel() is converged to half the tolerance itself, so a
+    // difference up to the estimate plus half the tolerance is within both bounds). Parallel over the pixels.
+    [[nodiscard]] TruthCheck check(const ImageRgba& image, const TruthReport& report, int stride,
+                                   WorkProgress* progress = nullptr) const;
     // τ from each particle's centre to the light, exact light rays (the thesis's l also starts at the centre
     // and counts its own sphere's exit), converged by step halving.
     [[nodiscard]] std::vector<double> particle_optical_depths() const;
