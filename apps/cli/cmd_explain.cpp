@@ -96,6 +96,11 @@ int run_explain(const Args& args) {
             throw CliError("--particle: " + std::to_string(*particle_arg) +
                            " is out of range: " + quoted_arg(scene_path) + " has " + std::to_string(particles.size()) +
                            " particles, 0…" + std::to_string(particles.size() - 1));
+        // The story is the union walk's (eq. 3.1): a smooth kernel's sums are not told yet.
+        if (options.kernel.smooth())
+            throw CliError("--particle: the story of a ray under the " + options.kernel.name() +
+                           " kernel is not told yet; use --kernel uniform (smoketrace depths --kernel " +
+                           options.kernel.name() + " gives its optical path lengths)");
         // What `smoketrace depths` traces with the same --shape and --cutoff: frame 0's particles and light.
         std::optional<GroundQuad> ground;
         if (desc.ground) ground = GroundQuad{desc.ground->corners};
@@ -177,6 +182,7 @@ constexpr OptionHelp kOptions[] = {
     kGroupsHelp,
     kCutoffHelp,
     kShapeHelp,
+    kKernelHelp,
     kCompositingHelp,
     kSppHelp,
 };
@@ -184,7 +190,7 @@ constexpr OptionHelp kOptions[] = {
 const RegisterCommand registration{
     {"explain",
      "explain SCENE.json --particle N | --pixel X,Y [--truth] [--frame F] [-o OUT.svg|-] [--assets DIR] [--threads T] "
-     "[render's --mode --size --frames --groups --cutoff --shape --compositing --spp]",
+     "[render's --mode --size --frames --groups --cutoff --shape --kernel --compositing --spp]",
      "one ray's story, step by step, for learning the method: a particle's optical-depth ray (the any-hit "
      "candidates, the sort, eq. 3.1's counter, l, tau, T) or a pixel's camera ray (its layers, eq. 4.2, the "
      "ground and its shadow ray); see docs/explain.md",

@@ -12,6 +12,7 @@ RenderOptions RenderOptions::from_scene(const SceneDescription& scene) {
     RenderOptions o;
     o.render = scene.render;
     o.shape = scene.smoke.shape;
+    o.kernel = scene.smoke.kernel;
     o.width = int(scene.camera.width);
     o.height = int(scene.camera.height);
     return o;
@@ -85,6 +86,7 @@ bool FrameRenderer::advance_to(std::uint64_t frame, bool trace_depths, FrameRepo
         OpticalDepthSettings ods;
         ods.cutoff = options_.render.cutoff;
         ods.progress = progress_;
+        ods.kernel = options_.kernel;
         depths_.update(smoke_, particles_.particles(), which, light, ods, options_.sort, t);
         report.depths_updated = which.size();
     }
