@@ -730,6 +730,9 @@ TEST_CASE("cli: explain's SVGs are well-formed and written whole", "[explain][cl
         {above.string() + " --particle 443", "line"},  // cut off: chords, no walk
         {above.string() + " --particle 17", "path"},
         {scene.string() + " --pixel 20,20", "rect"},  // two samples' bars
+        {above.string() + " --particle 560 --kernel gaussian", "rect"},  // the shares stacked into l
+        {above.string() + " --particle 443 --kernel poly1", "line"},     // cut off: no shares
+        {above.string() + " --pixel 256,330 --spp 1 --kernel poly2", "rect"},
     };
     for (const Case& c : cases) {
         INFO(c.args);

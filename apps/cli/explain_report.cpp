@@ -259,7 +259,7 @@ void write_particle_svg(std::ostream& out, const OpticalDepthStory& s, const std
         c_max = std::max<std::int64_t>(c_max, s.counter_start);
         for (std::int64_t c : s.counter_after) c_max = std::max(c_max, c), c_min = std::min(c_min, c);
     }
-    const double counter_top = axis_y + 70, counter_h = summed ? 80 : 150, counter_bottom = counter_top + counter_h;
+    const double counter_top = axis_y + 70, counter_h = smooth ? 80 : 150, counter_bottom = counter_top + counter_h;
     auto Y = [&](double c) { return counter_bottom - (c - double(c_min)) / double(c_max - c_min) * counter_h; };
     const double legend_y = counter_bottom + 56;
     const double H = legend_y + 70;
@@ -375,6 +375,9 @@ void write_particle_svg(std::ostream& out, const OpticalDepthStory& s, const std
         }
         out << fmt(R"(<text x="%.0f" y="%.2f">)", left, scale_y + 36)
             << "density-weighted length (scene units times density)</text>\n";
+    } else if (smooth) {
+        out << fmt(R"(<text x="%.0f" y="%.2f" fill="#a50f15">)", left + 10, counter_top + 20)
+            << "shares not summed: the status is " << status_name(s.outcome.status) << "</text>\n";
     } else {
         // The counter of eq. 3.1 as a step plot.
         out << fmt(R"(<text x="%.0f" y="%.2f" fill="#555">)", left, counter_top - 14)
@@ -418,9 +421,9 @@ void write_particle_svg(std::ostream& out, const OpticalDepthStory& s, const std
         << "\n";
     out << fmt(R"(<text x="%.0f" y="%.0f">chord: entry (green%s) to exit (red%s); )"
                R"(dashed: entered before t = 0 or not left</text>)",
-               left + 40, ly + 4, summed ? "" : ", +1", summed ? ", which adds the share" : ", -1")
+               left + 40, ly + 4, smooth ? "" : ", +1", smooth ? ", which adds the share" : ", -1")
         << "\n";
-    if (summed) {
+    if (smooth) {
         out << fmt(R"(<rect x="%.0f" y="%.0f" width="30" height="12" fill="#6baed6"/>)", left, ly + 14) << "\n";
         out << fmt(R"(<text x="%.0f" y="%.0f">a particle's share: its density integrated over its chord )"
                    R"((ahead of t = 0), added at its exit</text>)",
