@@ -65,6 +65,7 @@ int run_depths(const Args& args) {
     OpticalDepthSettings settings;
     settings.cutoff = options.render.cutoff;
     settings.progress = work;
+    settings.kernel = options.kernel;
     const std::vector<std::uint32_t> all = particle_group(particles.size(), 1, 0);
 
     std::vector<FrameTimings> runs;
@@ -114,6 +115,7 @@ constexpr OptionHelp kOptions[] = {
                             "per particle"},
     kCutoffHelp,
     kShapeHelp,
+    kKernelHelp,
     {"--threads", "T", "all cores", "worker threads; the output is the same for any T"},
     {"--repeat", "R", "1", "run the pass R times (for --timings)"},
     {"--timings", "", "off", "print the median stage times in ms (tlas_update, od_pass, resolve), then the times to "
@@ -128,7 +130,8 @@ constexpr OptionHelp kOptions[] = {
 
 const RegisterCommand registration{
     {"depths",
-     "depths SCENE.json -o OUT.csv|- [--shape sphere|icosahedron|icosphere:L] [--cutoff K] [--threads T] "
+     "depths SCENE.json -o OUT.csv|- [--shape sphere|icosahedron|icosphere:L] [--kernel NAME] [--cutoff K] "
+     "[--threads T] "
      "[--repeat R] [--timings] [--sort adaptive|std|bubble] [--truth [--assets DIR]]",
      "optical path length of every particle toward the light, as CSV (-o -: on standard output)", &run_depths,
      kOptions}};

@@ -182,6 +182,7 @@ constexpr OptionHelp kOptions[] = {
     kGroupsHelp,
     kCutoffHelp,
     kShapeHelp,
+    kKernelHelp,
     {"--threads", "T", "all cores", "worker threads; the image is the same for any T"},
     kCompositingHelp,
     {"--compositor", "tiled|one-traversal|retrace", "tiled",
@@ -199,7 +200,7 @@ const RegisterCommand registration{
     {"render",
      "render SCENE.json -o OUT.png|OUT.exr|OUT.pfm|OUT.apng|- [--mode basic|simple-shadow|full] [--size WxH] "
      "[--frames N|A:B] [--groups G] "
-     "[--cutoff K] [--shape S] [--threads T] [--timings] [--compositing over|thesis] "
+     "[--cutoff K] [--shape S] [--kernel NAME] [--threads T] [--timings] [--compositing over|thesis] "
      "[--compositor tiled|one-traversal|retrace] [--spp N] [--assets DIR]",
      "render a frame (PNG, or linear float EXR or PFM; -o -: on standard output), or N frames OUT_0000.png … or "
      "one animated OUT.apng, of the smoke scene", &run_render,

@@ -40,6 +40,12 @@ StandInShape parse_shape(const std::string& text) {
     return *s;
 }
 
+DensityKernel parse_kernel(const std::string& text) {
+    const auto k = parse_density_kernel(text);
+    if (!k) throw CliError("--kernel: " + quoted_arg(text) + " is not one of " + std::string(kDensityKernelNames));
+    return *k;
+}
+
 }  // namespace
 
 SceneOverrides SceneOverrides::read(ArgReader& in, OverrideSet set) {
@@ -54,6 +60,8 @@ SceneOverrides SceneOverrides::read(ArgReader& in, OverrideSet set) {
     o.cutoff = in.integer("--cutoff", 0, 1'000'000'000);
     o.shape = in.string("--shape");
     if (o.shape) parse_shape(*o.shape);
+    o.kernel = in.string("--kernel");
+    if (o.kernel) parse_kernel(*o.kernel);
     if (set == OverrideSet::frame) {
         o.compositing = in.string("--compositing");
         if (o.compositing && *o.compositing != "over" && *o.compositing != "thesis")
@@ -98,6 +106,7 @@ RenderOptions SceneOverrides::render_options(const SceneDescription& scene) cons
     if (groups) options.render.groups = std::uint32_t(*groups);
     if (cutoff) options.render.cutoff = std::uint32_t(*cutoff);
     if (shape) options.shape = parse_shape(*shape);
+    if (kernel) options.kernel = parse_kernel(*kernel);
     if (compositing) options.render.compositing = *compositing == "over" ? Compositing::over : Compositing::thesis;
     if (spp) options.render.spp = std::uint32_t(*spp);
     return options;

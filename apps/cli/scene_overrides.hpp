@@ -1,6 +1,6 @@
 #pragma once
 // The options that override a scene file's settings (--mode, --size, --frames, --groups, --cutoff, --shape,
-// --compositing, --spp), read and applied in one place for every command that takes them: `explain --pixel`
+// --kernel, --compositing, --spp), read and applied in one place for every command that takes them: `explain --pixel`
 // then draws the very frame `render` drew with the same options, and `explain --particle` traces what
 // `depths` traced.
 #include "arguments.hpp"
@@ -17,7 +17,7 @@
 namespace smoketrace::cli {
 
 // Which overrides a command reads: the optical-depth pass alone (depths, explain --particle) depends only on
-// the stand-ins and the cutoff; a frame (render, explain --pixel) on all of them.
+// the stand-ins, their density kernel and the cutoff; a frame (render, explain --pixel) on all of them.
 enum class OverrideSet { optical_depth, frame };
 
 // --frames: "N" (render N frames) or "A:B" (frames A … B − 1 of the scene's sequence).
@@ -27,7 +27,7 @@ struct FramesArg {
 };
 
 struct SceneOverrides {
-    std::optional<std::string> mode, shape, compositing;
+    std::optional<std::string> mode, shape, kernel, compositing;
     std::optional<std::pair<int, int>> size;
     FramesArg frames;
     std::optional<long long> groups, cutoff, spp;
@@ -57,6 +57,9 @@ inline constexpr OptionHelp kCutoffHelp{"--cutoff", "K", "the scene's render.cut
                                         "a particle whose light ray meets more than K surfaces is fully dark"};
 inline constexpr OptionHelp kShapeHelp{"--shape", "sphere|icosahedron|icosphere:L", "the scene's smoke.shape (sphere)",
                                        "particle stand-in for optical-depth and shadow rays; icosphere level L = 1…4"};
+inline constexpr OptionHelp kKernelHelp{"--kernel", "uniform|gaussian|poly1|poly2", "the scene's smoke.kernel (uniform)",
+                                        "the stand-ins' density for optical depth: uniform balls (eq. 3.1), or a "
+                                        "smooth profile fitted to the baked puff, integrated in closed form"};
 inline constexpr OptionHelp kCompositingHelp{"--compositing", "over|thesis", "the scene's render.compositing (over)",
                                              "over: front-to-back over operator; thesis: eq. 4.1 as published"};
 inline constexpr OptionHelp kSppHelp{

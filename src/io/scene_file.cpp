@@ -1066,7 +1066,7 @@ private:
 // `fast`: reads /smoke/particles in place of the tree (whose list is then a placeholder).
 SmokeDescription read_smoke(const Reader& r, const Node& n, std::optional<glm::dvec3>& origin, const FastParticleList* fast,
                             const std::filesystem::path& base_dir) {
-    r.require_object(n, {"particles", "tubes", "sigma_t", "alpha", "shape"});
+    r.require_object(n, {"particles", "tubes", "sigma_t", "alpha", "shape", "kernel"});
     SmokeDescription smoke;
     const auto list = Reader::optional(n, "particles");
     const auto tubes = Reader::optional(n, "tubes");
@@ -1106,6 +1106,12 @@ SmokeDescription read_smoke(const Reader& r, const Node& n, std::optional<glm::d
             r.fail(*v, "unknown shape " + shown_value(*v->value) +
                            " (use \"sphere\", \"icosahedron\" or \"icosphere:1\"…\"icosphere:4\")");
         smoke.shape = *shape;
+    }
+    if (auto v = Reader::optional(n, "kernel")) {
+        const auto kernel = parse_density_kernel(r.string(*v));
+        if (!kernel)
+            r.fail(*v, "unknown kernel " + shown_value(*v->value) + " (use \"uniform\", \"gaussian\", \"poly1\" or \"poly2\")");
+        smoke.kernel = *kernel;
     }
     return smoke;
 }

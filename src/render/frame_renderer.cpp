@@ -12,6 +12,7 @@ RenderOptions RenderOptions::from_scene(const SceneDescription& scene) {
     RenderOptions o;
     o.render = scene.render;
     o.shape = scene.smoke.shape;
+    o.kernel = scene.smoke.kernel;
     o.width = int(scene.camera.width);
     o.height = int(scene.camera.height);
     return o;
@@ -38,6 +39,7 @@ FrameRenderer::FrameRenderer(const SceneDescription& scene, const RenderOptions&
 ViewSettings FrameRenderer::view_settings(std::uint64_t frame) const {
     ViewSettings v;
     v.mode = options_.render.mode;
+    v.kernel = options_.kernel;
     v.compositing = options_.render.compositing;
     v.compositor = options_.compositor;
     v.sigma_t = desc_.smoke.sigma_t;
@@ -85,6 +87,7 @@ bool FrameRenderer::advance_to(std::uint64_t frame, bool trace_depths, FrameRepo
         OpticalDepthSettings ods;
         ods.cutoff = options_.render.cutoff;
         ods.progress = progress_;
+        ods.kernel = options_.kernel;
         depths_.update(smoke_, particles_.particles(), which, light, ods, options_.sort, t);
         report.depths_updated = which.size();
     }

@@ -116,6 +116,7 @@ void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> 
     which_.clear();
     status_.clear();
     hit_counts_.clear();
+    validate(settings.kernel);
     // The rays in bundles of neighbours (ray_bundle.hpp): ray_order_[k] is the k-th ray traced, an index
     // into `which`.
     origins_.resize(n);
@@ -132,6 +133,10 @@ void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> 
         }
     });
     rays_.resize(n);
+    const bool smooth = settings.kernel.smooth();
+    // The shares' geometry in double along the direction the rays are traced with.
+    const glm::dvec3 unit_dir = glm::normalize(glm::dvec3(dir));
+    sums_.resize(smooth ? n : 0);
 
     // Hits kept so far, over all chunks; the budget also keeps the 32-bit offsets below from wrapping.
     const std::uint64_t budget = std::min<std::uint64_t>(
@@ -166,17 +171,48 @@ void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> 
                     for (std::size_t j = k; j < std::min(end, k + kBundleWidth); ++j)
                         bundle.add(starts_[j].origin, starts_[j].tmin, kOpticalDepthTmax);
                     for (std::vector<SurfaceHit>& lane : sc.lane_hits) lane.clear();
-                    // Thesis 4.3.2's any-hit shader: store (t, +1) entering a stand-in, (t, −1) leaving one,
-                    // and IgnoreHit() so that the search goes on.
-                    auto collect = [&](unsigned lane, const TraceHit& h) {
-                        sc.lane_hits[lane].push_back(SurfaceHit{h.t, h.front_face() ? +1 : -1});
+                    if (!smooth) {
+                        // Thesis 4.3.2's any-hit shader: store (t, +1) entering a stand-in, (t, −1) leaving one,
+                        // and IgnoreHit() so that the search goes on.
+                        auto collect = [&](unsigned lane, const TraceHit& h) {
+                            sc.lane_hits[lane].push_back(SurfaceHit{h.t, h.front_face() ? +1 : -1});
+                            return AnyHitDecision::ignore;
+                        };
+                        const BundleResults results =
+                            trace_bundle(scene, bundle, ray_flag_none, kLightRayMask, collect, limits);
+                        for (unsigned lane = 0; lane < bundle.count; ++lane) {
+                            const std::vector<SurfaceHit>& hits = sc.lane_hits[lane];
+                            const RayOutcome o =
+                                optical_depth_outcome(scene, bundle.ray(lane), results[lane], hits, settings.cutoff);
+                            rays_[k + lane] = {o.status == DepthStatus::ok ? sc.keep(hits) : nullptr, o.hits, o.status};
+                        }
+                        continue;
+                    }
+                    // The same shader, which also notes each exit's particle (its user id) for its share.
+                    sc.exits.clear();
+                    sc.exit_lanes.clear();
+                    auto collect_exits = [&](unsigned lane, const TraceHit& h) {
+                        const bool front = h.front_face();
+                        sc.lane_hits[lane].push_back(SurfaceHit{h.t, front ? +1 : -1});
+                        if (!front) {
+                            const Particle& p = particles[h.instance_id];
+                            sc.exits.add(bundle.origin(lane), p.center, p.radius);
+                            sc.exit_lanes.push_back(std::uint8_t(lane));
+                        }
                         return AnyHitDecision::ignore;
                     };
-                    const BundleResults results = trace_bundle(scene, bundle, ray_flag_none, kLightRayMask, collect, limits);
+                    const BundleResults results =
+                        trace_bundle(scene, bundle, ray_flag_none, kLightRayMask, collect_exits, limits);
+                    // Every exit of the bundle at once, over lanes; then each ray's in the order its walk met them.
+                    sc.shares.resize(sc.exits.size());
+                    integrate_stretches(settings.kernel, unit_dir, sc.exits, sc.shares);
+                    std::array<double, kBundleWidth> sum{};
+                    for (std::size_t e = 0; e < sc.shares.size(); ++e) sum[sc.exit_lanes[e]] += sc.shares[e];
                     for (unsigned lane = 0; lane < bundle.count; ++lane) {
-                        const std::vector<SurfaceHit>& hits = sc.lane_hits[lane];
-                        const RayOutcome o = optical_depth_outcome(scene, bundle.ray(lane), results[lane], hits, settings.cutoff);
-                        rays_[k + lane] = {o.status == DepthStatus::ok ? sc.keep(hits) : nullptr, o.hits, o.status};
+                        const RayOutcome o = optical_depth_outcome(scene, bundle.ray(lane), results[lane],
+                                                                   sc.lane_hits[lane], settings.cutoff);
+                        rays_[k + lane] = {nullptr, o.hits, o.status};
+                        sums_[k + lane] = float(sum[lane]);
                     }
                 }
                 // The budget, checked once per task: the hits over it are at most one task's.
@@ -191,6 +227,7 @@ void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> 
         tbb::simple_partitioner());
 
     // Statuses and counts to the order of `which`, in parallel: at 10^7 particles each store is a cache miss.
+    smooth_ = smooth;
     which_.assign(which.begin(), which.end());
     status_.resize(n);
     hit_counts_.resize(n);
@@ -214,8 +251,9 @@ void OpticalDepthPass::gather(OpticalDepthHits& out) const {
     lists.offsets.resize(n + 1);
     lists.offsets[0] = 0;
     for (std::size_t i = 0; i < n; ++i)
-        lists.offsets[i + 1] = lists.offsets[i] + (status_[i] == DepthStatus::ok ? hit_counts_[i] : 0);
+        lists.offsets[i + 1] = lists.offsets[i] + (status_[i] == DepthStatus::ok && !smooth_ ? hit_counts_[i] : 0);
     lists.hits.resize(lists.offsets[n]);
+    if (smooth_) return;  // a smooth kernel's trace() kept no hits
     const std::size_t chunk_count = (n + kParticlesPerChunk - 1) / kParticlesPerChunk;
     tbb::parallel_for(std::size_t(0), chunk_count, [&](std::size_t c) {
         for (std::size_t k = c * kParticlesPerChunk; k < std::min(n, (c + 1) * kParticlesPerChunk); ++k) {
@@ -242,6 +280,10 @@ void OpticalDepthPass::resolve(HitSort method, std::span<float> lengths) {
         ListResolver& resolve_list = scratch_->threads.local().resolver;
         for (std::size_t k = r.begin() * kParticlesPerChunk; k < std::min(n, r.end() * kParticlesPerChunk); ++k) {
             const RayRecord& ray = rays_[k];
+            if (smooth_) {
+                lengths[ray_order_[k]] = ray.status == DepthStatus::ok ? sums_[k] : kFullyDarkPathLength;
+                continue;
+            }
             const std::span<const PackedSurfaceHit> hits(ray.hits, ray.count);
             lengths[ray_order_[k]] = ray.status == DepthStatus::ok ? resolve_list(hits, method) : kFullyDarkPathLength;
         }

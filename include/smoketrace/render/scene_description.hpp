@@ -2,6 +2,7 @@
 // The plain data a scene becomes (light, smoke, ground, camera, render settings): what the renderer
 // takes, whoever made it. io/scene_file.hpp reads it from a scene file, with the format and its
 // defaults in docs/scene-format.md; a program may also fill it in directly.
+#include <smoketrace/smoke/density_kernel.hpp>
 #include <smoketrace/smoke/particle_system.hpp>
 #include <smoketrace/smoke/stand_in_shapes.hpp>
 #include <smoketrace/smoke/tube_generator.hpp>
@@ -33,6 +34,7 @@ struct SmokeDescription {
     float sigma_t = 1.0f;
     float alpha = 0.5f;
     StandInShape shape{};              // sphere
+    DensityKernel kernel{};            // uniform: the thesis's balls (eq. 3.1)
 };
 
 struct GroundDescription {

@@ -22,8 +22,16 @@
 // per-ray lists, kept in the buffer of the thread that traced the ray: no fixed K-slot arrays (the thesis's
 // limitation 6.1). resolve() turns them into optical path lengths where they lie; gather() copies them
 // into one flat buffer for callers that want the hits themselves.
+//
+// With a smooth density kernel (settings.kernel, density_kernel.hpp) the rays, the any-hit calls, the
+// statuses and the counts are the same, but no hit is kept: each exit (−1) adds its particle's closed-form
+// share to the ray's sum, l = Σ ∫ρ dt (the density-weighted length; τ = l·σt as before), integrated over
+// lanes for the whole bundle's exits at once after its walk, and summed per ray in double in the order the
+// walk met them (fixed for a bundle, so the same for any thread count). The sum needs no sort: the exits
+// name each particle met once. resolve() then hands out those sums; gather() gives no hits.
 #include <smoketrace/core/aligned_allocator.hpp>
 #include <smoketrace/core/work_progress.hpp>
+#include <smoketrace/smoke/density_kernel.hpp>
 #include <smoketrace/smoke/hit_resolver.hpp>
 #include <smoketrace/geometry/ray_bundle.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>
@@ -64,6 +72,9 @@ struct OpticalDepthSettings {
     std::uint64_t max_total_hits = 0;
     // Where the pass counts the particles it has traced, for a progress display; null: nowhere.
     WorkProgress* progress = nullptr;
+    // The stand-ins' density: uniform (eq. 3.1, the union of the balls through the hit resolver) or a smooth
+    // kernel whose closed-form shares the pass sums per ray (the top of this file).
+    DensityKernel kernel{};
 };
 
 // Thrown by OpticalDepthPass::run when the hits would exceed the budget: the message says how many, how
@@ -105,7 +116,8 @@ public:
 
     // Traces the rays of `which` (particle indices) toward `to_light` (need not be unit length) in
     // parallel over bundles (TBB). The result does not depend on the number of threads. Throws
-    // OpticalDepthBudgetError (leaving `out` unspecified) when the hits exceed settings.max_total_hits.
+    // OpticalDepthBudgetError (leaving `out` unspecified) when the hits exceed settings.max_total_hits,
+    // std::invalid_argument when settings.kernel is not valid (density_kernel.hpp's validate()).
     // trace() followed by gather().
     void run(const SmokeScene& scene, std::span<const Particle> particles, std::span<const std::uint32_t> which,
              const glm::vec3& to_light, const OpticalDepthSettings& settings, OpticalDepthHits& out);
@@ -113,7 +125,9 @@ public:
     // The two halves of run(). trace() traces the rays and keeps each ok ray's hits where the thread
     // that traced it stored them, until the next trace(); gather() copies them into out, one flat buffer
     // in the order of `which`, with the statuses and counts. A trace() that throws leaves no rays: then
-    // gather() gives an empty output and resolve() wants no lengths.
+    // gather() gives an empty output and resolve() wants no lengths. With a smooth kernel trace() sums each
+    // ray's shares instead of keeping its hits (the budget then has nothing to count), and gather() gives
+    // every particle an empty list.
     void trace(const SmokeScene& scene, std::span<const Particle> particles, std::span<const std::uint32_t> which,
                const glm::vec3& to_light, const OpticalDepthSettings& settings);
     void gather(OpticalDepthHits& out) const;
@@ -121,7 +135,8 @@ public:
     // After trace(): resolve_optical_path_lengths() on the kept hits where they lie, without gathering
     // them first (each packed list sorted and walked by a ListResolver, eq. 3.1). lengths[i] for which[i]
     // (std::invalid_argument unless lengths.size() == which.size()); the same bits as gather() and then
-    // resolve_optical_path_lengths(), without the copy.
+    // resolve_optical_path_lengths(), without the copy. With a smooth kernel: the sums trace() computed
+    // (kFullyDarkPathLength unless ok), whatever `method`.
     void resolve(HitSort method, std::span<float> lengths);
 
     // The traced rays' statuses and surface counts, in the order of `which`.
@@ -131,6 +146,10 @@ public:
 private:
     struct Scratch {
         std::array<std::vector<SurfaceHit>, kBundleWidth> lane_hits;  // the bundle in flight's, per ray
+        // A smooth kernel's: the bundle in flight's exits (ray origin, particle), each one's lane, their shares.
+        KernelStretches exits;
+        std::vector<std::uint8_t> exit_lanes;
+        std::vector<double> shares;
         ListResolver resolver;  // resolve()'s, kept with its memory for lists past the sorting network
         // The hits of this thread's ok rays, packed (PackedSurfaceHit: 18 per ray at 10^6 particles without a
         // cutoff, most of the pass's memory), ray after ray, in blocks of fixed capacity (a ray with more
@@ -170,6 +189,8 @@ private:
     };
     std::vector<RayStart, UnwrittenAllocator<RayStart>> starts_;    // [k]: the k-th ray traced's
     std::vector<RayRecord, UnwrittenAllocator<RayRecord>> rays_;    // [k]: the k-th ray traced
+    std::vector<float, UnwrittenAllocator<float>> sums_;            // [k]: its kernel sum (smooth kernels)
+    bool smooth_ = false;                   // the last trace()'s kernel was smooth: sums_, no kept hits
     std::vector<std::uint32_t> which_;      // the particles of the last trace()
     std::vector<DepthStatus> status_;       // [i]: the ray of which_[i]
     std::vector<std::uint32_t> hit_counts_;
