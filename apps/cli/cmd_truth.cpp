@@ -103,8 +103,8 @@ int run_truth(const Args& args) {
                << r.unconverged_pixels << ", " << r.camera_samples << " density samples\n";
     } else {
         const TruthReport r = truth.render(image, work);
-        const std::optional<TruthCheck> c =
-            check_stride ? std::optional<TruthCheck>(truth.check(image, r, int(*check_stride), work)) : std::nullopt;
+        TruthCheck c;
+        if (check_stride) c = truth.check(image, r, int(*check_stride), work);
         write_truth_image(out, image, kind, work, progress);
         report << "truth of frame " << f << " at " << options.width << "x" << options.height << ", " << settings.spp
                << " samples per pixel: " << r.seconds << " s (light volume " << r.light_seconds << " s)\n"
@@ -117,11 +117,11 @@ int run_truth(const Args& args) {
                << r.camera_samples << " density samples\n"
                << "exact light rays: " << r.exact_light_samples << " of " << r.light_samples << " lit samples, in "
                << r.exact_light_pixels << " pixels\n";
-        if (c)
-            report << "checked " << c->pixels << " pixels (every " << *check_stride << "th) against exact light rays in "
-                   << c->seconds << " s: largest difference " << c->largest_difference << " at (" << c->x << ", " << c->y
-                   << "), its estimate " << c->estimate_there << "; " << c->above_tolerance
-                   << " above the tolerance, " << c->above_estimate << " above their estimate + half the tolerance\n";
+        if (check_stride)
+            report << "checked " << c.pixels << " pixels (every " << *check_stride << "th) against exact light rays in "
+                   << c.seconds << " s: largest difference " << c.largest_difference << " at (" << c.x << ", " << c.y
+                   << "), its estimate " << c.estimate_there << "; " << c.above_tolerance
+                   << " above the tolerance, " << c.above_estimate << " above their estimate + half the tolerance\n";
     }
     std::cerr << (output.kind == OutputKind::standard_output ? std::string("wrote the PNG to standard output")
                                                              : "wrote " + shown_text(out.string(), kMaxShownPathBytes))
