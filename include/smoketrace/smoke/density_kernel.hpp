@@ -80,8 +80,8 @@ inline constexpr double kIcosahedronInradius = 0.79465447229176611;
 // residual, the profile); tests/test_kernel_fit.cpp refits and checks these.
 inline constexpr DensityKernel kUniformKernel{DensityKernelKind::uniform, 1.0f, 1.0f};
 inline constexpr DensityKernel kGaussianKernel{DensityKernelKind::gaussian, 0.7575f, 1.6181f};
-inline constexpr DensityKernel kPoly1Kernel{DensityKernelKind::poly1, 0.5405f, 1.2861f};
-inline constexpr DensityKernel kPoly2Kernel{DensityKernelKind::poly2, 0.6400f, 1.4232f};
+inline constexpr DensityKernel kPoly1Kernel{DensityKernelKind::poly1, 0.5407f, 1.2854f};
+inline constexpr DensityKernel kPoly2Kernel{DensityKernelKind::poly2, 0.6399f, 1.4236f};
 
 // The fitted kernel of `kind` (one of the four above).
 [[nodiscard]] DensityKernel density_kernel(DensityKernelKind kind);
