@@ -99,8 +99,8 @@ double particle_stretch_integral(const DensityKernel& kernel, const glm::vec3& o
     });
 }
 
-void KernelStretches::clear() {
-    for (Floats* v : {&ox_, &oy_, &oz_, &cx_, &cy_, &cz_, &r_}) v->clear();
+void KernelStretches::resize(std::size_t n) {
+    for (Floats* v : {&ox_, &oy_, &oz_, &cx_, &cy_, &cz_, &r_}) v->resize(n);
 }
 
 void integrate_stretches(const DensityKernel& kernel, const glm::dvec3& d, const KernelStretches& s,

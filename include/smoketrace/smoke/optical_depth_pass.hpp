@@ -26,8 +26,8 @@
 // With a smooth density kernel (settings.kernel, density_kernel.hpp) the rays, the any-hit calls, the
 // statuses and the counts are the same, but no hit is kept: each exit (−1) adds its particle's closed-form
 // share to the ray's sum, l = Σ ∫ρ dt (the density-weighted length; τ = l·σt as before), integrated over
-// lanes for the whole bundle's exits at once after its walk, and summed per ray in double in the order the
-// walk met them (fixed for a bundle, so the same for any thread count). The sum needs no sort: the exits
+// lanes for the whole bundle's ok rays' exits at once after its walk, and summed per ray in double in the
+// order the walk met them (fixed for a bundle, so the same for any thread count). The sum needs no sort: the exits
 // name each particle met once. resolve() then hands out those sums; gather() gives no hits.
 #include <smoketrace/core/aligned_allocator.hpp>
 #include <smoketrace/core/work_progress.hpp>
@@ -146,9 +146,10 @@ public:
 private:
     struct Scratch {
         std::array<std::vector<SurfaceHit>, kBundleWidth> lane_hits;  // the bundle in flight's, per ray
-        // A smooth kernel's: the bundle in flight's exits (ray origin, particle), each one's lane, their shares.
+        // A smooth kernel's: the particles of each ray's exits in the bundle in flight, and the ok rays' exits
+        // (ray origin, particle) ray after ray with their shares.
+        std::array<std::vector<std::uint32_t>, kBundleWidth> lane_exits;
         KernelStretches exits;
-        std::vector<std::uint8_t> exit_lanes;
         std::vector<double> shares;
         ListResolver resolver;  // resolve()'s, kept with its memory for lists past the sorting network
         // The hits of this thread's ok rays, packed (PackedSurfaceHit: 18 per ray at 10^6 particles without a
