@@ -27,8 +27,10 @@
 // statuses and the counts are the same, but no hit is kept: each exit (−1) adds its particle's closed-form
 // share to the ray's sum, l = Σ ∫ρ dt (the density-weighted length; τ = l·σt as before), integrated over
 // lanes for the whole bundle's ok rays' exits at once after its walk, and summed per ray in double in the
-// order the walk met them (fixed for a bundle, so the same for any thread count). The sum needs no sort: the exits
-// name each particle met once. resolve() then hands out those sums; gather() gives no hits.
+// order the walk met them (fixed for a bundle, so the same for any thread count). The sum needs no sort: the
+// exits name each particle met once. The shares are taken along the rays' own direction (to_light normalised
+// in float), normalised once more in double. resolve() then hands out those sums; gather() gives no hits;
+// a ray's hits cost no memory past its bundle.
 #include <smoketrace/core/aligned_allocator.hpp>
 #include <smoketrace/core/work_progress.hpp>
 #include <smoketrace/smoke/density_kernel.hpp>
