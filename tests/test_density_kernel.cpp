@@ -345,6 +345,8 @@ TEST_CASE("density kernel: names, parsing and the fitted defaults", "[kernel]") 
     CHECK_THROWS_AS(validate(DensityKernel{DensityKernelKind::poly1, 1.5f, 1.0f}), std::invalid_argument);
     CHECK_THROWS_AS(validate(DensityKernel{DensityKernelKind::poly1, 0.5f, 0.0f}), std::invalid_argument);
     CHECK_THROWS_AS(validate(DensityKernel{DensityKernelKind::poly1, 0.0f, 1.0f}), std::invalid_argument);
+    CHECK_THROWS_AS(validate(DensityKernel{DensityKernelKind::uniform, 0.5f, 1.0f}), std::invalid_argument);
+    CHECK_THROWS_AS(validate(DensityKernel{DensityKernelKind::uniform, 1.0f, 2.0f}), std::invalid_argument);
 }
 
 TEST_CASE("density kernel: the icosahedron's inradius is kIcosahedronInradius", "[kernel]") {

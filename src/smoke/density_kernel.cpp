@@ -39,6 +39,10 @@ std::optional<DensityKernel> parse_density_kernel(std::string_view name) {
 }
 
 void validate(const DensityKernel& k) {
+    if (k.kind == DensityKernelKind::uniform && !(k.support == 1.0f && k.peak == 1.0f))
+        throw std::invalid_argument("density kernel uniform: the thesis's ball has support 1 and peak 1 (eq. 3.1 "
+                                    "measures lengths, not densities), not " + std::to_string(k.support) + " and " +
+                                    std::to_string(k.peak));
     if (!(k.support > 0.0f && k.support <= 1.0f))
         throw std::invalid_argument("density kernel " + k.name() + ": support " + std::to_string(k.support) +
                                     " is not in (0, 1] (the stand-in's sphere must bound the support)");

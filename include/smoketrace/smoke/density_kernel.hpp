@@ -92,7 +92,7 @@ inline constexpr DensityKernel kPoly2Kernel{DensityKernelKind::poly2, 0.6399f, 1
 // The names parse_density_kernel() accepts, for messages.
 inline constexpr std::string_view kDensityKernelNames = "uniform, gaussian, poly1, poly2";
 
-// Throws std::invalid_argument unless 0 < support <= 1 and peak is finite and > 0.
+// Throws std::invalid_argument unless 0 < support <= 1 and peak is finite and > 0, and both are 1 for uniform.
 void validate(const DensityKernel& kernel);
 
 namespace detail {
