@@ -38,6 +38,7 @@
 #include <smoketrace/io/scene_file.hpp>
 #include <smoketrace/io/sixway_files.hpp>
 #include <smoketrace/render/frame_renderer.hpp>
+#include <smoketrace/render/puff_density.hpp>
 #include <smoketrace/render/sixway_texture.hpp>
 #include <smoketrace/render/view_compositor.hpp>
 #include <smoketrace/truth/ground_truth.hpp>
@@ -84,14 +85,20 @@ struct Truth {
     double render_seconds = 0;           // GroundTruth::render() alone
     double bound = 0;                    // the renderer's error estimate (max over pixels)
     std::uint64_t unconverged = 0;
+    std::array<ImageRgba, kTruthRungs> rungs;  // the ladder (GroundTruth::render_ladder)
+    LadderReport ladder;
 };
 
-enum class Depths : std::uint8_t { traced, true_tau };
+// Where a configuration's image comes from: a frame the renderer draws (its optical depths traced, or the
+// true ones put in), or a rung of the truth's ladder (TruthRung), which only the truth renderer can draw.
+enum class Depths : std::uint8_t { traced, true_tau, rung };
 
 struct Config {
     std::string sweep, value;
     RenderOptions options;
     Depths depths = Depths::traced;
+    TruthRung rung = TruthRung::one_transmittance;  // Depths::rung's
+    float alpha = -1.0f;                            // >= 0: the scene's alpha replaced (Depths::true_tau)
     [[nodiscard]] std::string id() const {
         std::string s = sweep + "_" + value;
         for (char& c : s)
@@ -99,6 +106,7 @@ struct Config {
         return s;
     }
     [[nodiscard]] bool shippable() const { return depths == Depths::traced; }
+    [[nodiscard]] bool ladder() const { return depths == Depths::rung; }
 };
 
 std::string threshold_name(float t) {
@@ -171,6 +179,19 @@ std::vector<Config> configurations(const RenderOptions& scene, bool animated) {
     exact_all.value = "true-tau+own-exact";
     exact_all.depths = Depths::true_tau;
     c.push_back(exact_all);
+    // The ladder (docs/ground-truth.md): from the truth, the frame's approximations of the light put in one at a
+    // time, each rung keeping the ones before it; then the billboards with the true τ (exact true-tau) and the
+    // frame (scene defaults) are the last two rungs.
+    for (int r = 0; r < kTruthRungs; ++r) {
+        Config k{"ladder", to_string(TruthRung(r)), scene, Depths::rung};
+        k.rung = TruthRung(r);
+        c.push_back(k);
+    }
+    // The billboards with the true τ and the scene's alpha matched to the volume's opacity: how much of the
+    // billboard's error is the opacity the scene gives it (alpha filled in by run_truth()).
+    Config matched{"exact", "true-tau+matched-alpha", scene, Depths::true_tau};
+    matched.alpha = 0.0f;
+    c.push_back(matched);
     return c;
 }
 
@@ -236,6 +257,36 @@ int truth_size(const BenchOptions& options) {
     return kTruthSize;
 }
 
+const SixwayBakeSettings& bake_settings() {
+    static const SixwayBakeSettings puff =
+        read_sixway_bake_settings(std::filesystem::path(SMOKETRACE_ASSET_DIR) / "sixway.json");
+    return puff;
+}
+
+// The scene alpha that gives the billboards the volume's mean opacity: over every texel column of every
+// flipbook frame, the volume's opacity 1 − e^{−σt·r·∫ρ dz} (r the particles' mean radius) against the
+// texture's, 1 − e^{−extinction·∫ρ dz} (the bake's alpha, before 8-bit rounding), ratio of the sums.
+float matched_alpha(const SceneDescription& scene) {
+    const SixwayBakeSettings& bake = bake_settings();
+    const PuffVoxels g(bake);
+    double radius = 0.0;
+    for (const Particle& p : scene.smoke.particles) radius += double(p.radius);
+    radius /= double(std::max<std::size_t>(1, scene.smoke.particles.size()));
+    double volume = 0.0, texture = 0.0;
+    std::vector<float> density;
+    for (int f = 0; f < bake.frames; ++f) {
+        sample_puff_density(bake, g, f, density);
+        for (int j = 0; j < g.n; ++j)
+            for (int i = 0; i < g.n; ++i) {
+                double column = 0.0;
+                for (int k = 0; k < g.nz; ++k) column += double(density[g.index(k, j, i)]) * double(g.dz);
+                volume += -std::expm1(-double(scene.smoke.sigma_t) * radius * column);
+                texture += -std::expm1(-double(bake.extinction) * column);
+            }
+    }
+    return texture > 0.0 ? float(volume / texture) : scene.smoke.alpha;
+}
+
 void write_float_map(const std::filesystem::path& path, const std::vector<float>& map) {
     write_output(path, [&](std::ostream& out) {
         out.write(reinterpret_cast<const char*>(map.data()), std::streamsize(map.size() * sizeof(float)));
@@ -283,9 +334,14 @@ void run_truth(const BenchOptions& options) {
                 if (!r.config.shippable()) continue;
                 r.samples.push_back(render_once(scene, r.config.options, ts.frame, r.image, &r.lengths));
             }
+        const float alpha_matched = matched_alpha(scene);
         for (Run& r : runs) {
-            if (r.config.depths == Depths::true_tau)
-                render_with_true_depths(scene, r.config.options, ts.frame, truth.tau, r.image, r.lengths);
+            if (r.config.depths == Depths::true_tau) {
+                SceneDescription drawn = scene;
+                if (r.config.alpha >= 0.0f) drawn.smoke.alpha = alpha_matched;
+                render_with_true_depths(drawn, r.config.options, ts.frame, truth.tau, r.image, r.lengths);
+            }
+            if (r.config.ladder()) r.image = truth.rungs[std::size_t(r.config.rung)];
             for (std::size_t k = 0; k < 5; ++k) {
                 std::vector<double> v;
                 for (const FrameTimings& t : r.samples)
@@ -295,7 +351,7 @@ void run_truth(const BenchOptions& options) {
             r.picture = image_error(r.image, truth.image);
             r.ssim = ssim_srgb(r.image, truth.image);
             if (!truth.shadow.empty()) r.shadow = masked_image_error(r.image, truth.image, truth.shadow);
-            r.has_depths = r.config.options.render.mode != RenderMode::basic && !truth.tau.empty();
+            r.has_depths = r.config.options.render.mode != RenderMode::basic && !truth.tau.empty() && !r.config.ladder();
             if (r.has_depths) r.transmittance = transmittance_error(r.lengths, scene.smoke.sigma_t, truth.tau);
         }
 
@@ -323,7 +379,7 @@ void run_truth(const BenchOptions& options) {
             if (candidate[i] && total[i] <= total[thesis] && rmse[i] < rmse[best]) best = i;
         }
 
-        std::cout << "  " << std::left << std::setw(26) << "configuration" << std::right << std::setw(24)
+        std::cout << "  " << std::left << std::setw(30) << "configuration" << std::right << std::setw(24)
                   << "total ms [min, max]" << std::setw(8) << "od" << std::setw(8) << "view" << " |" << std::setw(9)
                   << "rmse" << std::setw(7) << "psnr" << std::setw(7) << "ssim" << std::setw(8) << "shadow" << std::setw(9)
                   << "T err" << std::setw(8) << "T max" << "\n";
@@ -331,7 +387,7 @@ void run_truth(const BenchOptions& options) {
             const Run& r = runs[i];
             const auto& s = r.stages;
             std::ostringstream line;
-            line << "  " << std::left << std::setw(26)
+            line << "  " << std::left << std::setw(30)
                  << (r.config.sweep + " " + r.config.value + (r.pareto ? " *" : "") + (i == best ? " B" : "")) << std::right;
             if (r.config.shippable())
                 line << std::setw(8) << fmt(s[4].median, 2) << " [" << std::setw(6) << fmt(s[4].min, 2) << ", "
@@ -356,6 +412,37 @@ void run_truth(const BenchOptions& options) {
                   << fmt(total[best], 2) << " ms, PSNR " << fmt(runs[best].picture.psnr_db, 1) << " dB against the thesis's "
                   << fmt(runs[thesis].picture.psnr_db, 1) << " dB\n"
                   << std::flush;
+
+        // The ladder, truth to frame: each rung's error against the truth and what its one approximation adds to
+        // the squared error (MSE, linear RGB) of the rung before.
+        {
+            const std::vector<std::pair<const char*, std::size_t>> chain = {
+                {"(b) one transmittance per particle", index_of("ladder_one-transmittance")},
+                {"    eq. 4.2's light map x e^-tau(centre)", index_of("ladder_light-map")},
+                {"(d) six axis lights", index_of("ladder_six-axis")},
+                {"    the bake's extinction", index_of("ladder_bake-extinction")},
+                {"(c) billboards (the true tau)", true_tau},
+                {"(a) the stand-ins' tau: the frame", scene_row}};
+            std::cout << "  ladder (truth " << fmt(truth.ladder.seconds, 1) << " s; view steps " << truth.ladder.view_error_estimate
+                      << ", own light volumes' estimate " << truth.ladder.own_light_error_estimate << ", unconverged "
+                      << truth.ladder.unconverged_pixels << "):\n";
+            double previous = 0.0;
+            for (const auto& [name, i] : chain) {
+                const double mse = runs[i].picture.rmse * runs[i].picture.rmse;
+                std::cout << "    " << std::left << std::setw(42) << name << std::right << " psnr " << std::setw(5)
+                          << fmt(runs[i].picture.psnr_db, 1) << "  shadow " << std::setw(5)
+                          << (truth.shadow.empty() ? std::string("-") : fmt(runs[i].shadow.error.psnr_db, 1)) << "  mse "
+                          << fmt(mse, 5) << " (+" << fmt(mse - previous, 5) << ")\n";
+                previous = mse;
+            }
+            std::cout << "    matched alpha " << fmt(alpha_matched, 3) << " (scene " << fmt(scene.smoke.alpha, 3)
+                      << "): billboards with the true tau at it, psnr "
+                      << fmt(runs[index_of("exact_true-tau-matched-alpha")].picture.psnr_db, 1) << "\n"
+                      << std::flush;
+            for (const auto& [name, i] : chain)
+                if (runs[i].config.ladder())
+                    report("truth_ladder_psnr_db_" + runs[i].config.value + "_" + ts.name, runs[i].picture.psnr_db);
+        }
 
         for (std::size_t i = 0; i < runs.size(); ++i) {
             const Run& r = runs[i];
@@ -411,8 +498,7 @@ void run_truth(const BenchOptions& options) {
 // ---- the truth ------------------------------------------------------------------------------------------
 
 Truth compute_truth(const SceneDescription& scene, std::uint64_t frame, int size, bool quick) {
-    static const SixwayBakeSettings puff =
-        read_sixway_bake_settings(std::filesystem::path(SMOKETRACE_ASSET_DIR) / "sixway.json");
+    const SixwayBakeSettings& puff = bake_settings();
     TruthSettings settings;
     if (quick) {
         // CI size: the pipeline end to end, not a converged truth (its figures are not quoted). The light
@@ -431,6 +517,7 @@ Truth compute_truth(const SceneDescription& scene, std::uint64_t frame, int size
     t.unconverged = report.unconverged_pixels;
     t.tau = truth.particle_optical_depths();
     t.shadow = truth.ground_shadow_mask();
+    t.ladder = truth.render_ladder(t.rungs);
     t.seconds = elapsed_ms(t0) / 1000.0;
     return t;
 }

@@ -1,6 +1,7 @@
 // Section "view": the view pass and the whole frame at 1024×1024 (thesis tables B.1 and B.3 on the CPU):
 // the tiled compositor (the default) against the per-ray one-traversal compositor at one thread and at all
-// threads, anti-aliasing's cost, and the per-ray one-traversal compositor against the thesis's re-trace loop.
+// threads, anti-aliasing's cost, the per-ray one-traversal compositor against the thesis's re-trace loop, and
+// the density kernels' shadow rays (every particle toward the light summed) against uniform's nearest one.
 //
 // Every configuration renders the animated two-tube scene (bench_util.hpp: the light turns, particles
 // drift and spin, so each frame refits the TLAS and traces 1/G of the optical depths). Frame 0 traces
@@ -27,7 +28,9 @@
 #include <memory>
 #include <span>
 #include <stdexcept>
+#include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 namespace smoketrace::bench {
@@ -67,6 +70,7 @@ struct Config {
     int threads = 1;
     std::uint32_t groups = 1;
     std::uint32_t spp = 1;
+    DensityKernel kernel{};
 };
 
 struct Run {
@@ -94,6 +98,7 @@ std::vector<Run> render_frames(const SceneDescription& scene, std::span<const Co
         o.render.groups = configs[c].groups;
         o.render.spp = configs[c].spp;
         o.compositor = configs[c].compositor;
+        o.kernel = configs[c].kernel;
         o.width = o.height = kSize;
         renderers.push_back(std::make_unique<FrameRenderer>(scene, o, texture()));
         runs[c].config = configs[c];
@@ -181,17 +186,17 @@ void run_view(const BenchOptions& options) {
 
     CsvFile csv("experiment,particles,groups,mode,compositor,threads,spp,frames,view_ms_median,view_ms_min,"
                 "view_ms_max,total_ms_median,total_ms_min,total_ms_max,tlas_update_ms,od_pass_ms,resolve_ms,"
-                "cpu_per_wall,caller_cpu_share");
+                "cpu_per_wall,caller_cpu_share,kernel");
     auto record = [&](std::uint32_t n, const Run& r) {
         const Config& c = r.config;
         csv.row(c.experiment, n, c.groups, name_of(c.mode), name_of(c.compositor), c.threads, c.spp, frames,
                 r.view.median, r.view.min, r.view.max, r.total.median, r.total.min, r.total.max, r.tlas.median,
-                r.od.median, r.resolve.median, r.cpu_per_wall, r.caller_cpu_share);
-        std::printf("  %-10s n=%-5u G=%-2u %-13s %-13s thr=%d spp=%-2u view %8.1f ms  total %8.1f ms  (tlas %.2f, "
-                    "od %.2f, resolve %.2f)  cpu/wall %.2f, caller %.2f\n",
+                r.od.median, r.resolve.median, r.cpu_per_wall, r.caller_cpu_share, c.kernel.name());
+        std::printf("  %-10s n=%-5u G=%-2u %-13s %-13s thr=%d spp=%-2u %-8s view %8.1f ms  total %8.1f ms  (tlas "
+                    "%.2f, od %.2f, resolve %.2f)  cpu/wall %.2f, caller %.2f\n",
                     c.experiment, n, c.groups, name_of(c.mode), name_of(c.compositor), c.threads, c.spp,
-                    r.view.median, r.total.median, r.tlas.median, r.od.median, r.resolve.median, r.cpu_per_wall,
-                    r.caller_cpu_share);
+                    c.kernel.name().c_str(), r.view.median, r.total.median, r.tlas.median, r.od.median,
+                    r.resolve.median, r.cpu_per_wall, r.caller_cpu_share);
         std::fflush(stdout);
     };
 
@@ -325,6 +330,36 @@ void run_view(const BenchOptions& options) {
                     100.0 * double(d.off) / double(one.last.pixels.size()));
         report("one_traversal_speedup_vs_retrace", re.view.median / one.view.median);
         report("compositor_max_channel_difference", d.largest);
+    }
+
+    // The density kernels (full mode, tiled, 750 particles): a smooth kernel's shadow ray walks every stand-in
+    // toward the light and integrates each exit's share, where uniform's stops at the nearest. The four
+    // kernels take turns frame by frame, at one thread and at all; the view's time against uniform's.
+    {
+        std::vector<Config> configs;
+        for (const DensityKernel& k : {kUniformKernel, kGaussianKernel, kPoly1Kernel, kPoly2Kernel})
+            for (int t : thread_counts) {
+                Config c{"kernel", RenderMode::full, CompositorKind::tiled, t};
+                c.kernel = k;
+                configs.push_back(c);
+            }
+        const std::vector<Run> runs = render_frames(scene750, configs, frames, arenas);
+        for (const Run& r : runs) record(kThesisParticleCount, r);
+        auto view_of = [&](const DensityKernel& k, int threads) {
+            for (const Run& r : runs)
+                if (r.config.kernel == k && r.config.threads == threads) return r.view.median;
+            throw std::logic_error("bench view: no such kernel configuration");
+        };
+        std::vector<std::pair<std::string, double>> ratios;
+        std::printf("  kernels' view / uniform's view (the same frames, in turns):");
+        for (const DensityKernel& k : {kGaussianKernel, kPoly1Kernel, kPoly2Kernel})
+            for (int t : thread_counts) {
+                ratios.emplace_back("kernel_view_over_uniform_" + k.name() + (t == 1 ? "_1t" : ""),
+                                    view_of(k, t) / view_of(kUniformKernel, t));
+                std::printf(" %s %dt %.2f;", k.name().c_str(), t, ratios.back().second);
+            }
+        std::printf("\n");
+        for (const auto& [name, ratio] : ratios) report(name, ratio);
     }
 
     // A frame where nothing moved (the static default scene, frame 1 after frame 0): no TLAS work and no

@@ -3,6 +3,7 @@
 #include "support/cli_runner.hpp"
 #include "support/fixtures.hpp"
 
+#include <smoketrace/io/pfm_io.hpp>
 #include <smoketrace/io/png_io.hpp>
 #include <smoketrace/smoke/optical_path_lengths.hpp>
 #include <smoketrace/io/scene_file.hpp>
@@ -13,6 +14,7 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -557,6 +559,14 @@ TEST_CASE("cli: truth writes the image and its bound, depths --truth adds the tr
     CHECK(fs::file_size(image) > 0);
     CHECK_THAT(r.out, Catch::Contains("unconverged pixels: "));
     CHECK_THAT(r.out, Catch::Contains("error bound"));
+    const CliRun checked = run_cli_stdout("truth " + scene.string() + " -o " + image.string() +
+                                          " --size 8x8 --spp 1 --check 4 --assets " + textures.string());
+    INFO(checked.out << checked.err);
+    CHECK(checked.exit_code == 0);
+    CHECK_THAT(checked.out, Catch::Contains("checked 4 pixels (every 4th)") && Catch::Contains("0 above the tolerance"));
+    const CliRun both = run_cli("truth " + scene.string() + " -o " + image.string() + " --check 4 --rung six-axis");
+    CHECK(both.exit_code == 2);
+    CHECK_THAT(both.err, Catch::Contains("--check"));
 
     const fs::path csv = dir.path / "d.csv";
     const CliRun d = run_cli("depths " + scene.string() + " -o " + csv.string() + " --truth --assets " + textures.string());
@@ -574,6 +584,37 @@ TEST_CASE("cli: truth writes the image and its bound, depths --truth adds the tr
         CHECK(std::strtod(field.c_str(), nullptr) == want[i]);  // shortest round-trip text: the same double
         CHECK(want[i] > 0.0);
     }
+
+    // --rung NAME writes that rung of the ladder instead of the truth: the library's render_ladder() image, bit
+    // for bit (PFM holds the float radiance); an unknown rung is a usage error naming the rungs, nothing written.
+    const fs::path rung_image = dir.path / "rung.pfm";
+    const CliRun rung = run_cli_stdout("truth " + scene.string() + " -o " + rung_image.string() +
+                                       " --size 8x8 --spp 1 --rung six-axis --assets " + textures.string());
+    INFO(rung.out << rung.err);
+    REQUIRE(rung.exit_code == 0);
+    CHECK_THAT(rung.out, Catch::Contains("rung six-axis"));
+    {
+        TruthSettings settings;
+        settings.spp = 1;
+        const GroundTruth t(load_scene_file(scene), read_sixway_bake_settings(textures / "sixway.json"), 0, 8, 8, settings);
+        std::array<ImageRgba, kTruthRungs> rungs;
+        (void)t.render_ladder(rungs);
+        const ImageRgba written = read_pfm(rung_image);
+        const ImageRgba& want_rung = rungs[std::size_t(TruthRung::six_axis)];
+        REQUIRE(written.pixels.size() == want_rung.pixels.size());
+        for (std::size_t k = 0; k < written.pixels.size(); ++k) {
+            CHECK(written.pixels[k].x == want_rung.pixels[k].x);
+            CHECK(written.pixels[k].y == want_rung.pixels[k].y);
+            CHECK(written.pixels[k].z == want_rung.pixels[k].z);
+        }
+    }
+    const fs::path no_rung = dir.path / "none.png";
+    const CliRun unknown = run_cli("truth " + scene.string() + " -o " + no_rung.string() + " --rung nope --assets " +
+                                   textures.string());
+    CHECK(unknown.exit_code == 2);
+    CHECK_THAT(unknown.err, Catch::Contains("--rung") && Catch::Contains("one-transmittance") &&
+                                Catch::Contains("bake-extinction"));
+    CHECK_FALSE(fs::exists(no_rung));
 
     // A sidecar without the bake settings: the file and the field are named, nothing is written.
     std::string sidecar = file_bytes(textures / "sixway.json");

@@ -62,11 +62,14 @@ std::optional<GroundQuad> ground_of(const SceneDescription& d) {
     return GroundQuad{d.ground->corners};
 }
 
-Depths depths_of(const SceneDescription& d, const SmokeScene& smoke, std::uint32_t cutoff) {
+Depths depths_of(const SceneDescription& d, const SmokeScene& smoke, std::uint32_t cutoff,
+                 const DensityKernel& kernel = {}) {
     OpticalPathLengths depths(d.smoke.particles.size());
     FrameTimings t;
+    OpticalDepthSettings settings{cutoff};
+    settings.kernel = kernel;
     depths.update(smoke, d.smoke.particles, smoketrace::test::all_of(d.smoke.particles.size()), d.light.direction,
-                  OpticalDepthSettings{cutoff}, HitSort::adaptive, t);
+                  settings, HitSort::adaptive, t);
     return {depths.lengths(), depths.status(), depths.hit_counts()};
 }
 
@@ -99,6 +102,43 @@ DepthStatus check_story(const OpticalDepthStory& s, const Depths& want) {
     double sum = 0.0;
     for (const SmokeStretch& st : s.stretches) sum += double(st.t1) - double(st.t0);
     CHECK(std::abs(sum - double(s.length)) <= 0x1.0p-22 * double(s.length));
+    CHECK(s.optical_depth == s.length * s.sigma_t);
+    return DepthStatus::ok;
+}
+
+// A smooth kernel's story checked against the pass and against itself; returns its status.
+DepthStatus check_kernel_story(const OpticalDepthStory& s, const Depths& want) {
+    const std::uint32_t i = s.particle;
+    INFO("particle " << i);
+    CHECK(s.outcome.status == want.status[i]);
+    CHECK(s.outcome.hits == want.hits[i]);
+    // l bit for bit: the pass sums the same shares (over lanes, the scalar twin's bits) in the same order
+    // (its trace_bundle() walk is the story's trace() walk, lane by lane).
+    CHECK(bits(s.length) == bits(want.lengths[i]));
+    CHECK(s.sorted.empty());  // no sort, no counter
+    CHECK(s.stretches.empty());
+    if (s.outcome.status != DepthStatus::ok) {
+        CHECK(s.shares.empty());
+        return s.outcome.status;
+    }
+    REQUIRE(s.shares.size() == s.seen.size());
+    REQUIRE(s.sum_after.size() == s.seen.size());
+    // Entries add nothing, each exit its share (>= 0), and each particle met is left exactly once.
+    std::map<std::uint32_t, int> exits;
+    double before = 0.0;
+    for (std::size_t k = 0; k < s.seen.size(); ++k) {
+        if (s.seen[k].value > 0) {
+            CHECK(s.shares[k] == 0.0);
+        } else {
+            CHECK(s.shares[k] >= 0.0);
+            ++exits[s.seen[k].particle];
+        }
+        CHECK(s.sum_after[k] == before + s.shares[k]);
+        before = s.sum_after[k];
+    }
+    for (const auto& [p, n] : exits) CHECK(n == 1);
+    CHECK(exits.count(i) == 1);  // the own stand-in is left
+    CHECK(float(before) == s.length);
     CHECK(s.optical_depth == s.length * s.sigma_t);
     return DepthStatus::ok;
 }
@@ -226,6 +266,63 @@ TEST_CASE("explain: a particle's l is the one depths computes, bit for bit, on t
     CHECK(seen[int(DepthStatus::cutoff)] > 0);
 }
 
+TEST_CASE("explain: under a smooth kernel a particle's l is the pass's sum of shares, bit for bit", "[explain][kernel]") {
+    std::size_t seen[3] = {0, 0, 0};
+    for (const char* name : kShipped) {
+        for (const DensityKernel& kernel : {kGaussianKernel, kPoly1Kernel, kPoly2Kernel}) {
+            for (const bool icosahedra : {false, true}) {
+                const SceneDescription d = shipped(name);
+                const StandInShape shape = icosahedra ? StandInShape{StandInKind::icosahedron, 0} : d.smoke.shape;
+                INFO(name << ", " << shape.name() << ", " << kernel.name() << " kernel");
+                SmokeScene smoke(d.smoke.particles, shape, ground_of(d), /*billboards=*/false);
+                smoke.update(d.smoke.particles, d.camera.position);
+                const Depths want = depths_of(d, smoke, d.render.cutoff, kernel);
+                OpticalDepthSettings settings{d.render.cutoff};
+                settings.kernel = kernel;
+                for (std::uint32_t i = 0; i < d.smoke.particles.size(); ++i) {
+                    const OpticalDepthStory s = explain_optical_depth(smoke, d.smoke.particles, i, d.light.direction,
+                                                                      settings, HitSort::adaptive, d.smoke.sigma_t);
+                    CHECK(s.kernel == kernel);
+                    ++seen[int(check_kernel_story(s, want))];
+                }
+            }
+        }
+    }
+    CHECK(seen[int(DepthStatus::ok)] > 1000);
+    CHECK(seen[int(DepthStatus::cutoff)] > 0);
+}
+
+TEST_CASE("explain: under poly1 the hand-made column's l is its shares' known sum", "[explain][kernel]") {
+    // The light straight up through the three centres: each ray of the column passes its particles at b = 0,
+    // where poly1's share of a whole chord is peak·∫(1 − s²/R²) ds over [−R, R] = peak·4R/3, and half of that
+    // from the centre out. Particle 0 leaves its own support (2R/3) and crosses 1's and 2's (4R/3 each):
+    // l = peak·R·10/3, the overlap of 1 and 2 counted twice (the densities add). Tolerance: a few roundings
+    // of the closed form, 1e-6 relative.
+    TempDir dir;
+    const SceneDescription d = load_scene_file(dir.write("column.json", kColumn));
+    SmokeScene smoke(d.smoke.particles, d.smoke.shape, ground_of(d), /*billboards=*/false);
+    smoke.update(d.smoke.particles, d.camera.position);
+    OpticalDepthSettings settings;
+    settings.kernel = kPoly1Kernel;
+    const OpticalDepthStory s =
+        explain_optical_depth(smoke, d.smoke.particles, 0, d.light.direction, settings, HitSort::adaptive, 2.0f);
+    REQUIRE(s.outcome.status == DepthStatus::ok);
+    REQUIRE(s.seen.size() == 5);
+    const double R = double(kPoly1Kernel.support), peak = double(kPoly1Kernel.peak);
+    for (std::size_t k = 0; k < s.seen.size(); ++k) {
+        INFO("candidate " << k << ", particle " << s.seen[k].particle);
+        if (s.seen[k].value > 0) continue;
+        CHECK(s.shares[k] == Approx(peak * R * (s.seen[k].particle == 0 ? 2.0 : 4.0) / 3.0).epsilon(1e-6));
+    }
+    CHECK(s.length == Approx(peak * R * 10.0 / 3.0).epsilon(1e-6));
+    CHECK(s.transmittance == Approx(std::exp(-2.0 * peak * R * 10.0 / 3.0)).epsilon(1e-5));
+    check_kernel_story(s, depths_of(d, smoke, 0, kPoly1Kernel));
+    OpticalDepthSettings bad;
+    bad.kernel = DensityKernel{DensityKernelKind::poly1, 1.5f, 1.0f};  // a support beyond the stand-in
+    CHECK_THROWS_AS(explain_optical_depth(smoke, d.smoke.particles, 0, d.light.direction, bad, HitSort::adaptive, 1.0f),
+                    std::invalid_argument);
+}
+
 TEST_CASE("explain: the hand-made column gives its known story, and each status", "[explain]") {
     TempDir dir;
     const SceneDescription d = load_scene_file(dir.write("column.json", kColumn));
@@ -304,13 +401,21 @@ TEST_CASE("explain: the explained pixel is the rendered one, bit for bit, in eve
     scenes.emplace_back("column", load_scene_file(dir.write("column.json", kColumn)));
     std::set<SampleEnd> ends;
     bool shadowed = false, cut_short = false;
-    std::size_t compared = 0;
+    std::size_t compared = 0, kernel_shadows = 0;
+    struct Look {
+        RenderMode mode;
+        DensityKernel kernel;
+    };
+    const Look looks[] = {{RenderMode::basic, kUniformKernel},         {RenderMode::simple_shadow, kUniformKernel},
+                          {RenderMode::full, kUniformKernel},          {RenderMode::full, kGaussianKernel},
+                          {RenderMode::simple_shadow, kGaussianKernel}, {RenderMode::full, kPoly2Kernel}};
     for (const auto& [name, d] : scenes)
-        for (const RenderMode mode : {RenderMode::basic, RenderMode::simple_shadow, RenderMode::full})
+        for (const auto& [mode, kernel] : looks)
             for (const Compositing compositing : {Compositing::over, Compositing::thesis})
                 for (const std::uint32_t spp : {1u, 3u}) {
                     RenderOptions o = RenderOptions::from_scene(d);
                     o.render.mode = mode;
+                    o.kernel = kernel;
                     o.render.compositing = compositing;
                     o.render.spp = spp;
                     o.width = o.height = 24;
@@ -319,8 +424,8 @@ TEST_CASE("explain: the explained pixel is the rendered one, bit for bit, in eve
                     renderer.render(0, image);
                     for (int y = 0; y < o.height; ++y)
                         for (int x = (y % 2); x < o.width; x += 2) {
-                            INFO(name << ", " << to_string(mode) << ", " << to_string(compositing) << ", spp " << spp
-                                      << ", pixel " << x << "," << y);
+                            INFO(name << ", " << to_string(mode) << ", " << kernel.name() << ", "
+                                      << to_string(compositing) << ", spp " << spp << ", pixel " << x << "," << y);
                             const PixelStory p = explain_pixel(renderer, 0, x, y);
                             const glm::vec4 want = image.at(x, y);
                             CHECK(bits(p.color.x) == bits(want.x));
@@ -343,6 +448,25 @@ TEST_CASE("explain: the explained pixel is the rendered one, bit for bit, in eve
                                     CHECK(s.layers.back().weight_after < o.render.transmittance_threshold);
                                 }
                                 CHECK((s.end == SampleEnd::ground) == s.ground.has_value());
+                                if (s.ground) {
+                                    // A smooth kernel's shadow: the recorded shares, summed in their order,
+                                    // are the compositor's l_g, and its shadow exp(−σt·l_g).
+                                    const GroundStory& g = *s.ground;
+                                    CHECK(g.kernel_shadow == (g.shadow_ray && mode == RenderMode::full &&
+                                                              kernel.smooth()));
+                                    double l = 0.0;
+                                    for (const ShadowHitStory& h : g.shadow_hits) {
+                                        if (!h.exit) CHECK(h.share == 0.0);
+                                        l += h.share;
+                                    }
+                                    if (g.kernel_shadow) {
+                                        CHECK(bits(float(l)) == bits(g.shadow_length));
+                                        CHECK(bits(g.shadow_factor) == bits(std::exp(-g.shadow_length * p.sigma_t)));
+                                        kernel_shadows += g.shadow_length > 0.0f;
+                                    } else {
+                                        CHECK(g.shadow_hits.empty());
+                                    }
+                                }
                                 ends.insert(s.end);
                                 shadowed = shadowed || (s.ground && s.ground->shadow_hit);
                                 cut_short = cut_short || s.search_cut_at.has_value();
@@ -354,7 +478,8 @@ TEST_CASE("explain: the explained pixel is the rendered one, bit for bit, in eve
     CHECK(ends.size() == 3);
     CHECK(shadowed);
     CHECK(cut_short);
-    CHECK(compared == 5 * 3 * 2 * 2 * 24 * 12);
+    CHECK(kernel_shadows > 20);
+    CHECK(compared == 5 * 6 * 2 * 2 * 24 * 12);
 
     SceneDescription d = shipped("minimal.json");
     RenderOptions o = RenderOptions::from_scene(d);
@@ -429,6 +554,51 @@ TEST_CASE("cli: explain prints depths' l and render's pixel", "[explain][cli]") 
             CHECK(r.out.find("(the same)") != std::string::npos);
         }
     }
+}
+
+TEST_CASE("cli: explain --kernel tells the kernel's sums, depths' l and render's pixel", "[explain][cli][kernel]") {
+    TempDir dir;
+    const std::string above = (kAssets / "scenes" / "two_tubes_above.json").string();
+    const fs::path csv = dir.path / "d.csv";
+    REQUIRE(run_cli("depths " + above + " -o " + csv.string() + " --kernel gaussian").exit_code == 0);
+    std::vector<std::string> rows;
+    {
+        std::istringstream in(smoketrace::test::file_bytes(csv));
+        for (std::string line; std::getline(in, line);) rows.push_back(line);
+    }
+    for (const int i : {17, 443, 560}) {
+        const CliRun r = run_cli_stdout("explain " + above + " --particle " + std::to_string(i) + " --kernel gaussian");
+        INFO("particle " << i << ": " << r.err);
+        REQUIRE(r.exit_code == 0);
+        CHECK(r.out.find("density     gaussian kernel") != std::string::npos);
+        const auto l = lines_after(r.out, "l = ");
+        REQUIRE(l.size() == 1);
+        const std::string row = rows.at(std::size_t(i) + 1);
+        const auto a = row.find(','), b = row.find(',', a + 1);
+        CHECK(l[0].substr(0, l[0].find(' ')) == row.substr(a + 1, b - a - 1));
+        // Ok rays list each candidate's share; 443 is cut off (cutoff 60): no shares summed.
+        CHECK((r.out.find("its share of l:") != std::string::npos) == (row.substr(a + 1, b - a - 1) != "inf"));
+    }
+    // A pixel of the tubes' shadow, at render's size and kernel: its story names the kernel and every share.
+    const fs::path png = dir.path / "poly2.png";
+    const std::string options = " --size 128x128 --kernel poly2";
+    REQUIRE(run_cli("render " + above + " -o " + png.string() + options).exit_code == 0);
+    const Rgba8Image image = read_png_rgba8(png);
+    const CliRun r = run_cli_stdout("explain " + above + " --pixel 64,82" + options);
+    INFO(r.err);
+    REQUIRE(r.exit_code == 0);
+    CHECK(r.out.find("mode full, kernel poly2") != std::string::npos);
+    CHECK(r.out.find("the poly2 kernel's density summed along it") != std::string::npos);
+    CHECK(r.out.find("(the same)") != std::string::npos);
+    const auto srgb = lines_after(r.out, "pixel (linear) ");
+    REQUIRE(srgb.size() == 1);
+    std::istringstream in(srgb[0].substr(srgb[0].rfind(':') + 1));
+    int rgb[3] = {-1, -1, -1};
+    in >> rgb[0] >> rgb[1] >> rgb[2];
+    const std::uint8_t* px = &image.pixels[(82 * std::size_t(image.width) + 64) * 4];
+    CHECK(rgb[0] == px[0]);
+    CHECK(rgb[1] == px[1]);
+    CHECK(rgb[2] == px[2]);
 }
 
 // explain takes render's and depths' own options, read by the same code (scene_overrides.hpp), so that its
@@ -560,6 +730,9 @@ TEST_CASE("cli: explain's SVGs are well-formed and written whole", "[explain][cl
         {above.string() + " --particle 443", "line"},  // cut off: chords, no walk
         {above.string() + " --particle 17", "path"},
         {scene.string() + " --pixel 20,20", "rect"},  // two samples' bars
+        {above.string() + " --particle 560 --kernel gaussian", "rect"},  // the shares stacked into l
+        {above.string() + " --particle 443 --kernel poly1", "line"},     // cut off: no shares
+        {above.string() + " --pixel 256,330 --spp 1 --kernel poly2", "rect"},
     };
     for (const Case& c : cases) {
         INFO(c.args);

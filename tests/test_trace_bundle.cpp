@@ -6,7 +6,8 @@
 // spheres, object-space spheres and meshes, world-space quads, opaque and not, mixed masks), compared on
 // what DXR fixes whatever the traversal order: the set of candidates (with their t, bit for bit) when
 // every candidate is ignored, the closest hit when every candidate is accepted, whether anything is
-// committed under ACCEPT_FIRST_HIT_AND_END_SEARCH, and the cutoff. Last, bundle_order().
+// committed under ACCEPT_FIRST_HIT_AND_END_SEARCH, and the cutoff; and on what this walk fixes beyond DXR:
+// with every candidate ignored, their order, trace<TlasWalk::all_hits>'s. Last, bundle_order().
 #include <smoketrace/accel/bundle_traversal.hpp>
 #include <smoketrace/core/prng.hpp>
 #include <smoketrace/geometry/ray_bundle.hpp>
@@ -169,11 +170,12 @@ RayBundle random_bundle(Pcg32& rng, unsigned count) {
 
 }  // namespace
 
-TEST_CASE("trace_bundle: every ray of a bundle meets the candidates trace() shows it alone", "[trace-bundle]") {
+TEST_CASE("trace_bundle: every ray of a bundle meets the candidates trace() shows it alone, in its order",
+          "[trace-bundle]") {
     // Every candidate ignored, the scene's opaque instances made non-opaque (nothing commits), random
-    // inclusion masks and facing culls: per ray the same candidates, t bit for bit (the world-sphere
-    // kernel is exact, the rest is the very code trace() runs), and, since nothing shrinks tmax, the
-    // same counters as trace<TlasWalk::all_hits>: both walk the 4-wide tree with the same box test.
+    // inclusion masks and facing culls: per ray the same candidates in the same order, t bit for bit (the
+    // world-sphere kernel is exact, the rest is the very code trace() runs), and, since nothing shrinks
+    // tmax, the same counters as trace<TlasWalk::all_hits>: both walk the 4-wide tree with the same box test.
     Pcg32 rng(41);
     const AccelScene s = mixed_scene(rng);
     std::size_t candidates = 0;
@@ -194,9 +196,10 @@ TEST_CASE("trace_bundle: every ray of a bundle meets the candidates trace() show
                 expected.push_back(key_of(h));
                 return AnyHitDecision::ignore;
             });
-            std::sort(got[i].begin(), got[i].end());
-            std::sort(expected.begin(), expected.end());
             CAPTURE(k, i, int(incl), flags);
+            // In the same order, too: with nothing committed, lane by lane the bundle's walk is the lone
+            // ray's (bundle_traversal.hpp), which lets either sum a ray's kernel shares to the same bits
+            // (kernel_bundle_sums.hpp).
             CHECK(got[i] == expected);
             const TraceCounters &c = results[i].counters, &e = alone.counters;
             CHECK_FALSE(results[i].hit);

@@ -53,12 +53,12 @@ int run_explain(const Args& args) {
     if (!particle_arg && !pixel_arg)
         throw CliError("give --particle N (a particle's optical-depth ray) or --pixel X,Y");
     if (particle_arg) {
-        // What `depths` traces: frame 0, with only its --shape and --cutoff.
+        // What `depths` traces: frame 0, with only its --shape, --kernel and --cutoff.
         if (frame_arg) throw CliError("--frame: --particle explains frame 0, as depths computes it");
         if (truth) throw CliError("--truth: the truth of a pixel (--pixel); depths --truth gives a particle's");
         if (const char* flag = overrides.frame_only_flag())
-            throw CliError(std::string(flag) + ": --particle takes only depths' --shape and --cutoff (" + flag +
-                           " changes the frame, not the optical-depth ray)");
+            throw CliError(std::string(flag) + ": --particle takes only depths' --shape, --kernel and --cutoff (" +
+                           flag + " changes the frame, not the optical-depth ray)");
     }
     std::optional<std::pair<int, int>> pixel;
     if (pixel_arg) pixel = parse_pixel(*pixel_arg);
@@ -96,18 +96,15 @@ int run_explain(const Args& args) {
             throw CliError("--particle: " + std::to_string(*particle_arg) +
                            " is out of range: " + quoted_arg(scene_path) + " has " + std::to_string(particles.size()) +
                            " particles, 0…" + std::to_string(particles.size() - 1));
-        // The story is the union walk's (eq. 3.1): a smooth kernel's sums are not told yet.
-        if (options.kernel.smooth())
-            throw CliError("--particle: the story of a ray under the " + options.kernel.name() +
-                           " kernel is not told yet; use --kernel uniform (smoketrace depths --kernel " +
-                           options.kernel.name() + " gives its optical path lengths)");
-        // What `smoketrace depths` traces with the same --shape and --cutoff: frame 0's particles and light.
+        // What `smoketrace depths` traces with the same --shape, --kernel and --cutoff: frame 0's particles and
+        // light.
         std::optional<GroundQuad> ground;
         if (desc.ground) ground = GroundQuad{desc.ground->corners};
         SmokeScene smoke(particles, options.shape, ground, /*billboards=*/false);
         smoke.update(particles, desc.camera.position);
         OpticalDepthSettings settings;
         settings.cutoff = options.render.cutoff;
+        settings.kernel = options.kernel;
         const OpticalDepthStory story =
             explain_optical_depth(smoke, particles, std::uint32_t(*particle_arg), desc.light.direction_at_frame(0),
                                   settings, HitSort::adaptive, desc.smoke.sigma_t);
@@ -192,8 +189,8 @@ const RegisterCommand registration{
      "explain SCENE.json --particle N | --pixel X,Y [--truth] [--frame F] [-o OUT.svg|-] [--assets DIR] [--threads T] "
      "[render's --mode --size --frames --groups --cutoff --shape --kernel --compositing --spp]",
      "one ray's story, step by step, for learning the method: a particle's optical-depth ray (the any-hit "
-     "candidates, the sort, eq. 3.1's counter, l, tau, T) or a pixel's camera ray (its layers, eq. 4.2, the "
-     "ground and its shadow ray); see docs/explain.md",
+     "candidates, the sort, eq. 3.1's counter, l, tau, T; under a smooth --kernel each exit's share and their "
+     "sum) or a pixel's camera ray (its layers, eq. 4.2, the ground and its shadow ray); see docs/explain.md",
      &run_explain, kOptions}};
 
 }  // namespace

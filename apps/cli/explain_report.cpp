@@ -84,6 +84,19 @@ std::vector<double> ticks(double hi, int count) {
     return out;
 }
 
+// A smooth kernel's density about a particle of radius `radius`, for the text: peak * f(|x - centre| / R)
+// inside R = support * radius.
+std::string kernel_density(const DensityKernel& k, float radius) {
+    const std::string f =
+        k.kind == DensityKernelKind::gaussian
+            ? fmt("exp(-q^2 * %g^2 / 2) (a Gaussian cut at %g sigma)", kGaussianSupportSigmas, kGaussianSupportSigmas)
+        : k.kind == DensityKernelKind::poly1 ? "1 - q^2"
+        : k.kind == DensityKernelKind::poly2 ? "(1 - q^2)^2"
+                                             : "1";
+    return k.name() + " kernel: peak * f(|x - centre| / R), f(q) = " + f + ", peak " + num(k.peak) + ", R = " +
+           num(k.support) + " * radius = " + num(double(k.support) * double(radius));
+}
+
 // A particle's chord: where the ray entered and left its stand-in (nullopt: before the origin, or not seen).
 struct Chord {
     std::uint32_t particle;
@@ -121,21 +134,51 @@ std::string format_number(double v) {
 void write_particle_text(std::ostream& out, const OpticalDepthStory& s, std::span<const Particle> particles,
                          const std::string& scene_name, const char* shape_name, const glm::dvec3& origin) {
     const Particle& p = particles[s.particle];
+    const bool smooth = s.kernel.smooth();
     out << "smoketrace explain: particle " << s.particle << " of " << scene_name << " (frame 0)\n\n";
-    out << "The optical-depth ray (thesis 4.3.2): from the particle's centre toward the light; its any-hit\n"
-           "callback stores +1 for every particle surface it enters and -1 for every one it leaves.\n";
+    out << (smooth ? "The optical-depth ray (thesis 4.3.2): from the particle's centre toward the light; its any-hit\n"
+                     "callback sees every particle surface it crosses, and each one it leaves adds that particle's\n"
+                     "share of the density along the ray (the density kernel's closed-form integral).\n"
+                   : "The optical-depth ray (thesis 4.3.2): from the particle's centre toward the light; its any-hit\n"
+                     "callback stores +1 for every particle surface it enters and -1 for every one it leaves.\n");
     out << "  particle    centre " << point(p.center, origin) << ", radius " << num(p.radius) << "\n";
     out << "  origin      " << point(s.ray.origin, origin) << "\n";
     out << "  direction   " << vec(s.ray.direction) << " (toward the light, unit length)\n";
     out << "  t range     [" << num(s.ray.tmin) << ", " << num(s.ray.tmax) << "] (tmin: 2^-22 of the radius)\n";
     out << "  stand-ins   " << shape_name << "; cutoff "
-        << (s.cutoff ? std::to_string(s.cutoff) + " surfaces" : std::string("none")) << "\n\n";
+        << (s.cutoff ? std::to_string(s.cutoff) + " surfaces" : std::string("none")) << "\n";
+    if (smooth) out << "  density     " << kernel_density(s.kernel, p.radius) << "\n";
+    out << "\n";
 
-    out << "1. Every candidate the any-hit callback saw, in the order trace() met them (" << s.seen.size() << "):\n";
-    out << fmt("   %5s  %9s  %-7s %s\n", "#", "particle", "surface", "t");
-    for (std::size_t i = 0; i < s.seen.size(); ++i)
-        out << fmt("   %5zu  %9u  %-7s %s\n", i + 1, s.seen[i].particle, surface(s.seen[i].value),
-                   num(s.seen[i].t).c_str());
+    const bool summed = smooth && s.outcome.status == DepthStatus::ok;
+    out << "1. Every candidate the any-hit callback saw, in the order trace() met them (" << s.seen.size() << ")"
+        << (summed ? ", and its share of l:\n"
+                     "   an exit adds its particle's integral of the density along the ray, from where the ray enters\n"
+                     "   the particle's support (or from the origin, inside it) to where it leaves; an entry adds\n"
+                     "   nothing. # counts the any-hit calls, as the cutoff does.\n"
+                   : ":\n");
+    if (summed) {
+        out << fmt("   %5s  %9s  %-7s %-15s %-15s %s\n", "#", "particle", "surface", "t", "share", "sum");
+        bool outside_support = false;
+        for (std::size_t i = 0; i < s.seen.size(); ++i) {
+            if (s.seen[i].value > 0) {
+                out << fmt("   %5zu  %9u  %-7s %s\n", i + 1, s.seen[i].particle, surface(s.seen[i].value),
+                           num(s.seen[i].t).c_str());
+                continue;
+            }
+            outside_support = outside_support || s.shares[i] == 0.0;
+            out << fmt("   %5zu  %9u  %-7s %-15s %-15s %s\n", i + 1, s.seen[i].particle, surface(s.seen[i].value),
+                       num(s.seen[i].t).c_str(), num(s.shares[i]).c_str(), num(s.sum_after[i]).c_str());
+        }
+        if (outside_support)
+            out << "   A share of 0: the ray's stretch inside that particle's stand-in misses its support (the\n"
+                   "   sphere of radius R about the centre, where the density lives) or has it behind the origin.\n";
+    } else {
+        out << fmt("   %5s  %9s  %-7s %s\n", "#", "particle", "surface", "t");
+        for (std::size_t i = 0; i < s.seen.size(); ++i)
+            out << fmt("   %5zu  %9u  %-7s %s\n", i + 1, s.seen[i].particle, surface(s.seen[i].value),
+                       num(s.seen[i].t).c_str());
+    }
     if (s.ground_t)
         out << "   The ground was met at t = " << num(*s.ground_t)
             << " (opaque: committed without calling any-hit): the particle is occluded.\n";
@@ -146,7 +189,12 @@ void write_particle_text(std::ostream& out, const OpticalDepthStory& s, std::spa
                     : " (thesis 4.4.3), so the particle counts as fully dark.\n");
     out << "\n";
 
-    if (s.outcome.status == DepthStatus::ok) {
+    if (summed) {
+        out << "2. No sort, no counter: the ray leaves every particle it meets exactly once, so its exits name each\n"
+               "   one once, and where particles overlap their densities add.\n";
+        out << "   l = " << num(s.length) << "  (the sum of the shares, rounded to float; what `smoketrace depths "
+            << "--kernel " << s.kernel.name() << "` writes)\n\n";
+    } else if (s.outcome.status == DepthStatus::ok) {
         out << "2. The stored hits sorted by t, and the counter of eq. 3.1:\n";
         out << "   counter start = -(sum of the values) = " << s.counter_start
             << ": the number of particles that cover the ray's origin\n";
@@ -168,11 +216,12 @@ void write_particle_text(std::ostream& out, const OpticalDepthStory& s, std::spa
             << "  (the resolver's optical path length, summed gap by gap; what `smoketrace depths` writes)\n\n";
     } else {
         out << "2. Status " << status_name(s.outcome.status)
-            << ": the hits are not sorted or walked; the particle is fully dark (thesis 4.3.3).\n"
+            << (smooth ? ": the shares are not summed; the particle is fully dark (thesis 4.3.3).\n"
+                       : ": the hits are not sorted or walked; the particle is fully dark (thesis 4.3.3).\n")
             << "   l = " << num(s.length) << "\n\n";
     }
-    out << (s.outcome.status == DepthStatus::ok ? "4" : "3") << ". status " << status_name(s.outcome.status) << ", "
-        << s.outcome.hits << " hits (as `depths` reports them)\n";
+    out << (s.outcome.status == DepthStatus::ok && !smooth ? "4" : "3") << ". status " << status_name(s.outcome.status)
+        << ", " << s.outcome.hits << " hits (as `depths` reports them)\n";
     out << "   trace() counters: TLAS nodes " << s.counters.tlas_nodes << ", BLAS nodes " << s.counters.blas_nodes
         << ", boxes tested " << s.counters.boxes_tested << ", instances entered " << s.counters.instances_entered
         << ", primitives tested " << s.counters.primitives_tested << ", any-hit calls "
@@ -185,14 +234,21 @@ void write_particle_text(std::ostream& out, const OpticalDepthStory& s, std::spa
 
 void write_particle_svg(std::ostream& out, const OpticalDepthStory& s, const std::string& scene_name) {
     const bool ok = s.outcome.status == DepthStatus::ok;
-    const std::vector<Chord> chords = chords_of(ok ? std::span<const StoryHit>(s.sorted) : std::span(s.seen));
+    const bool smooth = s.kernel.smooth();
+    const bool summed = ok && smooth;  // the shares and their sum instead of eq. 3.1's counter
+    const std::vector<Chord> chords =
+        chords_of(ok && !smooth ? std::span<const StoryHit>(s.sorted) : std::span(s.seen));
+    std::map<std::uint32_t, double> share_of;  // a smooth kernel's: each particle's share (its exit's)
+    if (summed)
+        for (std::size_t i = 0; i < s.seen.size(); ++i)
+            if (s.seen[i].value < 0) share_of[s.seen[i].particle] = s.shares[i];
     float t_end = 0.0f;
     for (const StoryHit& h : s.seen) t_end = std::max(t_end, h.t);
     if (s.ground_t) t_end = std::max(t_end, *s.ground_t);
     if (!(t_end > 0.0f)) t_end = 1.0f;
     const double span = double(t_end) * 1.04;
 
-    const double W = 960, left = 140, right = 40, plot_w = W - left - right;
+    const double W = 960, left = summed ? 210 : 140, right = 40, plot_w = W - left - right;
     auto X = [&](double t) { return left + t / span * plot_w; };
     const double n = double(std::max<std::size_t>(chords.size(), 1));
     const double lane = std::clamp(220.0 / n, 5.0, 16.0);
@@ -203,7 +259,7 @@ void write_particle_svg(std::ostream& out, const OpticalDepthStory& s, const std
         c_max = std::max<std::int64_t>(c_max, s.counter_start);
         for (std::int64_t c : s.counter_after) c_max = std::max(c_max, c), c_min = std::min(c_min, c);
     }
-    const double counter_top = axis_y + 70, counter_h = 150, counter_bottom = counter_top + counter_h;
+    const double counter_top = axis_y + 70, counter_h = smooth ? 80 : 150, counter_bottom = counter_top + counter_h;
     auto Y = [&](double c) { return counter_bottom - (c - double(c_min)) / double(c_max - c_min) * counter_h; };
     const double legend_y = counter_bottom + 56;
     const double H = legend_y + 70;
@@ -219,8 +275,9 @@ void write_particle_svg(std::ostream& out, const OpticalDepthStory& s, const std
     const std::string head =
         "Particle " + std::to_string(s.particle) + ": its ray toward the light (" + scene_name + ", frame 0)";
     const std::string result =
-        ok ? "l = " + num(s.length) + " (sum of the shaded stretches), tau = l*sigma_t = " + num(s.optical_depth) +
-                 ", T = exp(-tau) = " + num(s.transmittance)
+        ok ? "l = " + num(s.length) + (summed ? " (sum of the shares, " + s.kernel.name() + " kernel)"
+                                              : std::string(" (sum of the shaded stretches)")) +
+                 ", tau = l*sigma_t = " + num(s.optical_depth) + ", T = exp(-tau) = " + num(s.transmittance)
            : std::string("status ") + status_name(s.outcome.status) + ": fully dark (l = inf, T = 0)";
     out << fmt(R"(<text x="%.0f" y="26" font-size="16" font-weight="bold">)", left) << xml(head) << "</text>\n";
     out << fmt(R"(<text x="%.0f" y="46">)", left) << xml(result) << "</text>\n";
@@ -247,9 +304,11 @@ void write_particle_svg(std::ostream& out, const OpticalDepthStory& s, const std
         if (c.leave)
             out << fmt(R"(<circle cx="%.2f" cy="%.2f" r="%.1f" fill="#de2d26"/>)", x1, y, std::max(2.0, lane * 0.3))
                 << "\n";
-        out << fmt(R"(<text x="%.0f" y="%.2f" text-anchor="end" font-size="%.0f">particle %u%s</text>)", left - 8,
+        const auto share = share_of.find(c.particle);
+        out << fmt(R"(<text x="%.0f" y="%.2f" text-anchor="end" font-size="%.0f">particle %u%s%s</text>)", left - 8,
                    y + std::min(lane, 11.0) * 0.35, std::min(lane, 11.0), c.particle,
-                   c.particle == s.particle ? " (own)" : "")
+                   c.particle == s.particle ? " (own)" : "",
+                   share != share_of.end() ? (", share " + brief(share->second)).c_str() : "")
             << "\n";
     }
     // The ray as the t axis.
@@ -278,33 +337,77 @@ void write_particle_svg(std::ostream& out, const OpticalDepthStory& s, const std
         out << fmt(R"(<text x="%.2f" y="%.2f" fill="#a50f15" text-anchor="end">)", left + plot_w, chords_top - 12)
             << "search cut off after " << s.cutoff << " surfaces: fully dark</text>\n";
 
-    // The counter of eq. 3.1 as a step plot.
-    out << fmt(R"(<text x="%.0f" y="%.2f" fill="#555">)", left, counter_top - 14)
-        << "The counter of eq. 3.1: starts at -(sum of the values), +1 at each entry, -1 at each exit; in smoke "
-           "while &gt; 0</text>\n";
-    for (std::int64_t c = c_min; c <= c_max; c += std::max<std::int64_t>(1, (c_max - c_min) / 6)) {
-        out << fmt(R"(<line x1="%.0f" y1="%.2f" x2="%.2f" y2="%.2f" stroke="#ddd"/>)", left, Y(double(c)),
-                   left + plot_w, Y(double(c)))
-            << "\n";
-        out << fmt(R"(<text x="%.0f" y="%.2f" text-anchor="end">%lld</text>)", left - 8, Y(double(c)) + 4,
-                   static_cast<long long>(c))
-            << "\n";
-    }
-    out << fmt(R"(<line x1="%.0f" y1="%.2f" x2="%.2f" y2="%.2f" stroke="black"/>)", left, Y(0), left + plot_w, Y(0))
-        << "\n";
-    out << fmt(R"svg(<text x="%.0f" y="%.2f" text-anchor="middle" transform="rotate(-90 %.0f %.2f)">counter</text>)svg",
-               left - 50, counter_top + counter_h / 2, left - 50, counter_top + counter_h / 2)
-        << "\n";
-    if (ok && !s.sorted.empty()) {
-        std::string d = fmt("M %.2f %.2f", X(0), Y(double(s.counter_start)));
-        for (std::size_t i = 0; i < s.sorted.size(); ++i) {
-            d += fmt(" H %.2f V %.2f", X(s.sorted[i].t), Y(double(s.counter_after[i])));
+    if (summed) {
+        // l as a stacked bar: each particle's share one segment, in the order the walk met (and summed) them.
+        const double l_span = double(s.length) > 0.0 ? double(s.length) * 1.04 : 1.0;
+        auto L = [&](double v) { return left + v / l_span * plot_w; };
+        const double bar_y = counter_top + 10, bar_h = 34, scale_y = bar_y + bar_h + 10;
+        out << fmt(R"(<text x="%.0f" y="%.2f" fill="#555">)", left, counter_top - 14)
+            << "l, the sum of the shares: one segment per particle, in the order the walk met them (no sort)"
+            << "</text>\n";
+        double before = 0.0;
+        std::size_t segment = 0;
+        for (std::size_t i = 0; i < s.seen.size(); ++i) {
+            if (s.seen[i].value > 0) continue;
+            out << fmt(R"(<rect x="%.2f" y="%.2f" width="%.2f" height="%.0f" fill="%s" stroke="white" )"
+                       R"(stroke-width="0.5"><title>particle %u: share %s</title></rect>)",
+                       L(before), bar_y, std::max(0.0, L(s.sum_after[i]) - L(before)), bar_h,
+                       segment % 2 == 0 ? "#6baed6" : "#2171b5", s.seen[i].particle, num(s.shares[i]).c_str())
+                << "\n";
+            if (L(s.sum_after[i]) - L(before) > 36)  // room for the particle's number
+                out << fmt(R"(<text x="%.2f" y="%.2f" text-anchor="middle" fill="%s">%u</text>)",
+                           0.5 * (L(before) + L(s.sum_after[i])), bar_y + bar_h / 2 + 4,
+                           segment % 2 == 0 ? "black" : "white", s.seen[i].particle)
+                    << "\n";
+            ++segment;
+            before = s.sum_after[i];
         }
-        d += fmt(" H %.2f", left + plot_w);
-        out << R"(<path d=")" << d << R"(" fill="none" stroke="#08519c" stroke-width="2"/>)" << "\n";
+        out << fmt(R"(<line x1="%.0f" y1="%.2f" x2="%.2f" y2="%.2f" stroke="black"/>)", left, scale_y, left + plot_w,
+                   scale_y)
+            << "\n";
+        for (double v : ticks(l_span, 8)) {
+            out << fmt(R"(<line x1="%.2f" y1="%.2f" x2="%.2f" y2="%.2f" stroke="black"/>)", L(v), scale_y, L(v),
+                       scale_y + 5)
+                << "\n";
+            out << fmt(R"(<text x="%.2f" y="%.2f" text-anchor="middle">%s</text>)", L(v), scale_y + 18,
+                       num(v).c_str())
+                << "\n";
+        }
+        out << fmt(R"(<text x="%.0f" y="%.2f">)", left, scale_y + 36)
+            << "density-weighted length (scene units times density)</text>\n";
+    } else if (smooth) {
+        out << fmt(R"(<text x="%.0f" y="%.2f" fill="#a50f15">)", left + 10, counter_top + 20)
+            << "shares not summed: the status is " << status_name(s.outcome.status) << "</text>\n";
     } else {
-        out << fmt(R"(<text x="%.0f" y="%.2f" fill="#a50f15">)", left + 10, counter_top + counter_h / 2)
-            << "not walked: the status is " << status_name(s.outcome.status) << "</text>\n";
+        // The counter of eq. 3.1 as a step plot.
+        out << fmt(R"(<text x="%.0f" y="%.2f" fill="#555">)", left, counter_top - 14)
+            << "The counter of eq. 3.1: starts at -(sum of the values), +1 at each entry, -1 at each exit; in smoke "
+               "while &gt; 0</text>\n";
+        for (std::int64_t c = c_min; c <= c_max; c += std::max<std::int64_t>(1, (c_max - c_min) / 6)) {
+            out << fmt(R"(<line x1="%.0f" y1="%.2f" x2="%.2f" y2="%.2f" stroke="#ddd"/>)", left, Y(double(c)),
+                       left + plot_w, Y(double(c)))
+                << "\n";
+            out << fmt(R"(<text x="%.0f" y="%.2f" text-anchor="end">%lld</text>)", left - 8, Y(double(c)) + 4,
+                       static_cast<long long>(c))
+                << "\n";
+        }
+        out << fmt(R"(<line x1="%.0f" y1="%.2f" x2="%.2f" y2="%.2f" stroke="black"/>)", left, Y(0), left + plot_w, Y(0))
+            << "\n";
+        out << fmt(R"svg(<text x="%.0f" y="%.2f" text-anchor="middle" )svg"
+                   R"svg(transform="rotate(-90 %.0f %.2f)">counter</text>)svg",
+                   left - 50, counter_top + counter_h / 2, left - 50, counter_top + counter_h / 2)
+            << "\n";
+        if (ok && !s.sorted.empty()) {
+            std::string d = fmt("M %.2f %.2f", X(0), Y(double(s.counter_start)));
+            for (std::size_t i = 0; i < s.sorted.size(); ++i) {
+                d += fmt(" H %.2f V %.2f", X(s.sorted[i].t), Y(double(s.counter_after[i])));
+            }
+            d += fmt(" H %.2f", left + plot_w);
+            out << R"(<path d=")" << d << R"(" fill="none" stroke="#08519c" stroke-width="2"/>)" << "\n";
+        } else {
+            out << fmt(R"(<text x="%.0f" y="%.2f" fill="#a50f15">)", left + 10, counter_top + counter_h / 2)
+                << "not walked: the status is " << status_name(s.outcome.status) << "</text>\n";
+        }
     }
 
     // Legend.
@@ -316,10 +419,19 @@ void write_particle_svg(std::ostream& out, const OpticalDepthStory& s, const std
                R"(<circle cx="%.0f" cy="%.0f" r="4" fill="#de2d26"/>)",
                left, ly, left + 30, ly)
         << "\n";
-    out << fmt(R"(<text x="%.0f" y="%.0f">chord: entry (green, +1) to exit (red, -1); )"
+    out << fmt(R"(<text x="%.0f" y="%.0f">chord: entry (green%s) to exit (red%s); )"
                R"(dashed: entered before t = 0 or not left</text>)",
-               left + 40, ly + 4)
+               left + 40, ly + 4, smooth ? "" : ", +1", smooth ? ", which adds the share" : ", -1")
         << "\n";
+    if (smooth) {
+        out << fmt(R"(<rect x="%.0f" y="%.0f" width="30" height="12" fill="#6baed6"/>)", left, ly + 14) << "\n";
+        out << fmt(R"(<text x="%.0f" y="%.0f">a particle's share: its density integrated over its chord )"
+                   R"((ahead of t = 0), added at its exit</text>)",
+                   left + 40, ly + 24)
+            << "\n";
+        out << "</svg>\n";
+        return;
+    }
     out << fmt(R"(<rect x="%.0f" y="%.0f" width="30" height="12" fill="#9ecae1" fill-opacity="0.45"/>)", left, ly + 14)
         << "\n";
     out << fmt(R"(<text x="%.0f" y="%.0f">in smoke (counter &gt; 0): the stretches summed into l</text>)", left + 40,
@@ -336,7 +448,8 @@ void write_particle_svg(std::ostream& out, const OpticalDepthStory& s, const std
 void write_pixel_text(std::ostream& out, const PixelStory& p, const glm::vec3& rendered,
                       const std::string& scene_name, std::uint64_t frame, const glm::dvec3& origin) {
     out << "smoketrace explain: pixel " << p.x << "," << p.y << " of " << scene_name << " (frame " << frame << ", mode "
-        << to_string(p.mode) << ", compositing " << to_string(p.compositing) << ", " << p.samples.size()
+        << to_string(p.mode) << (p.kernel.smooth() ? ", kernel " + p.kernel.name() : std::string())
+        << ", compositing " << to_string(p.compositing) << ", " << p.samples.size()
         << (p.samples.size() == 1 ? " sample: the pixel's centre" : " samples, averaged") << ")\n\n";
     const bool over = p.compositing == Compositing::over;
     out << (over ? "Front to back with the over operator: C += T*a*c_new, T *= 1 - a, stopping once T < " +
@@ -383,6 +496,23 @@ void write_pixel_text(std::ostream& out, const PixelStory& p, const glm::vec3& r
                         << (p.mode == RenderMode::basic ? "basic mode" : "the light is below the ground") << ")\n";
                 else if (!g.shadow_hit)
                     out << "    shadow ray toward " << vec(g.shadow.direction) << ": met no particle, lit (shadow 1)\n";
+                else if (g.kernel_shadow) {
+                    out << "    shadow ray toward " << vec(g.shadow.direction) << ": the " << p.kernel.name()
+                        << " kernel's density summed along it, every particle it leaves adding its share\n"
+                           "    (the surfaces in the order trace() met them; an entry adds nothing):\n";
+                    out << fmt("      %5s  %9s  %-7s %-15s %s\n", "#", "particle", "surface", "t", "share");
+                    for (std::size_t k = 0; k < g.shadow_hits.size(); ++k) {
+                        const ShadowHitStory& h = g.shadow_hits[k];
+                        if (h.exit)
+                            out << fmt("      %5zu  %9u  %-7s %-15s %s\n", k + 1, h.particle, "exit",
+                                       num(h.t).c_str(), num(h.share).c_str());
+                        else
+                            out << fmt("      %5zu  %9u  %-7s %s\n", k + 1, h.particle, "entry", num(h.t).c_str());
+                    }
+                    out << "    l = the shares' sum = " << num(g.shadow_length) << ", shadow = exp(-l*sigma_t) = exp(-"
+                        << num(g.shadow_length) << " * " << num(p.sigma_t) << ") = " << num(g.shadow_factor)
+                        << " (eq. 4.3 with the kernel)\n";
+                }
                 else if (p.mode == RenderMode::full)
                     out << "    shadow ray toward " << vec(g.shadow.direction) << ": nearest particle "
                         << g.shadow_particle << " at t = " << num(g.shadow_t)
@@ -447,7 +577,8 @@ void write_pixel_svg(std::ostream& out, const PixelStory& p, const std::string& 
         << "\n";
     out << fmt(R"(<rect x="0" y="0" width="%.0f" height="%.0f" fill="white"/>)", W, H) << "\n";
     const std::string head = "Pixel " + std::to_string(p.x) + "," + std::to_string(p.y) + " of " + scene_name +
-                             " (frame " + std::to_string(frame) + ", " + to_string(p.mode) + ", " +
+                             " (frame " + std::to_string(frame) + ", " + to_string(p.mode) +
+                             (p.kernel.smooth() ? ", kernel " + p.kernel.name() : std::string()) + ", " +
                              to_string(p.compositing) + ")";
     out << "<title>" << xml(head) << "</title>\n";
     out << R"(<text x="20" y="26" font-size="16" font-weight="bold">)" << xml(head) << "</text>\n";

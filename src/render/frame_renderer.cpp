@@ -39,6 +39,7 @@ FrameRenderer::FrameRenderer(const SceneDescription& scene, const RenderOptions&
 ViewSettings FrameRenderer::view_settings(std::uint64_t frame) const {
     ViewSettings v;
     v.mode = options_.render.mode;
+    v.kernel = options_.kernel;
     v.compositing = options_.render.compositing;
     v.compositor = options_.compositor;
     v.sigma_t = desc_.smoke.sigma_t;

@@ -23,8 +23,30 @@ glm::vec3 ground_sample(const PixelShader& shader, const Ray& ray, float t, Obse
     }
     const Ray shadow_ray{ray.origin + t * ray.direction, kShadowRayTmin, shader.settings().to_light,
                          std::numeric_limits<float>::infinity()};
-    const TraceResult r = trace(shader.scene().scene(), shadow_ray, shader.shadow_ray_flags(), kStandInMask);
-    const float shadow = shader.shadow(r);
+    const AccelScene& scene = shader.scene().scene();
+    TraceResult r;
+    float shadow;
+    if (shader.shadow_sums_kernel()) {
+        // Every stand-in toward the light (pixel_shading.hpp): the all-hits walk, which meets them in the
+        // order trace_bundle() meets them for the tiled compositor's shadow rays, so the sum has its bits.
+        double sum = 0.0;
+        r = trace<TlasWalk::all_hits>(scene, shadow_ray, shader.shadow_ray_flags(), kStandInMask,
+                                      [&](const TraceHit& h) {
+                                          double share = 0.0;
+                                          if (!h.front_face()) {
+                                              share = shader.shadow_share(shadow_ray.origin, h.instance_id);
+                                              sum += share;
+                                          }
+                                          observe.shadow_hit(h, share);
+                                          return AnyHitDecision::ignore;
+                                      });
+        const float l = float(sum);
+        observe.shadow_length(l);
+        shadow = shader.kernel_shadow(l);
+    } else {
+        r = trace(scene, shadow_ray, shader.shadow_ray_flags(), kStandInMask);
+        shadow = shader.shadow(r);
+    }
     const glm::vec3 c = shader.ground_color(shadow);
     observe.ground(&shadow_ray, &r, shadow, c);
     return c;

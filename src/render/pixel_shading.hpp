@@ -5,12 +5,14 @@
 //   * a billboard layer's opacity (texture alpha × the scene's alpha × the soft-particle fade), known when
 //     the layer is met, and its colour (six-way light map, eq. 4.2), looked up only for layers the
 //     compositor reaches;
-//   * the ground's colour (eq. 4.4) given its shadow (eq. 4.3), and the shadow ray that finds it;
+//   * the ground's colour (eq. 4.4) given its shadow (eq. 4.3), and the shadow ray that finds it: the
+//     nearest particle's transmittance, or under a smooth density kernel every particle's share summed;
 //   * front-to-back compositing of the layers sorted by depth, stopping below the transmittance threshold.
 // Internal to the render layer (src/render/), not installed.
 #include <smoketrace/core/radix_sort.hpp>
 #include <smoketrace/render/sixway_texture.hpp>
 #include <smoketrace/render/view_compositor.hpp>
+#include <smoketrace/smoke/density_kernel.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>
 #include <smoketrace/trace/trace_types.hpp>
 
@@ -70,7 +72,10 @@ class PixelShader {
 public:
     PixelShader(const SmokeScene& scene, std::span<const Particle> particles, std::span<const float> lengths,
                 const SixwayTexture& texture, const ViewSettings& s)
-        : scene_(scene), texture_(texture), s_(s) {
+        : scene_(scene), particles_(particles), texture_(texture), s_(s),
+          kernel_shadow_(s.mode == RenderMode::full && s.kernel.smooth()),
+          light_unit_(glm::normalize(glm::dvec3(s.to_light))) {
+        validate(s.kernel);
         // Per particle, once per frame: the light in its billboard's tangent space (x right, y up, z toward
         // the eye), its flipbook frame and its Beer–Lambert factor exp(−l·σt) (eqs. 2.10, 2.12; basic mode
         // has no optical depth: l = 0).
@@ -119,19 +124,40 @@ public:
 
     // Whether the ground at a pixel needs a shadow ray, and the ray's flags and mask (thesis 4.3.5): toward
     // the light, stand-ins only; simple-shadow asks whether anything is in the way, full the nearest
-    // particle (its optical depth is the shadow's).
+    // particle (its optical depth is the shadow's), and full with a smooth kernel every particle on the way:
+    // each candidate goes to any-hit (shadow_sums_kernel()).
     [[nodiscard]] bool ground_needs_shadow_ray() const { return n_dot_l_ > 0.0f && s_.mode != RenderMode::basic; }
     [[nodiscard]] std::uint32_t shadow_ray_flags() const {
+        if (kernel_shadow_) return ray_flag_force_non_opaque;
         return s_.mode == RenderMode::simple_shadow
                    ? ray_flag_force_opaque | ray_flag_accept_first_hit_and_end_search | ray_flag_skip_closest_hit_shader
                    : ray_flag_force_opaque;
     }
     // The shadow a shadow ray's result casts (eq. 4.3): exp(−l·σt) of the nearest particle toward the light
-    // (full), 0 if any is in the way (simple-shadow).
+    // (full), 0 if any is in the way (simple-shadow). Not for a smooth kernel's ray (kernel_shadow()).
     [[nodiscard]] float shadow(const TraceResult& r) const {
         if (!r.hit) return 1.0f;
         return s_.mode == RenderMode::simple_shadow ? 0.0f : billboards_[r.committed.instance_id].transmittance;
     }
+
+    // Eq. 4.3 under a smooth density kernel (full mode): the ground point's shadow is exp(−σt·l_g), l_g the
+    // density-weighted length of its shadow ray through every particle toward the light, the sum of their
+    // closed-form shares as the optical-depth pass sums a particle's (kernel_bundle_sums.hpp): an any-hit
+    // walk over all the stand-ins the ray meets, each exit adding shadow_share(), entries nothing, in double
+    // in the order the walk meets them, l_g that sum rounded to float. The kernel's density is smooth, so
+    // the shadow fades out toward the puffs' rims instead of ending at a disc's edge. No cutoff: the cutoff
+    // is the optical-depth pass's (thesis 4.4.3), and a shadow ray is never "fully dark".
+    [[nodiscard]] bool shadow_sums_kernel() const { return kernel_shadow_; }
+    // The share of particle p, whose stand-in the shadow ray from `origin` leaves (particle_stretch_integral()).
+    [[nodiscard]] double shadow_share(const glm::vec3& origin, std::uint32_t p) const {
+        return particle_stretch_integral(s_.kernel, origin, light_unit_, particles_[p].center, particles_[p].radius);
+    }
+    // The shadow of a summed l_g: exp(−l_g·σt).
+    [[nodiscard]] float kernel_shadow(float l) const { return beer_lambert(l, s_.sigma_t); }
+    // The shadow rays' direction in double, unit length: what the shares are integrated along.
+    [[nodiscard]] const glm::dvec3& light_unit() const { return light_unit_; }
+    [[nodiscard]] std::span<const Particle> particles() const { return particles_; }
+
     // The ground's colour (thesis eq. 4.4 with the shadow of eq. 4.3): c = c_base·(c_light·max(L·N, 0)·shadow
     // + c_amb); the ambient term keeps shadowed ground from going black, as the particles' c_amb does (eq. 4.2).
     [[nodiscard]] glm::vec3 ground_color(float shadow) const {
@@ -148,8 +174,11 @@ private:
         float transmittance;
     };
     const SmokeScene& scene_;
+    std::span<const Particle> particles_;
     const SixwayTexture& texture_;
     const ViewSettings& s_;
+    bool kernel_shadow_;
+    glm::dvec3 light_unit_;
     std::vector<Billboard> billboards_;
     glm::vec3 ground_normal_{0.0f, 1.0f, 0.0f};
     float n_dot_l_ = 0.0f;
@@ -238,6 +267,8 @@ struct NoPixelObserver {
     void opaque_surface(const TraceResult&) {}                      // the closest opaque hit, or none
     void layers_collected(std::span<const Layer>, const TraceResult&) {}  // met, before the sort; the billboard search
     void layer(const Layer&, const glm::vec3&, const PixelCompositor&) {}  // its colour, before it is added
+    void shadow_hit(const TraceHit&, double) {}  // a smooth kernel's shadow ray: each candidate, its share (entry: 0)
+    void shadow_length(float) {}                   // and their sum l_g
     void ground(const Ray*, const TraceResult*, float, const glm::vec3&) {}  // shadow ray (or none), shadow, colour
     void background(const glm::vec3&, const PixelCompositor&) {}    // behind the layers, before it is added
 };

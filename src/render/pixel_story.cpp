@@ -7,6 +7,7 @@
 
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace smoketrace {
 namespace {
@@ -16,6 +17,8 @@ struct SampleRecorder {
     const view::PixelShader& shader;
     std::span<const float> lengths;
     SampleStory& s;
+    std::vector<ShadowHitStory> shadow_hits = {};  // a smooth kernel's shadow ray, until ground() is told
+    float kernel_length = 0.0f;
 
     void opaque_surface(const TraceResult& r) {
         if (r.hit) s.opaque_t = r.committed.t;
@@ -41,6 +44,10 @@ struct SampleRecorder {
         ls.weight_after = behind.front_weight();
         s.layers.push_back(ls);
     }
+    void shadow_hit(const TraceHit& h, double share) {
+        shadow_hits.push_back(ShadowHitStory{h.instance_id, h.t, !h.front_face(), share});
+    }
+    void shadow_length(float l) { kernel_length = l; }
     void ground(const Ray* shadow_ray, const TraceResult* r, float shadow, const glm::vec3& c) {
         GroundStory g;
         g.t = s.opaque_t.value_or(0.0f);
@@ -50,7 +57,12 @@ struct SampleRecorder {
             g.shadow = *shadow_ray;
             g.point = shadow_ray->origin;  // the compositor's own ground point
             g.shadow_hit = r->hit;
-            if (r->hit && shader.settings().mode == RenderMode::full) {
+            if (shader.shadow_sums_kernel()) {
+                g.kernel_shadow = true;
+                g.shadow_hit = !shadow_hits.empty();
+                g.shadow_hits = std::move(shadow_hits);
+                g.shadow_length = kernel_length;
+            } else if (r->hit && shader.settings().mode == RenderMode::full) {
                 g.shadow_particle = r->committed.instance_id;
                 g.shadow_t = r->committed.t;
             }
@@ -83,6 +95,8 @@ PixelStory explain_pixel(const SmokeScene& scene, std::span<const Particle> part
     story.x = x;
     story.y = y;
     story.mode = settings.mode;
+    story.kernel = settings.kernel;
+    story.sigma_t = settings.sigma_t;
     story.compositing = settings.compositing;
     story.transmittance_threshold = settings.transmittance_threshold;
     std::vector<view::Layer> layers;

@@ -7,15 +7,18 @@
 //     that a pixel gone opaque stops meeting the billboards behind;
 //  3. each pixel's layers sorted and composited, colours looked up only for the layers reached;
 //  4. the ground seen through what is left: its shadow rays all go toward the one light, so they are
-//     parallel and go to trace_bundle() thirty-two at a time.
+//     parallel and go to trace_bundle() thirty-two at a time (under a smooth kernel each bundle's exits
+//     are integrated together after its walk, BundleKernelSums).
 // trace_tile() and trace_bundle() give each ray exactly what trace() gives it alone, so every sample is
 // bit for bit the per-ray compositor's (tests/test_view_compositor.cpp).
 #include "tiled_view.hpp"
 
 #include <smoketrace/trace/trace_bundle.hpp>
 
+#include <array>
 #include <cmath>
 #include <limits>
+#include <span>
 
 namespace smoketrace::view {
 namespace {
@@ -32,6 +35,7 @@ void render_tile(const PixelShader& shader, const Camera& camera, const PixelSam
                  int columns, int rows, ImageRgba& image, TiledViewScratch& scratch) {
     const ViewSettings& s = shader.settings();
     const AccelScene& scene = shader.scene().scene();
+    const std::span<const Particle> particles = shader.particles();
     glm::vec3 sum[kTileRays];
     for (int i = 0; i < samples.count(); ++i) {
         RayTile tile = camera.tile(x0, y0, columns, rows, samples[i], kViewRayTmin);
@@ -56,8 +60,23 @@ void render_tile(const PixelShader& shader, const Camera& camera, const PixelSam
         unsigned shadow_lane[kBundleWidth];
         RayBundle bundle(s.to_light);
         auto flush = [&] {
-            const BundleResults r = trace_bundle(scene, bundle, shader.shadow_ray_flags(), kStandInMask, AcceptEvery{});
-            for (unsigned b = 0; b < bundle.count; ++b) shadow[shadow_lane[b]] = shader.shadow(r[b]);
+            if (shader.shadow_sums_kernel()) {
+                // Every stand-in each ray leaves, summed (pixel_shading.hpp, kernel_bundle_sums.hpp).
+                BundleKernelSums& sums = scratch.shadow_sums;
+                sums.clear();
+                trace_bundle(scene, bundle, shader.shadow_ray_flags(), kStandInMask,
+                             [&](unsigned b, const TraceHit& h) {
+                                 if (!h.front_face()) sums.add_exit(b, h.instance_id, particles);
+                                 return AnyHitDecision::ignore;
+                             });
+                std::array<double, kBundleWidth> l;
+                sums.integrate(s.kernel, shader.light_unit(), bundle, particles, bundle.lanes(), l);
+                for (unsigned b = 0; b < bundle.count; ++b) shadow[shadow_lane[b]] = shader.kernel_shadow(float(l[b]));
+            } else {
+                const BundleResults r =
+                    trace_bundle(scene, bundle, shader.shadow_ray_flags(), kStandInMask, AcceptEvery{});
+                for (unsigned b = 0; b < bundle.count; ++b) shadow[shadow_lane[b]] = shader.shadow(r[b]);
+            }
             bundle = RayBundle(s.to_light);
         };
         bool sees_background[kTileRays];

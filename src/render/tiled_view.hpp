@@ -6,6 +6,7 @@
 #include <smoketrace/core/image.hpp>
 #include <smoketrace/render/camera.hpp>
 #include <smoketrace/render/pixel_samples.hpp>
+#include <smoketrace/smoke/kernel_bundle_sums.hpp>
 #include <smoketrace/trace/trace_tile.hpp>
 
 #include <array>
@@ -18,6 +19,7 @@ struct TiledViewScratch {
     TileScratch trace;
     TileResults results;
     std::array<std::vector<Layer>, kTileRays> layers;
+    BundleKernelSums shadow_sums;  // a smooth kernel's shadow rays, a bundle at a time
 };
 
 // Pixels [x0, x0 + columns) × [y0, y0 + rows) of `image` (at most kTileColumns × kTileRows): every sample

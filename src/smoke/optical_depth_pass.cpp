@@ -188,47 +188,27 @@ void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> 
                         }
                         continue;
                     }
-                    // The same shader, which also notes each exit's particle (its user id) for its share.
-                    for (std::vector<std::uint32_t>& lane : sc.lane_exits) lane.clear();
+                    // The same shader, which also notes each exit's particle (its user id) for its share
+                    // (kernel_bundle_sums.hpp); after the walk, the ok rays' shares, summed.
+                    sc.kernel_sums.clear();
                     auto collect_exits = [&](unsigned lane, const TraceHit& h) {
                         const bool front = h.front_face();
                         sc.lane_hits[lane].push_back(SurfaceHit{h.t, front ? +1 : -1});
-                        if (!front) {
-                            sc.lane_exits[lane].push_back(h.instance_id);
-                            // Read after the walk: asked for now, the particle's line arrives meanwhile (at
-                            // 10^5 particles and more their array is far beyond L2, and every read missed).
-                            __builtin_prefetch(&particles[h.instance_id]);
-                        }
+                        if (!front) sc.kernel_sums.add_exit(lane, h.instance_id, particles);
                         return AnyHitDecision::ignore;
                     };
                     const BundleResults results =
                         trace_bundle(scene, bundle, ray_flag_none, kLightRayMask, collect_exits, limits);
-                    // The ok rays' exits, ray after ray, integrated together over lanes; each ray's shares
-                    // then summed in the order its walk met them.
-                    std::array<std::uint32_t, kBundleWidth + 1> first{};
+                    unsigned ok = 0;
                     for (unsigned lane = 0; lane < bundle.count; ++lane) {
                         const RayOutcome o = optical_depth_outcome(scene, bundle.ray(lane), results[lane],
                                                                    sc.lane_hits[lane], settings.cutoff);
                         rays_[k + lane] = {nullptr, o.hits, o.status};
-                        const std::size_t exits = o.status == DepthStatus::ok ? sc.lane_exits[lane].size() : 0;
-                        first[lane + 1] = first[lane] + std::uint32_t(exits);
+                        ok |= unsigned(o.status == DepthStatus::ok) << lane;
                     }
-                    sc.exits.resize(first[bundle.count]);
-                    for (unsigned lane = 0; lane < bundle.count; ++lane) {
-                        const glm::vec3 origin = bundle.origin(lane);
-                        std::uint32_t e = first[lane];
-                        for (std::uint32_t at = 0; e < first[lane + 1]; ++e, ++at) {
-                            const Particle& p = particles[sc.lane_exits[lane][at]];
-                            sc.exits.set(e, origin, p.center, p.radius);
-                        }
-                    }
-                    sc.shares.resize(sc.exits.size());
-                    integrate_stretches(settings.kernel, unit_dir, sc.exits, sc.shares);
-                    for (unsigned lane = 0; lane < bundle.count; ++lane) {
-                        double sum = 0.0;
-                        for (std::uint32_t e = first[lane]; e < first[lane + 1]; ++e) sum += sc.shares[e];
-                        sums_[k + lane] = float(sum);
-                    }
+                    std::array<double, kBundleWidth> sums;
+                    sc.kernel_sums.integrate(settings.kernel, unit_dir, bundle, particles, ok, sums);
+                    for (unsigned lane = 0; lane < bundle.count; ++lane) sums_[k + lane] = float(sums[lane]);
                 }
                 // The budget, checked once per task: the hits over it are at most one task's.
                 const std::uint64_t task_hits = sc.kept - kept_before;

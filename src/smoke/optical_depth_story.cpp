@@ -19,9 +19,11 @@ OpticalDepthStory explain_optical_depth(const SmokeScene& smoke, std::span<const
                                 std::to_string(particles.size()) + " particles, 0…" +
                                 std::to_string(particles.size() == 0 ? 0 : particles.size() - 1) + ")");
     }
+    validate(settings.kernel);
     const AccelScene& scene = smoke.scene();
     OpticalDepthStory story;
     story.particle = particle;
+    story.kernel = settings.kernel;
     story.cutoff = settings.cutoff;
     story.sigma_t = sigma_t;
     // The pass's ray (OpticalDepthPass::trace: normalised direction, the particle's tmin, kOpticalDepthTmax).
@@ -48,7 +50,23 @@ OpticalDepthStory explain_optical_depth(const SmokeScene& smoke, std::span<const
     story.outcome = optical_depth_outcome(scene, story.ray, r, stored, settings.cutoff);
 
     story.length = kFullyDarkPathLength;
-    if (story.outcome.status == DepthStatus::ok) {
+    if (story.outcome.status == DepthStatus::ok && settings.kernel.smooth()) {
+        // The pass's sum (optical_depth_pass.hpp): each exit's share from the ray's origin along the direction
+        // in double, added in the order the walk met them.
+        const glm::dvec3 unit_dir = glm::normalize(glm::dvec3(story.ray.direction));
+        double sum = 0.0;
+        for (const StoryHit& h : story.seen) {
+            double share = 0.0;
+            if (h.value < 0) {
+                const Particle& q = particles[h.particle];
+                share = particle_stretch_integral(settings.kernel, story.ray.origin, unit_dir, q.center, q.radius);
+                sum += share;
+            }
+            story.shares.push_back(share);
+            story.sum_after.push_back(sum);
+        }
+        story.length = float(sum);
+    } else if (story.outcome.status == DepthStatus::ok) {
         // The resolver's sort and walk, as OpticalDepthPass::resolve() runs them on the pass's stored hits.
         ListResolver resolve;
         story.length = resolve(stored, sort);

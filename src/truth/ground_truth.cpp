@@ -7,6 +7,7 @@
 #include <smoketrace/render/view_compositor.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>
 #include <smoketrace/trace/trace.hpp>
+#include <smoketrace/truth/puff_axis_depths.hpp>
 
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
@@ -33,7 +34,9 @@ struct PuffPlacement {
     glm::vec3 centre_f, ex, ey, ez;
     float inv_radius;
     int frame;  // flipbook frame: (view flipbook frame + particle index) % frames, as PixelShader has it
+    glm::vec3 light_tangent;  // toward the light in the tangent frame, as PixelShader picks the six-way channels
 };
+
 
 // A puff's stretch of a ray: [t_in, t_out] of its sphere, clipped to the ray's range.
 struct Interval {
@@ -93,6 +96,15 @@ struct LightVolume {
         const double c0 = c00 + b * (c10 - c00), c1 = c01 + b * (c11 - c01);
         return float(c0 + c * (c1 - c0));
     }
+};
+
+// What the ladder's rungs light a puff with (TruthRung): per particle τ from its centre, the part of it the other
+// puffs make, and its own puff's light volume (τ of its density alone, toward the light); per flipbook frame
+// the axis depths of the lights some particle's light direction picks.
+struct LadderLight {
+    std::vector<double> tau_centre, tau_others;
+    std::vector<LightVolume> own;
+    std::vector<PuffAxisDepths> axis;
 };
 
 }  // namespace
@@ -225,8 +237,18 @@ struct GroundTruth::Impl {
     }
 
     // The light volume's frame and node grid at `spacing` (nothing allocated yet), and the volume filled on it.
-    void layout_light_volume(LightVolume& lv, double spacing) const;
+    // The light volume's frame and node grid at `spacing` over the spheres of puffs [first, last) (nothing
+    // allocated yet), one column of it filled with τ from the puffs of `intervals` (their stretches of the
+    // column's ray), and the whole volume filled from the puffs each column's ray meets in the TLAS.
+    void layout_light_volume(LightVolume& lv, double spacing, std::size_t first, std::size_t last) const;
+    void fill_column(LightVolume& lv, int i, int j, const std::vector<Interval>& intervals, std::vector<double>& tau) const;
     void build_light_volume(LightVolume& lv, WorkProgress* progress) const;
+    // The origin of column (i, j)'s ray, one spacing below the box, in float as the ray is traced: node k lies
+    // at t = (k + 1)·spacing along it.
+    static glm::dvec3 column_origin(const LightVolume& lv, int i, int j) {
+        const glm::dvec3 o = (lv.lo_u + i * lv.spacing) * lv.u + (lv.lo_v + j * lv.spacing) * lv.v + (lv.lo_w - lv.spacing) * lv.w;
+        return glm::dvec3(glm::vec3(o));
+    }
 
     // One camera sample's radiance with midpoint steps of `step`; τ_light from the volume, each lit point
     // appended to sc.lit with its estimate, or (no volume) from exact light rays to the reference precision.
@@ -267,18 +289,45 @@ struct GroundTruth::Impl {
         std::uint64_t lit = 0, exact = 0;  // lit samples at the last level, and those given exact light rays
     };
     PixelResult shade_pixel(int x, int y, const LightVolume* lv, int max_levels, Scratch& sc) const;
+
+    // The ladder (TruthRung): τ of puff i's own density from x to its sphere's exit toward the light (exact, as
+    // exact_tau's), each puff's own light volume, each rung's light for puff i at x (and the own light's change
+    // between the own volume's grid and subgrid), a camera sample's radiance in every rung, and a pixel's,
+    // steps halved until every rung settles.
+    double own_tau(std::uint32_t i, const glm::dvec3& x) const;
+    void build_own_volumes(LadderLight& ll) const;
+    void rung_lights(std::uint32_t i, const glm::dvec3& x, const LadderLight& ll, std::array<double, kTruthRungs>& out,
+                     double& own_change) const;
+    using RungColors = std::array<glm::dvec3, kTruthRungs>;
+    struct RungSample {
+        RungColors color{};
+        double own_estimate = 0;  // the weight of the own light's change, over the ray's samples
+        std::uint64_t steps = 0;
+    };
+    RungSample march_ladder(const Ray& ray, const std::vector<Interval>& intervals,
+                            const std::vector<std::pair<double, double>>& segments, const glm::dvec3& ground_point,
+                            bool ground, double step, const LadderLight& ll) const;
+    struct LadderPixel {
+        RungColors color{};
+        float view_error = 0, light_error = 0;
+        int level = 0;
+        bool limit = false;
+        std::uint64_t steps = 0;
+    };
+    LadderPixel shade_ladder_pixel(int x, int y, const LadderLight& ll, Scratch& sc) const;
     // The exact light rays that bring the pixel's light error within its share (see the definition); returns
     // what they change the pixel by and sets r.light_error, r.lit and r.exact.
     glm::dvec3 light_correction(Scratch& sc, int spp, double half_tol, PixelResult& r) const;
 };
 
-void GroundTruth::Impl::layout_light_volume(LightVolume& lv, double spacing) const {
+void GroundTruth::Impl::layout_light_volume(LightVolume& lv, double spacing, std::size_t first, std::size_t last) const {
     lv.w = to_light;
     const glm::dvec3 helper = std::abs(lv.w.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
     lv.u = glm::normalize(glm::cross(lv.w, helper));
     lv.v = glm::cross(lv.w, lv.u);
     glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
-    for (const PuffPlacement& p : puffs) {
+    for (std::size_t i = first; i < last; ++i) {
+        const PuffPlacement& p = puffs[i];
         const glm::dvec3 c(glm::dot(p.centre, lv.u), glm::dot(p.centre, lv.v), glm::dot(p.centre, lv.w));
         lo = glm::min(lo, c - p.radius);
         hi = glm::max(hi, c + p.radius);
@@ -294,39 +343,41 @@ void GroundTruth::Impl::layout_light_volume(LightVolume& lv, double spacing) con
     lv.nw = nodes(hi.z - lo.z);
 }
 
+void GroundTruth::Impl::fill_column(LightVolume& lv, int i, int j, const std::vector<Interval>& intervals,
+                                    std::vector<double>& tau) const {
+    const double spacing = lv.spacing, t0 = spacing;
+    const glm::dvec3 o = column_origin(lv, i, j);
+    tau.assign(std::size_t(lv.nw), 0.0);
+    // Each puff's share of each node-to-node segment, at most half a voxel per panel; then τ of a node is the
+    // sum of the segments above it.
+    for (const Interval& iv : intervals) {
+        const int k0 = std::max(0, int(std::floor((iv.t_in - t0) / spacing)));
+        const int k1 = std::min(lv.nw - 1, int(std::ceil((iv.t_out - t0) / spacing)));
+        for (int k = k0; k < k1; ++k) {
+            const double a = std::max(iv.t_in, t0 + k * spacing), b = std::min(iv.t_out, t0 + (k + 1) * spacing);
+            if (b > a) tau[std::size_t(k)] += integrate(iv.puff, o, lv.w, a, b, panels(iv.puff, b - a));
+        }
+    }
+    double above = 0.0;
+    float* column = &lv.tau[(std::size_t(j) * std::size_t(lv.nu) + std::size_t(i)) * std::size_t(lv.nw)];
+    for (int k = lv.nw - 1; k >= 0; --k) {
+        above += tau[std::size_t(k)];  // the segment from node k to node k + 1
+        column[k] = float(double(sigma_t) * above);
+    }
+}
+
 void GroundTruth::Impl::build_light_volume(LightVolume& lv, WorkProgress* progress) const {
-    const double spacing = lv.spacing;
     lv.tau.assign(std::size_t(lv.nu) * std::size_t(lv.nv) * std::size_t(lv.nw), 0.0f);
     if (progress) progress->begin("light volume", std::uint64_t(lv.nv));
 
     tbb::parallel_for(tbb::blocked_range<int>(0, lv.nv), [&](const tbb::blocked_range<int>& rows) {
         Scratch& sc = scratch.local();
-        std::vector<double> tau(std::size_t(lv.nw));
+        std::vector<double> tau;
         for (int j = rows.begin(); j != rows.end(); ++j) {
             for (int i = 0; i < lv.nu; ++i) {
-                // The column's ray starts one spacing below the box and runs toward the light; node k is at t_k.
-                const double t0 = spacing;
-                const glm::dvec3 o = (lv.lo_u + i * spacing) * lv.u + (lv.lo_v + j * spacing) * lv.v + (lv.lo_w - t0) * lv.w;
-                const Ray ray{glm::vec3(o), 0.0f, glm::vec3(lv.w), std::numeric_limits<float>::infinity()};
+                const Ray ray{glm::vec3(column_origin(lv, i, j)), 0.0f, glm::vec3(lv.w), std::numeric_limits<float>::infinity()};
                 puffs_on(ray, std::numeric_limits<double>::infinity(), sc, sc.intervals_light);
-                const glm::dvec3 of(ray.origin);
-                std::fill(tau.begin(), tau.end(), 0.0);
-                // Each puff's share of each node-to-node segment, at most half a voxel per panel;
-                // then τ of a node is the sum of the segments above it.
-                for (const Interval& iv : sc.intervals_light) {
-                    const int k0 = std::max(0, int(std::floor((iv.t_in - t0) / spacing)));
-                    const int k1 = std::min(lv.nw - 1, int(std::ceil((iv.t_out - t0) / spacing)));
-                    for (int k = k0; k < k1; ++k) {
-                        const double a = std::max(iv.t_in, t0 + k * spacing), b = std::min(iv.t_out, t0 + (k + 1) * spacing);
-                        if (b > a) tau[std::size_t(k)] += integrate(iv.puff, of, lv.w, a, b, panels(iv.puff, b - a));
-                    }
-                }
-                double above = 0.0;
-                float* column = &lv.tau[(std::size_t(j) * std::size_t(lv.nu) + std::size_t(i)) * std::size_t(lv.nw)];
-                for (int k = lv.nw - 1; k >= 0; --k) {
-                    above += tau[std::size_t(k)];  // the segment from node k to node k + 1
-                    column[k] = float(double(sigma_t) * above);
-                }
+                fill_column(lv, i, j, sc.intervals_light, tau);
             }
             if (progress) progress->add(1);
         }
@@ -474,8 +525,9 @@ void GroundTruth::Impl::init() {
         throw std::invalid_argument("truth: spp must be in [1, " + std::to_string(kMaxSpp) + "]");
     if (settings.max_view_levels < 1 || settings.max_view_levels > 12)
         throw std::invalid_argument("truth: max_view_levels must be in [1, 12]");
-    if (!(settings.step_voxels > 0.0f) || !(settings.light_spacing_voxels > 0.0f))
-        throw std::invalid_argument("truth: step_voxels and light_spacing_voxels must be > 0");
+    if (!(settings.step_voxels > 0.0f) || !(settings.light_spacing_voxels > 0.0f) ||
+        !(settings.own_light_spacing_voxels > 0.0f))
+        throw std::invalid_argument("truth: step_voxels, light_spacing_voxels and own_light_spacing_voxels must be > 0");
     const int frames = int(flipbook.size());
     const SixwayAtlasGrid grid = sixway_grid_for_frames(frames);
     texture = SixwayTexture(Rgba8Image(grid.columns, grid.rows), Rgba8Image(grid.columns, grid.rows), grid);
@@ -507,6 +559,7 @@ void GroundTruth::Impl::init() {
         p.ez = glm::vec3(glm::normalize(m.linear[2]));
         p.inv_radius = 1.0f / particles[i].radius;
         p.frame = (view.flipbook_frame + int(i)) % frames;
+        p.light_tangent = glm::vec3(glm::dot(view.to_light, p.ex), glm::dot(view.to_light, p.ey), glm::dot(view.to_light, p.ez));
         min_voxel = std::min(min_voxel, p.radius * double(flipbook[std::size_t(p.frame)].voxel()));
     }
     if (puffs.empty()) min_voxel = 1.0;
@@ -571,7 +624,7 @@ TruthReport GroundTruth::render(ImageRgba& image, WorkProgress* progress) const 
     double spacing = double(m.settings.light_spacing_voxels) * m.min_voxel;
     const double half_tol = 0.5 * double(m.settings.tolerance);
     for (;;) {
-        m.layout_light_volume(lv, spacing);
+        m.layout_light_volume(lv, spacing, 0, m.puffs.size());
         const std::size_t bytes = std::size_t(lv.nu) * std::size_t(lv.nv) * std::size_t(lv.nw) * sizeof(float);
         if (bytes <= m.settings.light_volume_max_bytes) break;
         spacing *= 2.0;
@@ -633,11 +686,299 @@ TruthReport GroundTruth::render(ImageRgba& image, WorkProgress* progress) const 
     return report;
 }
 
+// ---- The ladder: the frame's approximations of the light, one rung at a time ------------------------------
+
+const char* to_string(TruthRung r) {
+    switch (r) {
+        case TruthRung::one_transmittance: return "one-transmittance";
+        case TruthRung::light_map: return "light-map";
+        case TruthRung::six_axis: return "six-axis";
+        case TruthRung::bake_extinction: return "bake-extinction";
+    }
+    return "?";
+}
+
+double GroundTruth::Impl::own_tau(std::uint32_t i, const glm::dvec3& x) const {
+    const PuffPlacement& p = puffs[i];
+    const glm::dvec3 oc = x - p.centre;
+    const double b = glm::dot(oc, to_light), c = glm::dot(oc, oc) - p.radius * p.radius;
+    const double disc = b * b - c;
+    if (disc <= 0.0) return 0.0;
+    const double t_exit = -b + std::sqrt(disc);
+    if (!(t_exit > 0.0)) return 0.0;
+    return double(sigma_t) * integrate(i, x, to_light, 0.0, t_exit, panels(i, t_exit));
+}
+
+void GroundTruth::Impl::build_own_volumes(LadderLight& ll) const {
+    // Each puff's own light volume at the light volume's spacing in its own voxels, coarser for all if together
+    // they would exceed the light volume's memory cap.
+    double scale = double(settings.own_light_spacing_voxels);
+    ll.own.assign(puffs.size(), LightVolume{});
+    for (;;) {
+        std::size_t bytes = 0;
+        for (std::size_t i = 0; i < puffs.size(); ++i) {
+            const double voxel = puffs[i].radius * double(flipbook[std::size_t(puffs[i].frame)].voxel());
+            layout_light_volume(ll.own[i], scale * voxel, i, i + 1);
+            bytes += std::size_t(ll.own[i].nu) * std::size_t(ll.own[i].nv) * std::size_t(ll.own[i].nw) * sizeof(float);
+        }
+        if (bytes <= settings.light_volume_max_bytes) break;
+        scale *= 2.0;
+    }
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, puffs.size(), 1), [&](const tbb::blocked_range<std::size_t>& r) {
+        std::vector<double> tau;
+        std::vector<Interval> own(1);
+        for (std::size_t p = r.begin(); p != r.end(); ++p) {
+            LightVolume& lv = ll.own[p];
+            lv.tau.assign(std::size_t(lv.nu) * std::size_t(lv.nv) * std::size_t(lv.nw), 0.0f);
+            const PuffPlacement& puff = puffs[p];
+            for (int j = 0; j < lv.nv; ++j)
+                for (int i = 0; i < lv.nu; ++i) {
+                    // The column's stretch through this puff's sphere alone, as puffs_on() finds it in double.
+                    const glm::dvec3 o = column_origin(lv, i, j);
+                    const glm::dvec3 oc = o - puff.centre;
+                    const double b = glm::dot(oc, lv.w), c = glm::dot(oc, oc) - puff.radius * puff.radius;
+                    const double disc = b * b - c;
+                    own.clear();
+                    if (disc > 0.0) {
+                        const double root = std::sqrt(disc);
+                        const double t0 = std::max(-b - root, 0.0), t1 = -b + root;
+                        if (t1 > t0) own.push_back({t0, t1, std::uint32_t(p)});
+                    }
+                    fill_column(lv, i, j, own, tau);
+                }
+        }
+    });
+}
+
+void GroundTruth::Impl::rung_lights(std::uint32_t i, const glm::dvec3& x, const LadderLight& ll,
+                                    std::array<double, kTruthRungs>& out, double& own_change) const {
+    const OctaveTransmittance light_t(scattering);
+    auto t_ms = [&](double tau) { return double(light_t(float(tau))); };
+    const LightVolume& own_volume = ll.own[i];
+    const double own = double(own_volume.lookup(x, 1));
+    // As the light volume's estimate (march()): the change of the own light between the grid and its subgrid.
+    own_change = std::abs(t_ms(own) - t_ms(double(own_volume.lookup(x, 2))));
+    const double centre = std::exp(-ll.tau_centre[i]);  // eq. 4.2's exp(-l·σt), with the true τ
+    out[std::size_t(TruthRung::one_transmittance)] = t_ms(own + ll.tau_others[i]);
+    out[std::size_t(TruthRung::light_map)] = t_ms(own) * centre;
+    // The six-way light map, h·lx² + v·ly² + d·lz² (sixway_light_map()), of the own puff's axis depths.
+    const PuffPlacement& p = puffs[i];
+    const glm::vec3 d = glm::vec3(x) - p.centre_f;
+    const glm::vec3 q = glm::vec3(glm::dot(d, p.ex), glm::dot(d, p.ey), glm::dot(d, p.ez)) * p.inv_radius;
+    const PuffAxisDepths& axis = ll.axis[std::size_t(p.frame)];
+    double six = 0.0, bake = 0.0;
+    for (int a = 0; a < 3; ++a) {
+        const double l = double(p.light_tangent[a]);
+        if (l == 0.0) continue;
+        const double depth = double(axis(l > 0.0 ? a : a + 3, q));  // tangent units
+        six += l * l * t_ms(double(sigma_t) * p.radius * depth);
+        bake += l * l * t_ms(double(scattering.extinction) * depth);
+    }
+    out[std::size_t(TruthRung::six_axis)] = six * centre;
+    out[std::size_t(TruthRung::bake_extinction)] = bake * centre;
+}
+
+GroundTruth::Impl::RungSample GroundTruth::Impl::march_ladder(const Ray& ray, const std::vector<Interval>& intervals,
+                                                              const std::vector<std::pair<double, double>>& segments,
+                                                              const glm::dvec3& ground_point, bool ground, double step,
+                                                              const LadderLight& ll) const {
+    const glm::dvec3 c_light(view.light_color), c_amb(view.ambient);
+    const double c_light_max = std::max({c_light.x, c_light.y, c_light.z});
+    const glm::dvec3 o(ray.origin), d(ray.direction);
+    RungSample s;
+    double transmittance = 1.0;
+    std::array<double, kTruthRungs> lit{}, puff_lit{};
+    for (const auto& [a, b] : segments) {
+        const int n = std::max(1, int(std::ceil((b - a) / step)));
+        const double dt = (b - a) / n;
+        for (int k = 0; k < n; ++k) {
+            const double t = a + (k + 0.5) * dt;
+            const glm::dvec3 xd = o + t * d;
+            const glm::vec3 x(xd);
+            ++s.steps;
+            // As sigma_at(): the densities summed in float in interval order, then σt; each puff's share of the
+            // sample's scattering lit by its own rung light.
+            float sum = 0.0f;
+            double change = 0.0;
+            lit.fill(0.0);
+            for (const Interval& iv : intervals) {
+                if (t < iv.t_in || t > iv.t_out) continue;
+                const float rho = density(iv.puff, x);
+                if (rho == 0.0f) continue;
+                sum += rho;
+                double own_change;
+                rung_lights(iv.puff, xd, ll, puff_lit, own_change);
+                for (int r = 0; r < kTruthRungs; ++r) lit[std::size_t(r)] += double(rho) * puff_lit[std::size_t(r)];
+                change += double(rho) * own_change;
+            }
+            const float sigma = sigma_t * sum;
+            if (sigma == 0.0f) continue;
+            const double opacity = transmittance * -std::expm1(-double(sigma) * dt);  // eq. 2.10, as march()
+            for (int r = 0; r < kTruthRungs; ++r)
+                s.color[std::size_t(r)] += opacity * (c_light * (lit[std::size_t(r)] / double(sum)) + c_amb);
+            // The own light's change enters both rungs that use it, each with at most this weight (the
+            // transmittance from the centre is at most 1; T_ms is 1-Lipschitz).
+            s.own_estimate += opacity * c_light_max * change / double(sum);
+            transmittance *= std::exp(-double(sigma) * dt);
+        }
+    }
+    glm::dvec3 back(view.background);
+    if (ground) {
+        // Eq. 4.3 with the true τ: the shadow is the transmittance of the nearest particle toward the light,
+        // found as the frame finds it (closest stand-in from the ground point, TMin 0).
+        const Ray shadow{glm::vec3(ground_point), 0.0f, glm::vec3(to_light), std::numeric_limits<float>::infinity()};
+        const TraceResult hit = trace(accel(), shadow, ray_flag_force_opaque, kStandInMask);
+        const double lit_fraction = hit.hit ? std::exp(-ll.tau_centre[hit.committed.instance_id]) : 1.0;
+        back = glm::dvec3(ground_lit) * lit_fraction + glm::dvec3(ground_ambient);
+    }
+    for (glm::dvec3& c : s.color) c += transmittance * back;
+    return s;
+}
+
+GroundTruth::Impl::LadderPixel GroundTruth::Impl::shade_ladder_pixel(int x, int y, const LadderLight& ll,
+                                                                     Scratch& sc) const {
+    const PixelSamples samples(settings.spp);
+    const Camera& camera = renderer->camera();
+    const double h0 = double(settings.step_voxels) * min_voxel;
+    const double half_tol = 0.5 * double(settings.tolerance);
+    LadderPixel r;
+    RungColors previous{};
+    for (int level = 0; level <= settings.max_view_levels; ++level) {
+        const double step = h0 / double(1 << level);
+        RungColors sum{};
+        double own_estimate = 0.0;
+        for (int i = 0; i < samples.count(); ++i) {
+            const glm::vec2 off = samples[i];
+            const Ray ray = camera.ray_through(float(x) + off.x, float(y) + off.y, kViewRayTmin);
+            bool ground;
+            glm::dvec3 gp;
+            prepare_ray(ray, sc, ground, gp);
+            const RungSample c = march_ladder(ray, sc.intervals, sc.segments, gp, ground, step, ll);
+            for (int k = 0; k < kTruthRungs; ++k) sum[std::size_t(k)] += c.color[std::size_t(k)];
+            own_estimate += c.own_estimate;
+            r.steps += c.steps;
+        }
+        r.light_error = float(own_estimate / double(samples.count()));
+        double change = 0.0;
+        for (int k = 0; k < kTruthRungs; ++k) {
+            const glm::dvec3 pixel = sum[std::size_t(k)] / double(samples.count());
+            const glm::dvec3 delta = glm::abs(pixel - previous[std::size_t(k)]);
+            change = std::max({change, delta.x, delta.y, delta.z});
+            previous[std::size_t(k)] = pixel;
+        }
+        if (level == 0) continue;
+        r.view_error = float(change);
+        r.level = level;
+        if (change < half_tol) break;
+        if (level == settings.max_view_levels) r.limit = true;
+    }
+    r.color = previous;
+    return r;
+}
+
+LadderReport GroundTruth::render_ladder(std::array<ImageRgba, kTruthRungs>& images, WorkProgress* progress) const {
+    const auto start = std::chrono::steady_clock::now();
+    const Impl& m = *impl_;
+    LadderLight ll;
+    ll.tau_centre = particle_optical_depths();
+    ll.tau_others.resize(m.puffs.size());
+    unsigned lights = 0;  // the axis lights some particle's light direction picks
+    for (std::size_t i = 0; i < m.puffs.size(); ++i) {
+        ll.tau_others[i] = ll.tau_centre[i] - m.own_tau(std::uint32_t(i), m.puffs[i].centre);
+        for (int a = 0; a < 3; ++a) {
+            const float l = m.puffs[i].light_tangent[a];
+            if (l != 0.0f) lights |= 1u << (l > 0.0f ? a : a + 3);
+        }
+    }
+    std::vector<bool> shown(m.flipbook.size(), false);
+    for (const PuffPlacement& p : m.puffs) shown[std::size_t(p.frame)] = true;
+    ll.axis.resize(m.flipbook.size());
+    for (std::size_t f = 0; f < m.flipbook.size(); ++f)
+        if (shown[f]) ll.axis[f] = PuffAxisDepths(m.flipbook[f], lights);
+    if (progress) progress->begin("own light volumes", 0);
+    m.build_own_volumes(ll);
+
+    for (ImageRgba& image : images) image = ImageRgba(m.width, m.height, glm::vec4(0.0f, 0.0f, 0.0f, 1.0f));
+    struct Row {
+        float view = 0, light = 0;
+        int level = 0;
+        std::uint64_t limit = 0, steps = 0;
+    };
+    std::vector<Row> rows(std::size_t(m.height));
+    if (progress) progress->begin("ladder", std::uint64_t(m.height));
+    tbb::parallel_for(tbb::blocked_range<int>(0, m.height, 1), [&](const tbb::blocked_range<int>& range) {
+        Scratch& sc = m.scratch.local();
+        for (int y = range.begin(); y != range.end(); ++y) {
+            Row& row = rows[std::size_t(y)];
+            for (int x = 0; x < m.width; ++x) {
+                const Impl::LadderPixel p = m.shade_ladder_pixel(x, y, ll, sc);
+                for (int k = 0; k < kTruthRungs; ++k)
+                    images[std::size_t(k)].at(x, y) = glm::vec4(glm::vec3(p.color[std::size_t(k)]), 1.0f);
+                row.view = std::max(row.view, p.view_error);
+                row.light = std::max(row.light, p.light_error);
+                row.level = std::max(row.level, p.level);
+                row.limit += p.limit ? 1 : 0;
+                row.steps += p.steps;
+            }
+            if (progress) progress->add(1);
+        }
+    });
+    LadderReport report;
+    for (const Row& r : rows) {
+        report.view_error_estimate = std::max(report.view_error_estimate, r.view);
+        report.own_light_error_estimate = std::max(report.own_light_error_estimate, r.light);
+        report.view_levels_used = std::max(report.view_levels_used, r.level);
+        report.unconverged_pixels += r.limit;
+        report.camera_samples += r.steps;
+    }
+    report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return report;
+}
+
 glm::vec3 GroundTruth::pixel(int x, int y) const {
     if (x < 0 || y < 0 || x >= impl_->width || y >= impl_->height)
         throw std::out_of_range("truth: pixel (" + std::to_string(x) + ", " + std::to_string(y) + ") is outside the image");
     Scratch sc;
     return impl_->shade_pixel(x, y, nullptr, impl_->settings.max_view_levels, sc).color;
+}
+
+TruthCheck GroundTruth::check(const ImageRgba& image, const TruthReport& report, int stride, WorkProgress* progress) const {
+    const auto start = std::chrono::steady_clock::now();
+    const Impl& m = *impl_;
+    if (stride < 1) throw std::invalid_argument("truth: the check's stride must be >= 1");
+    if (image.width != m.width || image.height != m.height ||
+        report.pixel_error_estimate.size() != std::size_t(m.width) * std::size_t(m.height))
+        throw std::invalid_argument("truth: check() wants the image and report of this truth's render()");
+    std::vector<std::array<int, 2>> at;
+    for (int y = stride / 2; y < m.height; y += stride)
+        for (int x = stride / 2; x < m.width; x += stride) at.push_back({x, y});
+    std::vector<float> difference(at.size());
+    if (progress) progress->begin("checking against exact light", std::uint64_t(at.size()));
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, at.size(), 1), [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t k = r.begin(); k != r.end(); ++k) {
+            const auto [x, y] = at[k];
+            const glm::vec3 d = glm::abs(glm::vec3(image.at(x, y)) - pixel(x, y));
+            difference[k] = std::max({d.x, d.y, d.z});
+            if (progress) progress->add(1);
+        }
+    });
+    TruthCheck c;
+    c.pixels = at.size();
+    const float half_tol = 0.5f * m.settings.tolerance;
+    for (std::size_t k = 0; k < at.size(); ++k) {  // in order: ties go to the first, whatever the threads
+        const auto [x, y] = at[k];
+        const float estimate = report.pixel_error_estimate[std::size_t(y) * std::size_t(m.width) + std::size_t(x)];
+        if (difference[k] > c.largest_difference) {
+            c.largest_difference = difference[k];
+            c.x = x;
+            c.y = y;
+            c.estimate_there = estimate;
+        }
+        c.above_tolerance += difference[k] > m.settings.tolerance ? 1 : 0;
+        c.above_estimate += difference[k] > estimate + half_tol ? 1 : 0;
+    }
+    c.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return c;
 }
 
 std::vector<double> GroundTruth::particle_optical_depths() const {

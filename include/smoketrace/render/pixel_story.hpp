@@ -3,7 +3,8 @@
 // docs/explain.md): each sample's camera ray run through the per-ray compositor (one_traversal, the
 // reference the tiled compositor matches bit for bit) with an observer that records what it does: the
 // opaque surface, the billboard layers front to back with their colours (eq. 4.2) and weights, where the
-// compositing stopped and why, and the ground with its shadow ray (eqs. 4.3, 4.4). The compositor's own
+// compositing stopped and why, and the ground with its shadow ray (eqs. 4.3, 4.4; under a smooth density
+// kernel every particle the shadow ray leaves, with its share). The compositor's own
 // code runs; the observer only listens, so the pixel is the one render_view() writes (tests/test_explain.cpp).
 #include <smoketrace/geometry/ray.hpp>
 #include <smoketrace/render/camera.hpp>
@@ -44,6 +45,14 @@ enum class SampleEnd : std::uint8_t {
     sky,                      // nothing left: no ground behind the layers, the background colour
 };
 
+// A surface a smooth kernel's shadow ray crossed, in the order its walk met them (pixel_shading.hpp).
+struct ShadowHitStory {
+    std::uint32_t particle = 0;
+    float t = 0.0f;
+    bool exit = false;   // it leaves the particle's stand-in (an entry adds nothing)
+    double share = 0.0;  // an exit's: the particle's integral of the density along the ray (density_kernel.hpp)
+};
+
 struct GroundStory {
     float t = 0.0f;                   // along the camera ray
     glm::vec3 point{0.0f};
@@ -53,6 +62,11 @@ struct GroundStory {
     std::uint32_t shadow_particle = 0;  // full mode: the nearest one, whose l casts the shadow
     float shadow_t = 0.0f;
     float shadow_factor = 1.0f;       // exp(−l·σt) of that particle (full), 0 (simple-shadow), 1 (lit)
+    // Full mode with a smooth kernel: the shadow ray's every candidate instead of the nearest particle, the
+    // sum l_g of the shares, and shadow_factor = exp(−σt·l_g).
+    bool kernel_shadow = false;
+    std::vector<ShadowHitStory> shadow_hits;
+    float shadow_length = 0.0f;       // l_g
     glm::vec3 color{0.0f};            // c_base·(c_light·max(L·N, 0)·shadow + c_amb) (eqs. 4.3, 4.4)
 };
 
@@ -73,6 +87,8 @@ struct SampleStory {
 struct PixelStory {
     int x = 0, y = 0;
     RenderMode mode = RenderMode::full;
+    DensityKernel kernel{};
+    float sigma_t = 0.0f;
     Compositing compositing = Compositing::over;
     float transmittance_threshold = 0.0f;
     std::vector<SampleStory> samples;  // settings.spp of them, in the order the view pass sums them

@@ -21,6 +21,7 @@
 #include <smoketrace/core/work_progress.hpp>
 #include <smoketrace/render/scene_description.hpp>
 #include <smoketrace/render/sixway_texture.hpp>
+#include <smoketrace/smoke/density_kernel.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>
 
 #include <span>
@@ -34,6 +35,9 @@ inline constexpr float kViewRayTmin = 1e-3f;
 
 struct ViewSettings {
     RenderMode mode = RenderMode::full;
+    // The stand-ins' density (density_kernel.hpp). In full mode a smooth kernel's ground shadow sums every
+    // particle toward the light (pixel_shading.hpp); uniform keeps the thesis's nearest particle (eq. 4.3).
+    DensityKernel kernel{};
     Compositing compositing = Compositing::over;
     CompositorKind compositor = CompositorKind::tiled;
     float sigma_t = 1.0f;
@@ -54,7 +58,8 @@ struct ViewSettings {
 // Each pixel is the plain mean (a box filter) of its settings.spp samples at the points of pixel_samples.hpp,
 // in linear colour; spp 1 traces camera.ray(x, y) and gives exactly that ray's colour. Parallel over 16×16
 // tiles (TBB); each pixel depends on nothing but its own rays, summed in sample order, so the image is the
-// same whatever the thread count. Throws std::invalid_argument when spp is outside 1…kMaxSpp.
+// same whatever the thread count. Throws std::invalid_argument when spp is outside 1…kMaxSpp or the kernel
+// is not valid (density_kernel.hpp's validate()).
 void render_view(const SmokeScene& scene, std::span<const Particle> particles, std::span<const float> lengths,
                  const SixwayTexture& texture, const Camera& camera, const ViewSettings& settings, ImageRgba& image);
 

@@ -168,9 +168,11 @@ public:
         r_[i] = radius;
     }
     void add(const glm::vec3& origin, const glm::vec3& centre, float radius) {
-        resize(size() + 1);
-        set(size() - 1, origin, centre, radius);
+        ox_.push_back(origin.x), oy_.push_back(origin.y), oz_.push_back(origin.z);
+        cx_.push_back(centre.x), cy_.push_back(centre.y), cz_.push_back(centre.z);
+        r_.push_back(radius);
     }
+    void clear() { resize(0); }
     [[nodiscard]] std::size_t size() const { return r_.size(); }
 
 private:

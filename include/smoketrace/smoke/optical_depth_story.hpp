@@ -6,7 +6,14 @@
 // 3.1). Nothing of the method is done a second time: l is the resolver's, bit for bit what the pass gives
 // the same particle (tests/test_explain.cpp). The counter after each hit and the in-smoke stretches are
 // the walk written out for reading; the length that counts is `length`.
+//
+// Under a smooth density kernel (settings.kernel, density_kernel.hpp) the pass sorts nothing: each exit adds
+// its particle's closed-form share, in the order the walk met them, and the story records each candidate's
+// share and the sum after it, the pass's own sum (the story's trace<TlasWalk::all_hits>() meets a ray's
+// candidates in the order the pass's trace_bundle() does, kernel_bundle_sums.hpp), so l is again the
+// pass's, bit for bit.
 #include <smoketrace/geometry/ray.hpp>
+#include <smoketrace/smoke/density_kernel.hpp>
 #include <smoketrace/smoke/hit_resolver.hpp>
 #include <smoketrace/smoke/optical_depth_pass.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>
@@ -33,6 +40,7 @@ struct SmokeStretch {
 
 struct OpticalDepthStory {
     std::uint32_t particle = 0;
+    DensityKernel kernel{};  // the settings': uniform tells eq. 3.1's sort and walk, a smooth one the sum
     Ray ray;  // the pass's ray: from the centre toward the light, tmin = optical_depth_tmin(radius)
     // Every candidate the any-hit callback was called with, in the order trace() met them (any-hit order
     // is free: the pass, tracing 32 rays together, may meet them in another order; the set is the same).
@@ -48,15 +56,20 @@ struct OpticalDepthStory {
     std::int64_t counter_start = 0;
     std::vector<std::int64_t> counter_after;  // [i]: after sorted[i]
     std::vector<SmokeStretch> stretches;
-    float length = 0.0f;         // l: the resolver's; kFullyDarkPathLength unless ok
+    // A smooth kernel, status ok (then `sorted`, the counter and the stretches stay empty): [i] the share of
+    // seen[i] (an exit's: particle_stretch_integral() from the ray's origin; an entry's: 0) and the sum of the
+    // shares up to and including it, in double, in the order trace() met them.
+    std::vector<double> shares;
+    std::vector<double> sum_after;
+    float length = 0.0f;         // l: the resolver's, or a smooth kernel's sum rounded; kFullyDarkPathLength unless ok
     float sigma_t = 0.0f;
     float optical_depth = 0.0f;  // τ = l·σt (eq. 2.12)
     float transmittance = 1.0f;  // T = exp(−τ) (eq. 2.10); σt = 0 gives 1, even for l = ∞
 };
 
 // The story of particle `particle`'s optical-depth ray, as OpticalDepthPass::trace() and resolve() with
-// these arguments would compute it. Throws std::out_of_range naming the index and the count when there
-// is no such particle.
+// these arguments would compute it (`sort` only for the uniform kernel). Throws std::out_of_range naming the
+// index and the count when there is no such particle, std::invalid_argument when settings.kernel is not valid.
 [[nodiscard]] OpticalDepthStory explain_optical_depth(const SmokeScene& scene, std::span<const Particle> particles,
                                                       std::uint32_t particle, const glm::vec3& to_light,
                                                       const OpticalDepthSettings& settings, HitSort sort,

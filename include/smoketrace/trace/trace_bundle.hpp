@@ -8,7 +8,10 @@
 // with every DXR rule of trace.hpp, the cutoff and SKIP_CLOSEST_HIT_SHADER applied to each ray on its own
 // (a ray that ends its search, by accept-and-end, a first hit or the cutoff, drops out; the others go on).
 // The candidates of one ray and their t are those trace() reports, bit for bit; only their order may
-// differ (DXR gives none), and candidates of different rays interleave. Per-ray counters: tlas_nodes and
+// differ (DXR gives none), and candidates of different rays interleave. A ray that commits nothing meets
+// them in trace<TlasWalk::all_hits>'s order: lane by lane the walk is that one (bundle_traversal.hpp), which
+// lets a caller sum per-candidate values, such as a density kernel's shares, to the same bits either way
+// (smoke/kernel_bundle_sums.hpp; tests/test_trace_bundle.cpp holds the order). Per-ray counters: tlas_nodes and
 // boxes_tested count the top-level nodes the ray entered and the boxes tested for it, which equal
 // trace<TlasWalk::all_hits>'s when nothing is committed; the rest count the ray's own work, as in trace().
 //

@@ -22,6 +22,7 @@
 
 #include <glm/vec3.hpp>
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -46,6 +47,9 @@ struct TruthSettings {
     // interpolation is not good enough, so this trades the volume's build against the rays taken; 2 voxels
     // was the fastest at 256² on the shipped scenes (docs/ground-truth.md).
     float light_spacing_voxels = 2.0f;
+    // The ladder's own light volumes (render_ladder(): one per puff, its density alone): their node spacing in
+    // voxels of the puff.
+    float own_light_spacing_voxels = 4.0f;
     // The most memory the light volume may take (floats of τ); above it the spacing is doubled until it fits,
     // and more samples take exact light rays.
     std::size_t light_volume_max_bytes = std::size_t(1) << 30;
@@ -73,6 +77,52 @@ struct TruthReport {
     std::vector<std::uint8_t> pixel_unconverged;
 };
 
+// The thesis's approximations of the light, put into the volume one at a time: each rung keeps the volume
+// (the same puffs, camera rays and opacities as the truth) and every approximation of the rungs before it,
+// and adds one more (docs/ground-truth.md, "The ladder"). What an approximation costs is the difference
+// between its rung and the one before; the frame drawn with the true optical depths (billboards instead of the
+// volume) is the next rung, the frame itself (the stand-ins' optical depths) the last. Per puff i and sample x:
+enum class TruthRung : std::uint8_t {
+    // (b) One transmittance per particle: the light the other puffs let through is taken once per particle,
+    // at its centre: T_ms(τ_own(x) + τ_others(c_i)); the ground's shadow is the nearest particle's e^{-τ(c)}
+    // (eq. 4.3 with the true τ), as the frame shades both.
+    one_transmittance,
+    // Eq. 4.2's form: the puff's own light map times the particle's one transmittance from its centre,
+    // T_ms(τ_own(x)) · e^{-τ(c_i)} (the own puff's near half counted in both, as the frame counts it).
+    light_map,
+    // (d) Six axis lights: the own light map lit from the six axis directions of the billboard's tangent frame
+    // and blended as the six-way texture is (h·lx² + v·ly² + d·lz², eq. 4.2's light map), still at σt.
+    six_axis,
+    // The six-way bake's density: the same light map with the self-shadow of the bake's extinction (7 per
+    // half-width in the shipped textures) instead of σt·radius: the light map the textures carry.
+    bake_extinction,
+};
+inline constexpr int kTruthRungs = 4;
+[[nodiscard]] const char* to_string(TruthRung r);
+
+struct LadderReport {
+    double seconds = 0;
+    float view_error_estimate = 0;         // the largest step-halving change of a pixel of any rung, last level
+    std::uint64_t unconverged_pixels = 0;  // pixels that hit the step-level limit with a change above half the tolerance
+    int view_levels_used = 0;
+    std::uint64_t camera_samples = 0;
+    // The largest per-pixel estimate of the own light volumes' interpolation error (each lit sample's light change
+    // between the grid and its every-other-node subgrid, weighted as it enters the pixel, as render() estimates
+    // its light volume's); an estimate, not mended by exact rays.
+    float own_light_error_estimate = 0;
+};
+
+// render()'s image checked against pixel() (every light ray exact) at a sample of pixels (GroundTruth::check()).
+struct TruthCheck {
+    std::uint64_t pixels = 0;        // pixels checked
+    float largest_difference = 0;    // the largest |render() − pixel()| of a channel
+    int x = -1, y = -1;              // where
+    float estimate_there = 0;        // render()'s error estimate of that pixel
+    std::uint64_t above_tolerance = 0;  // pixels whose difference exceeds the tolerance
+    std::uint64_t above_estimate = 0;   // pixels whose difference exceeds their estimate + half the tolerance
+    double seconds = 0;
+};
+
 class GroundTruth {
 public:
     // The smoke of frame `frame` of `scene` (particles advanced as FrameRenderer advances them) seen by the
@@ -89,9 +139,19 @@ public:
 
     // The image, linear radiance, alpha 1; rows and pixel centres as the frame renderer's (row 0 at the top).
     TruthReport render(ImageRgba& image, WorkProgress* progress = nullptr) const;
+    // The rungs of the ladder (TruthRung), images[r] for rung r, linear radiance like render()'s; camera steps
+    // halved per pixel until every rung's pixel changes by less than half the tolerance. The rungs need no
+    // light volume of the whole field: their light is the own puff's (a light volume of that puff alone, or its
+    // six axis depths) and one exact τ per particle.
+    LadderReport render_ladder(std::array<ImageRgba, kTruthRungs>& images, WorkProgress* progress = nullptr) const;
     // One pixel, its light rays traced exactly (no light volume): the reference render() is tested against,
     // and what `explain --pixel` can show beside a frame's pixel.
     [[nodiscard]] glm::vec3 pixel(int x, int y) const;
+    // render()'s `image` (and its `report`) against pixel() at the centre pixel of every stride × stride block:
+    // a check of the bound on a sample of pixels (pixel() is converged to half the tolerance itself, so a
+    // difference up to the estimate plus half the tolerance is within both bounds). Parallel over the pixels.
+    [[nodiscard]] TruthCheck check(const ImageRgba& image, const TruthReport& report, int stride,
+                                   WorkProgress* progress = nullptr) const;
     // τ from each particle's centre to the light, exact light rays (the thesis's l also starts at the centre
     // and counts its own sphere's exit), converged by step halving.
     [[nodiscard]] std::vector<double> particle_optical_depths() const;

@@ -32,14 +32,26 @@ public:
                 return std::max(std::max(std::abs(p.x), std::abs(p.y)), std::abs(p.z)) < size_ ? value_ : 0.0f;
             case Kind::grid: break;
         }
-        return trilinear(p);
+        return interpolate(grid_, p);
     }
     [[nodiscard]] Kind kind() const { return kind_; }
     // The density's scale in tangent units: a voxel's side (the grid), or the test shape's size / 64.
     [[nodiscard]] float voxel() const { return voxel_; }
+    // The test shapes' size (ball radius, cube half side) and density.
+    [[nodiscard]] float size() const { return size_; }
+    [[nodiscard]] float value() const { return value_; }
+
+    // The grid: voxels along x and y, along z, their sides, and the values at their centres ([k][j][i] as above).
+    [[nodiscard]] int columns() const { return n_; }
+    [[nodiscard]] int layers() const { return nz_; }
+    [[nodiscard]] float side_xy() const { return dxy_; }
+    [[nodiscard]] float side_z() const { return dz_; }
+    [[nodiscard]] const std::vector<float>& voxel_values() const { return grid_; }
+    // Trilinear interpolation at p of `values` laid out as this grid's voxel centres (the density itself, or
+    // any other field sampled there), 0 beyond the outermost centres' cells.
+    [[nodiscard]] float interpolate(const std::vector<float>& values, glm::vec3 p) const;
 
 private:
-    [[nodiscard]] float trilinear(glm::vec3 p) const;
 
     Kind kind_ = Kind::grid;
     float size_ = 0.0f, value_ = 0.0f, voxel_ = 1.0f;
