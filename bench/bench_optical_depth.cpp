@@ -41,6 +41,7 @@
 #include "support/embree_reference.hpp"
 #include "timing.hpp"
 
+#include <smoketrace/smoke/density_kernel.hpp>
 #include <smoketrace/smoke/optical_path_lengths.hpp>
 #include <smoketrace/geometry/ray_bundle.hpp>
 #include <smoketrace/smoke/stand_in_shapes.hpp>
@@ -175,10 +176,19 @@ public:
     // the rays in bundle_order(), tasks of 16 of them, each thread's hits in a scratch of its own, gathered
     // into particle order at the end. `query`: one ray per rtcOccluded1, or eight per rtcOccluded8 (the
     // coherent context flag: the rays of a packet are parallel neighbours).
-    void run(const std::vector<Particle>& ps, glm::vec3 dir, std::uint32_t cutoff, Query query, OpticalDepthHits& out) {
+    // With a smooth `kernel` (kernel_sums set) the filter also adds each exit's closed-form share
+    // (particle_stretch_integral(), in the order Embree reports them) to its ray's sum, as our pass does after
+    // its walk; no hits are kept, and (*kernel_sums)[i] is particle i's sum (ok rays).
+    void run(const std::vector<Particle>& ps, glm::vec3 dir, std::uint32_t cutoff, Query query, OpticalDepthHits& out,
+             const DensityKernel* kernel = nullptr, std::vector<float>* kernel_sums = nullptr) {
         const std::size_t n = ps.size();
         out.status.assign(n, DepthStatus::ok);
         out.hit_counts.assign(n, 0);
+        kernel_ = kernel;
+        kernel_sums_ = kernel_sums;
+        if (kernel_sums_) kernel_sums_->assign(n, 0.0f);
+        particles_ = ps.data();
+        unit_dir_ = glm::normalize(glm::dvec3(dir));
         origins_.resize(n);
         for (std::size_t i = 0; i < n; ++i) origins_[i] = ps[i].center;
         bundle_order(origins_, dir, order_, order_scratch_);
@@ -202,6 +212,11 @@ public:
         HitLists& lists = out.lists;
         lists.offsets.resize(n + 1);
         lists.offsets[0] = 0;
+        if (kernel_sums_) {  // no hits kept
+            std::fill(lists.offsets.begin(), lists.offsets.end(), 0u);
+            lists.hits.clear();
+            return;
+        }
         for (std::size_t i = 0; i < n; ++i)
             lists.offsets[i + 1] = lists.offsets[i] + (out.status[i] == DepthStatus::ok ? out.hit_counts[i] : 0);
         lists.hits.resize(lists.offsets[n]);
@@ -250,6 +265,8 @@ private:
         bool cut_off;
         bool ground;
         float ground_t;
+        glm::vec3 origin;  // a smooth kernel's: the ray's origin, and its exits' shares so far
+        double kernel_sum;
     };
     // The intersect context handed to Embree; Embree passes &base back to the filter.
     struct RayContext {
@@ -293,6 +310,10 @@ private:
             }
             seen |= bit;
             if (lane.hits) lane.hits->push_back(SurfaceHit{t, front ? +1 : -1});
+            if (self.kernel_ && !front) {
+                const Particle& p = self.particles_[particle];
+                lane.kernel_sum += particle_stretch_integral(*self.kernel_, lane.origin, self.unit_dir_, p.center, p.radius);
+            }
             ++lane.found;
             if (lane.limit != 0 && lane.found >= lane.limit) {
                 lane.cut_off = true;  // accepted: the occlusion query ends for this ray
@@ -315,7 +336,8 @@ private:
         return ctx;
     }
     static Lane lane_of(Scratch& sc, std::size_t lane, std::vector<SurfaceHit>* hits, std::uint32_t limit) {
-        return Lane{sc.seen[lane].data(), sc.take(), hits, 0, limit, false, false, std::numeric_limits<float>::infinity()};
+        return Lane{sc.seen[lane].data(), sc.take(), hits,  0, limit, false, false, std::numeric_limits<float>::infinity(),
+                    glm::vec3(0.0f), 0.0};
     }
 
     static RTCRay embree_ray(const Particle& p, glm::vec3 dir, float tmax) {
@@ -357,7 +379,8 @@ private:
                                                            : RTC_INTERSECT_CONTEXT_FLAG_COHERENT);
         for (std::size_t l = 0; l < which.size(); ++l) {
             sc.lane_hits[l].clear();
-            ctx.lane[l] = lane_of(sc, l, &sc.lane_hits[l], limit);
+            ctx.lane[l] = lane_of(sc, l, kernel_sums_ ? nullptr : &sc.lane_hits[l], limit);
+            ctx.lane[l].origin = ps[which[l]].center;
         }
         if (which.size() == 1) {
             RTCRay ray = embree_ray(ps[which[0]], dir, kOpticalDepthTmax);
@@ -402,6 +425,11 @@ private:
                 continue;
             }
             out.status[i] = DepthStatus::ok;
+            if (kernel_sums_) {
+                out.hit_counts[i] = lane.found;
+                (*kernel_sums_)[i] = float(lane.kernel_sum);
+                continue;
+            }
             out.hit_counts[i] = static_cast<std::uint32_t>(sc.lane_hits[l].size());
             kept_at_[i] = {&sc, static_cast<std::uint32_t>(sc.kept.size())};
             sc.kept.insert(sc.kept.end(), sc.lane_hits[l].begin(), sc.lane_hits[l].end());
@@ -421,6 +449,11 @@ private:
     BundleOrderScratch order_scratch_;
     std::vector<KeptAt> kept_at_;
     tbb::enumerable_thread_specific<Scratch> scratch_;
+    // The run in flight's kernel (null: the union walk's hits), its particles, the rays' direction in double.
+    const DensityKernel* kernel_ = nullptr;
+    std::vector<float>* kernel_sums_ = nullptr;
+    const Particle* particles_ = nullptr;
+    glm::dvec3 unit_dir_{0.0};
 };
 
 // Embree's sphere primitive must report both crossings of a sphere, each through the filter, for its
@@ -576,6 +609,70 @@ constexpr EmbreeKind kEmbreeKinds[] = {{Layout::flattened, Query::single}, {Layo
                                        {Layout::spheres, Query::single},   {Layout::spheres, Query::packet8}};
 constexpr int kContenders = kFirstEmbree + int(std::size(kEmbreeKinds));
 
+// The smooth density kernels (density_kernel.hpp) on one count's scene: our pass + resolve over spheres with
+// the uniform kernel (eq. 3.1: the hits kept, sorted and walked) and with each smooth kernel (the exits'
+// closed-form shares summed, nothing kept), against Embree's sphere primitive, one ray per query (the
+// faster of its two sphere queries above), doing the same: its filter adds each exit's share (the same
+// particle_stretch_integral(), one at a time where ours takes a bundle's exits over lanes). Interleaved
+// rounds, medians; both must agree on every status and count, and on every sum to its roundings.
+struct KernelTimes {
+    double uniform = 0;
+    double ours[3] = {}, embree[3] = {};
+};
+constexpr DensityKernel kBenchKernels[3] = {kGaussianKernel, kPoly1Kernel, kPoly2Kernel};
+
+std::size_t kernel_disagreements(const OpticalPathLengths& ours, const OpticalDepthHits& embree,
+                                 const std::vector<float>& embree_sums) {
+    std::size_t differ = 0;
+    for (std::size_t i = 0; i < embree_sums.size(); ++i) {
+        if (ours.status()[i] != embree.status[i] || ours.hit_counts()[i] != embree.hit_counts[i]) {
+            ++differ;
+            continue;
+        }
+        if (embree.status[i] != DepthStatus::ok) continue;
+        // The same shares summed in another order and rounded to float: 2^-24 of l each, and n·2^-53 of it.
+        const double l = embree_sums[i];
+        differ += std::abs(double(ours.lengths()[i]) - l) > (0x1p-23 + double(ours.hit_counts()[i]) * 0x1p-53) * l;
+    }
+    return differ;
+}
+
+KernelTimes compare_kernels(tbb::task_arena& arena, const SmokeScene& scene, EmbreePass& embree,
+                            const std::vector<Particle>& ps, std::span<const std::uint32_t> all, glm::vec3 dir,
+                            std::uint32_t cutoff, int rounds, bool warm_up, std::size_t& disagreements) {
+    const std::size_t n = ps.size();
+    OpticalPathLengths uniform(n);
+    std::vector<OpticalPathLengths> ours;
+    for (int k = 0; k < 3; ++k) ours.emplace_back(n);
+    OpticalDepthHits embree_hits;
+    std::vector<std::vector<float>> embree_sums(3);
+    std::vector<double> t_uniform, t_ours[3], t_embree[3];
+    auto round = [&](bool keep) {
+        FrameTimings ft;
+        const double u = time_once_ms([&] {
+            uniform.update(scene, ps, all, kToLight, OpticalDepthSettings{cutoff}, HitSort::adaptive, ft);
+        });
+        if (keep) t_uniform.push_back(u);
+        for (int k = 0; k < 3; ++k) {
+            OpticalDepthSettings settings{cutoff};
+            settings.kernel = kBenchKernels[k];
+            const double o = time_once_ms([&] { ours[k].update(scene, ps, all, kToLight, settings, HitSort::adaptive, ft); });
+            const double e = time_once_ms(
+                [&] { embree.run(ps, dir, cutoff, Query::single, embree_hits, &kBenchKernels[k], &embree_sums[k]); });
+            if (keep) t_ours[k].push_back(o), t_embree[k].push_back(e);
+            if (keep && t_ours[k].size() == 1) disagreements += kernel_disagreements(ours[k], embree_hits, embree_sums[k]);
+        }
+    };
+    arena.execute([&] {
+        if (warm_up) round(false);
+        for (int r = 0; r < rounds; ++r) round(true);
+    });
+    KernelTimes t;
+    t.uniform = stats_of(t_uniform).median;
+    for (int k = 0; k < 3; ++k) t.ours[k] = stats_of(t_ours[k]).median, t.embree[k] = stats_of(t_embree[k]).median;
+    return t;
+}
+
 void run_optical_depth(const BenchOptions& options) {
     const std::vector<std::uint32_t> counts =
         options.quick ? std::vector<std::uint32_t>{250, 750, 1500, 10'000, kLargeCount}
@@ -608,6 +705,8 @@ void run_optical_depth(const BenchOptions& options) {
     double report_ratio = 0, report_speedup_icosa = 0, report_sphere_ratio = 0, report_embree = 0;
     double large_sphere_ratio = 0, large_ms = 0, large_hits = 0;
     Disagreements icosa_disagreements, sphere_disagreements;
+    std::size_t kernel_disagreements_total = 0;
+    CsvFile kernel_csv("particles,threads,tracer,kernel,total_ms,ratio_vs_uniform,ratio_vs_embree");
     for (const std::uint32_t n : counts) {
         const bool large = n >= kLargeSceneFrom;
         TubeSettings settings;
@@ -722,6 +821,41 @@ void run_optical_depth(const BenchOptions& options) {
                   << c[kFirstEmbree + 1].build_ms << ", spheres " << c[kFirstEmbree + 4].build_ms << "\n"
                   << std::defaultfloat;
 
+        if (n == kReportCount || n == 10'000 || n == kLargeCount) {
+            std::cout << "        density kernels over spheres (ms; ours pass + resolve, Embree spheres x1 summing the "
+                         "same shares in its filter):\n"
+                      << "          thr |  uniform | gaussian    poly1    poly2 | x uniform: gauss  poly1  poly2 | "
+                         "embree x1: gauss    poly1    poly2 | ours/embree: gauss poly1 poly2\n";
+            for (const int threads : {1, all_threads}) {
+                tbb::task_arena& arena = threads == 1 ? one_thread : every_thread;
+                const int rounds =
+                    large ? (options.quick ? 1 : options.repeats) : std::max(options.repeats, kSmallCountRounds);
+                const KernelTimes t = compare_kernels(arena, *c[kOursSphere].ours, *c[kFirstEmbree + 4].embree, ps, all,
+                                                      dir, cutoff, rounds, !large, kernel_disagreements_total);
+                std::cout << std::fixed << std::setprecision(3) << "          " << std::setw(3) << threads << " |"
+                          << std::setw(9) << t.uniform << " |";
+                for (const double o : t.ours) std::cout << std::setw(9) << o;
+                std::cout << " |           " << std::setprecision(2);
+                for (const double o : t.ours) std::cout << std::setw(7) << o / t.uniform;
+                std::cout << " |           " << std::setprecision(3);
+                for (const double e : t.embree) std::cout << std::setw(9) << e;
+                std::cout << " |             " << std::setprecision(2);
+                for (int k = 0; k < 3; ++k) std::cout << std::setw(6) << t.ours[k] / t.embree[k];
+                std::cout << "\n" << std::defaultfloat;
+                kernel_csv.row(n, threads, "smoketrace", "uniform", t.uniform, 1.0, "");
+                for (int k = 0; k < 3; ++k) {
+                    kernel_csv.row(n, threads, "smoketrace", kBenchKernels[k].name(), t.ours[k], t.ours[k] / t.uniform,
+                                   t.ours[k] / t.embree[k]);
+                    kernel_csv.row(n, threads, "embree_spheres_x1", kBenchKernels[k].name(), t.embree[k],
+                                   t.embree[k] / t.uniform, "");
+                    if (threads == all_threads && (n == kReportCount || n == kLargeCount)) {
+                        const std::string at = n == kLargeCount ? "_100k" : "";
+                        report("od_kernel_" + kBenchKernels[k].name() + "_ratio_vs_uniform" + at, t.ours[k] / t.uniform);
+                        report("od_kernel_" + kBenchKernels[k].name() + "_ratio_vs_embree" + at, t.ours[k] / t.embree[k]);
+                    }
+                }
+            }
+        }
         if (n == kReportCount) {
             // Why Embree runs in robust mode here: without it, the flattened layout misses crossings of the
             // shared edges every ray leaves its own particle through (light from above). Its speed is shown
@@ -807,6 +941,10 @@ void run_optical_depth(const BenchOptions& options) {
     report("od_embree_sphere_disagreements", double(sphere_disagreements.differ));
     report("od_embree_disagreements", double(icosa_disagreements.differ));
     report("od_embree_grazing", double(sphere_disagreements.grazing + icosa_disagreements.grazing));
+    std::cout << "Embree and ours disagree on " << kernel_disagreements_total
+              << " particles' kernel sums, statuses or counts (must be 0)\n";
+    report("od_kernel_embree_disagreements", double(kernel_disagreements_total));
+    kernel_csv.write(std::filesystem::path(options.results_dir) / "optical_depth_kernels.csv");
 }
 
 const RegisterSection kOpticalDepthSection{{"optical_depth",

@@ -68,15 +68,17 @@ struct Depths {
     std::vector<std::uint32_t> hit_counts;
 };
 
-Depths library_depths(const SceneDescription& desc, std::uint32_t cutoff) {
+Depths library_depths(const SceneDescription& desc, std::uint32_t cutoff, const DensityKernel& kernel = {}) {
     std::optional<GroundQuad> ground;
     if (desc.ground) ground = GroundQuad{desc.ground->corners};
     SmokeScene smoke(desc.smoke.particles, desc.smoke.shape, ground, /*billboards=*/false);
     smoke.update(desc.smoke.particles, desc.camera.position);
     OpticalPathLengths depths(desc.smoke.particles.size());
     FrameTimings t;
+    OpticalDepthSettings settings{cutoff};
+    settings.kernel = kernel;
     depths.update(smoke, desc.smoke.particles, smoketrace::test::all_of(desc.smoke.particles.size()),
-                  desc.light.direction, OpticalDepthSettings{cutoff}, HitSort::adaptive, t);
+                  desc.light.direction, settings, HitSort::adaptive, t);
     return {depths.lengths(), depths.status(), depths.hit_counts()};
 }
 
@@ -145,6 +147,82 @@ TEST_CASE("cli: depths writes one CSV row per particle", "[cli]") {
     CHECK(seen[int(DepthStatus::cutoff)] >= 1);
 }
 
+// FNV-1a 64 of a file's bytes.
+std::uint64_t fnv1a(const std::string& bytes) {
+    std::uint64_t hash = 1469598103934665603ull;
+    for (const char c : bytes) {
+        hash ^= std::uint8_t(c);
+        hash *= 1099511628211ull;
+    }
+    return hash;
+}
+
+TEST_CASE("cli: depths --kernel uniform writes the CSV of before the kernels, byte for byte", "[cli]") {
+    // FNV-1a 64 of `depths two_tubes_above.json` (the scene's cutoff 60) and of the same with --shape
+    // icosahedron, written by the commit before density kernels existed. The default kernel, --kernel uniform
+    // and a scene file saying "kernel": "uniform" must all still write those bytes.
+    TempDir dir;
+    const std::string above = std::string(SMOKETRACE_ASSET_DIR) + "/scenes/two_tubes_above.json";
+    std::string text = file_bytes(above);
+    const auto at = text.find("\"shape\": \"sphere\"");
+    REQUIRE(at != std::string::npos);
+    text.insert(at, "\"kernel\": \"uniform\", ");
+    const fs::path with_kernel = dir.write("uniform.json", text);
+    struct Run {
+        std::string args;
+        std::uint64_t hash;
+    };
+    for (const Run& run : {Run{above, 13216367947350250666ull}, Run{above + " --kernel uniform", 13216367947350250666ull},
+                           Run{with_kernel.string(), 13216367947350250666ull},
+                           Run{above + " --kernel uniform --shape icosahedron", 13359516651570021001ull}}) {
+        const fs::path out = dir.path / "d.csv";
+        const CliRun r = run_cli("depths " + run.args + " -o " + out.string());
+        INFO(run.args << ": " << r.err);
+        REQUIRE(r.exit_code == 0);
+        CHECK(fnv1a(file_bytes(out)) == run.hash);
+    }
+}
+
+TEST_CASE("cli: depths --kernel gaussian writes the library's sums, with the uniform run's statuses and hits",
+          "[cli]") {
+    TempDir dir;
+    const std::string above = std::string(SMOKETRACE_ASSET_DIR) + "/scenes/two_tubes_above.json";
+    const SceneDescription desc = load_scene_file(above);
+    const Depths uniform = library_depths(desc, desc.render.cutoff);
+    for (const DensityKernel& kernel : {kGaussianKernel, kPoly1Kernel, kPoly2Kernel}) {
+        const fs::path out = dir.path / (kernel.name() + ".csv");
+        const CliRun r = run_cli("depths " + above + " --kernel " + kernel.name() + " -o " + out.string());
+        INFO(kernel.name() << ": " << r.err);
+        REQUIRE(r.exit_code == 0);
+        std::string header;
+        const std::vector<CsvRow> rows = read_depths_csv(out, header);
+        const Depths want = library_depths(desc, desc.render.cutoff, kernel);
+        REQUIRE(rows.size() == desc.smoke.particles.size());
+        std::size_t ok = 0;
+        double sum = 0, uniform_sum = 0;
+        for (std::size_t i = 0; i < rows.size(); ++i) {
+            INFO("row " << i);
+            CHECK(want.status[i] == uniform.status[i]);
+            CHECK(want.hit_counts[i] == uniform.hit_counts[i]);
+            CHECK(rows[i].status == status_word(want.status[i]));
+            CHECK(rows[i].hits == std::to_string(want.hit_counts[i]));
+            if (want.status[i] != DepthStatus::ok) {
+                CHECK(rows[i].length == "inf");
+                continue;
+            }
+            ++ok;
+            const float l = std::strtof(rows[i].length.c_str(), nullptr);
+            CHECK(std::bit_cast<std::uint32_t>(l) == std::bit_cast<std::uint32_t>(want.lengths[i]));
+            sum += l;
+            uniform_sum += uniform.lengths[i];
+        }
+        CHECK(ok > 700);
+        // The puff fills about a third of its ball: on the whole the rays see far less smoke (one by one they
+        // need not: a kernel's peak exceeds 1, and overlaps add).
+        CHECK(sum < 0.6 * uniform_sum);
+    }
+}
+
 TEST_CASE("cli: bad arguments and files name the problem and leave no output", "[cli]") {
     TempDir dir;
     const fs::path csv = dir.path / "out.csv";
@@ -162,6 +240,9 @@ TEST_CASE("cli: bad arguments and files name the problem and leave no output", "
         {"depths " + kScene + " -o " + csv.string() + " --threads 0", "--threads"},
         {"depths " + kScene + " -o " + csv.string() + " --cutoff abc", "--cutoff"},
         {"depths " + kScene + " -o " + csv.string() + " --shape cube", "--shape"},
+        {"depths " + kScene + " -o " + csv.string() + " --kernel cubic",
+         "--kernel: 'cubic' is not one of uniform, gaussian, poly1, poly2"},
+        {"render " + kScene + " -o " + png.string() + " --kernel Gaussian", "--kernel"},
         {"depths " + kScene, "missing -o"},
         {"depths -o " + csv.string(), "missing scene file"},
         {"render -o " + png.string(), "missing scene file"},

@@ -138,7 +138,7 @@ double tolerance(const DensityKernel& k, const glm::vec3& o, const Particle3& p)
     const double dist = glm::length(glm::dvec3(p.centre) - glm::dvec3(o));
     const double R = double(k.support) * p.radius;
     const double rim = k.kind == DensityKernelKind::uniform    ? 1.0
-                       : k.kind == DensityKernelKind::gaussian ? std::exp(-kGaussianSupportSigmas * kGaussianSupportSigmas / 2)
+                       : k.kind == DensityKernelKind::gaussian ? kGaussianRimDensity
                                                                : 0.0;
     const double ulp = 0x1p-52;
     double t = k.peak * (kRoundingUlps * ulp * (dist + R) + 2 * rim * std::sqrt(kRoundingUlps * ulp * R * (dist + R)));
@@ -336,6 +336,7 @@ TEST_CASE("density kernel: names, parsing and the fitted defaults", "[kernel]") 
         // a ray meets (density_kernel.hpp), and gives the sphere's sums.
         if (k.smooth()) CHECK(double(k.support) <= kIcosahedronInradius);
     }
+    CHECK(kGaussianRimDensity == std::exp(-kGaussianSupportSigmas * kGaussianSupportSigmas / 2));
     CHECK(kUniformKernel == DensityKernel{});
     CHECK_FALSE(kUniformKernel.smooth());
     CHECK_FALSE(parse_density_kernel("Gaussian"));
@@ -344,6 +345,8 @@ TEST_CASE("density kernel: names, parsing and the fitted defaults", "[kernel]") 
     CHECK_THROWS_AS(validate(DensityKernel{DensityKernelKind::poly1, 1.5f, 1.0f}), std::invalid_argument);
     CHECK_THROWS_AS(validate(DensityKernel{DensityKernelKind::poly1, 0.5f, 0.0f}), std::invalid_argument);
     CHECK_THROWS_AS(validate(DensityKernel{DensityKernelKind::poly1, 0.0f, 1.0f}), std::invalid_argument);
+    CHECK_THROWS_AS(validate(DensityKernel{DensityKernelKind::uniform, 0.5f, 1.0f}), std::invalid_argument);
+    CHECK_THROWS_AS(validate(DensityKernel{DensityKernelKind::uniform, 1.0f, 2.0f}), std::invalid_argument);
 }
 
 TEST_CASE("density kernel: the icosahedron's inradius is kIcosahedronInradius", "[kernel]") {

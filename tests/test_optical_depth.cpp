@@ -4,10 +4,13 @@
 //    path length is the length of the union of [max(t0, 0), t1] over all spheres);
 //  * the status rules of optical_depth_pass.hpp (ok / occluded / cutoff) on scenes built so that the number
 //    of surfaces each ray meets is known exactly, for the cutoff at K − 1, K and K + 1;
-//  * particle groups, the three hit sorts, thread-count determinism, the ground, empty inputs.
+//  * particle groups, the three hit sorts, thread-count determinism, the ground, empty inputs;
+//  * the smooth density kernels (density_kernel.hpp): each particle's sum against every particle's share
+//    summed by brute force (no tracing), and the statuses, hit counts and cutoff of the uniform kernel kept.
 #include "support/fixtures.hpp"
 #include "support/sphere_reference.hpp"
 
+#include <smoketrace/smoke/density_kernel.hpp>
 #include <smoketrace/smoke/optical_depth_pass.hpp>
 #include <smoketrace/smoke/optical_path_lengths.hpp>
 #include <smoketrace/smoke/particle_groups.hpp>
@@ -52,11 +55,17 @@ SmokeScene make_scene(const std::vector<Particle>& ps, StandInShape shape,
     return s;
 }
 
+OpticalDepthSettings settings_of(std::uint32_t cutoff, const DensityKernel& kernel) {
+    OpticalDepthSettings s{cutoff};
+    s.kernel = kernel;
+    return s;
+}
+
 OpticalDepthHits run_pass(const SmokeScene& scene, const std::vector<Particle>& ps, glm::vec3 to_light,
-                          std::uint32_t cutoff = 0) {
+                          std::uint32_t cutoff = 0, const DensityKernel& kernel = {}) {
     OpticalDepthPass pass;
     OpticalDepthHits out;
-    pass.run(scene, ps, all_of(ps.size()), to_light, OpticalDepthSettings{cutoff}, out);
+    pass.run(scene, ps, all_of(ps.size()), to_light, settings_of(cutoff, kernel), out);
     return out;
 }
 
@@ -67,10 +76,10 @@ struct Depths {
 };
 
 Depths full_update(const SmokeScene& scene, const std::vector<Particle>& ps, glm::vec3 to_light,
-                   std::uint32_t cutoff = 0, HitSort sort = HitSort::adaptive) {
+                   std::uint32_t cutoff = 0, HitSort sort = HitSort::adaptive, const DensityKernel& kernel = {}) {
     OpticalPathLengths od(ps.size());
     FrameTimings timings;
-    od.update(scene, ps, all_of(ps.size()), to_light, OpticalDepthSettings{cutoff}, sort, timings);
+    od.update(scene, ps, all_of(ps.size()), to_light, settings_of(cutoff, kernel), sort, timings);
     return {od.lengths(), od.status(), od.hit_counts()};
 }
 
@@ -668,4 +677,171 @@ TEST_CASE("optical depth: empty particle lists", "[optical-depth]") {
     FrameTimings t;
     od.update(scene, ps, {}, {0.0f, 1.0f, 0.0f}, {}, HitSort::adaptive, t);
     CHECK(std::all_of(od.lengths().begin(), od.lengths().end(), [](float l) { return l == 0.0f; }));
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Smooth density kernels.
+
+namespace {
+
+constexpr DensityKernel kSmoothKernels[] = {kGaussianKernel, kPoly1Kernel, kPoly2Kernel};
+
+// Particle i's l under a smooth kernel without tracing: every particle's share of its ray (0 for those its
+// support misses), summed in double, and a bound on the pass's distance from it: the pass sums only the
+// particles whose stand-in's exit lies at t >= tmin (the shares it may leave out, of supports left within
+// tmin of the origin, are at most peak·tmin each), in another order (n·2^-53 of the shares' sum), and rounds
+// to float (2^-24 of l).
+struct KernelSum {
+    double length = 0, tolerance = 0;
+    std::size_t met = 0;  // particles with a share > 0
+};
+KernelSum brute_force_sum(const DensityKernel& k, const std::vector<Particle>& ps, std::size_t i, glm::vec3 to_light) {
+    const glm::dvec3 d = glm::normalize(glm::dvec3(glm::normalize(to_light)));
+    KernelSum sum;
+    for (const Particle& p : ps) {
+        const double share = particle_stretch_integral(k, ps[i].center, d, p.center, p.radius);
+        sum.length += share;
+        sum.met += share > 0.0;
+    }
+    sum.tolerance = 0x1p-24 * sum.length + double(ps.size()) * 0x1p-53 * sum.length +
+                    double(ps.size()) * double(k.peak) * double(optical_depth_tmin(ps[i].radius));
+    return sum;
+}
+
+}  // namespace
+
+TEST_CASE("optical depth: a smooth kernel's l is the sum of the shares of every particle its ray meets",
+          "[optical-depth][kernel]") {
+    // The two tubes, a dense cluster (every ray starts inside many supports) and a line along the light (the
+    // rays run through the centres); spheres, and the icosahedron and icosphere, whose inradii hold the fitted
+    // supports: they meet the same particles.
+    struct Scene {
+        const char* name;
+        std::vector<Particle> ps;
+        glm::vec3 light;
+    };
+    const Scene scenes[] = {{"tubes", tube_particles(750), glm::normalize(glm::vec3(0.4f, 1.0f, 0.1f))},
+                            {"cluster", dense_cluster(9, 60), glm::vec3(0.0f, 1.0f, 0.0f)},
+                            {"line", line_along_y(12, 0.3f, 0.5f), glm::vec3(0.0f, 1.0f, 0.0f)}};
+    for (const Scene& scene : scenes) {
+        for (const StandInShape shape : {kSphere, kIcosahedron, kIcosphere1}) {
+            const SmokeScene smoke = make_scene(scene.ps, shape);
+            for (const DensityKernel& k : kSmoothKernels) {
+                const Depths got = full_update(smoke, scene.ps, scene.light, 0, HitSort::adaptive, k);
+                std::size_t several = 0;
+                for (std::size_t i = 0; i < scene.ps.size(); ++i) {
+                    const KernelSum want = brute_force_sum(k, scene.ps, i, scene.light);
+                    INFO(scene.name << ", " << shape.name() << ", " << k.name() << ", particle " << i << ": l "
+                                    << got.lengths[i] << ", brute force " << want.length << " ± " << want.tolerance);
+                    REQUIRE(got.status[i] == DepthStatus::ok);
+                    REQUIRE(std::abs(double(got.lengths[i]) - want.length) <= want.tolerance);
+                    several += want.met > 1;
+                }
+                CHECK(several > scene.ps.size() / 2);  // the rays meet more than their own particle
+            }
+        }
+    }
+}
+
+TEST_CASE("optical depth: a smooth kernel keeps the uniform kernel's statuses, hit counts and cutoff",
+          "[optical-depth][kernel]") {
+    // The same rays and the same any-hit calls: only what is made of the hits differs. Oblique light, the
+    // ground through the lower tube, with and without a cutoff.
+    const auto ps = tube_particles(750);
+    const GroundQuad ground = horizontal_quad(-1.2f, 30.0f);
+    const glm::vec3 light = glm::normalize(glm::vec3(0.3f, 1.0f, -0.2f));
+    for (const StandInShape shape : {kSphere, kIcosahedron}) {
+        const SmokeScene scene = make_scene(ps, shape, ground);
+        for (const std::uint32_t cutoff : {0u, 20u}) {
+            const Depths uniform = full_update(scene, ps, light, cutoff);
+            std::size_t dark = 0;
+            for (const DensityKernel& k : kSmoothKernels) {
+                CAPTURE(shape.name(), cutoff, k.name());
+                const Depths got = full_update(scene, ps, light, cutoff, HitSort::adaptive, k);
+                CHECK(got.status == uniform.status);
+                CHECK(got.hit_counts == uniform.hit_counts);
+                for (std::size_t i = 0; i < ps.size(); ++i) {
+                    if (got.status[i] == DepthStatus::ok) {
+                        CHECK(std::isfinite(got.lengths[i]));
+                        CHECK(got.lengths[i] > 0.0f);  // its own support, from the centre
+                    } else {
+                        CHECK(got.lengths[i] == kInf);
+                        ++dark;
+                    }
+                }
+                // The sort is the union walk's: a smooth kernel gives the same bits with any of them.
+                CHECK(same_bits(full_update(scene, ps, light, cutoff, HitSort::bubble, k).lengths, got.lengths));
+                // No hits kept: gather() gives the statuses and counts, and empty lists.
+                const OpticalDepthHits hits = run_pass(scene, ps, light, cutoff, k);
+                CHECK(hits.status == uniform.status);
+                CHECK(hits.hit_counts == uniform.hit_counts);
+                CHECK(hits.lists.particle_count() == ps.size());
+                CHECK(hits.lists.hit_count() == 0);
+            }
+            CHECK(dark > 50);
+        }
+    }
+}
+
+TEST_CASE("optical depth: a smooth kernel's lengths do not depend on the thread count", "[optical-depth][kernel]") {
+    const auto ps = tube_particles(1500);
+    const glm::vec3 light(0.4f, 1.0f, 0.1f);
+    for (const StandInShape shape : {kSphere, kIcosahedron}) {
+        const SmokeScene scene = make_scene(ps, shape);
+        for (const DensityKernel& k : kSmoothKernels) {
+            auto run_with = [&](std::size_t threads) {
+                tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+                return full_update(scene, ps, light, 60, HitSort::adaptive, k);
+            };
+            const Depths one = run_with(1), two = run_with(2);
+            CAPTURE(shape.name(), k.name());
+            CHECK(same_bits(one.lengths, two.lengths));
+            CHECK(one.status == two.status);
+            CHECK(one.hit_counts == two.hit_counts);
+        }
+    }
+}
+
+TEST_CASE("optical depth: a smooth kernel's sum is that of the exits its ray alone finds", "[optical-depth][kernel]") {
+    // Each ray traced alone with trace(): the shares of its exits (back faces, their particles by user id)
+    // summed in double, against the bundled pass's l. The walk of a bundle may meet the exits in another order
+    // (trace_bundle.hpp), so the two sums agree to their roundings: 2^-24 of l for the float, and n·2^-53 of
+    // it for the order, n the exits.
+    const auto ps = tube_particles(750);
+    const glm::vec3 light = glm::normalize(glm::vec3(0.3f, 1.0f, -0.2f));
+    const glm::dvec3 d = glm::normalize(glm::dvec3(light));
+    for (const StandInShape shape : {kSphere, kIcosahedron}) {
+        const SmokeScene scene = make_scene(ps, shape);
+        for (const DensityKernel& k : kSmoothKernels) {
+            const Depths got = full_update(scene, ps, light, 0, HitSort::adaptive, k);
+            for (std::size_t i = 0; i < ps.size(); ++i) {
+                const Ray ray{ps[i].center, optical_depth_tmin(ps[i].radius), light, kOpticalDepthTmax};
+                double sum = 0;
+                std::size_t exits = 0;
+                (void)trace<TlasWalk::all_hits>(scene.scene(), ray, ray_flag_none, kLightRayMask, [&](const TraceHit& h) {
+                    if (!h.front_face()) {
+                        const Particle& p = ps[h.instance_id];
+                        sum += particle_stretch_integral(k, ps[i].center, d, p.center, p.radius);
+                        ++exits;
+                    }
+                    return AnyHitDecision::ignore;
+                });
+                CAPTURE(shape.name(), k.name(), i);
+                REQUIRE(got.status[i] == DepthStatus::ok);
+                CHECK(std::abs(double(got.lengths[i]) - sum) <= (0x1p-24 + double(exits) * 0x1p-53) * sum);
+            }
+        }
+    }
+}
+
+TEST_CASE("optical depth: a kernel out of range is refused before any ray is traced", "[optical-depth][kernel]") {
+    const auto ps = tube_particles(10);
+    const SmokeScene scene = make_scene(ps, kSphere);
+    OpticalDepthPass pass;
+    for (const DensityKernel& bad : {DensityKernel{DensityKernelKind::poly1, 1.25f, 1.0f},
+                                     DensityKernel{DensityKernelKind::gaussian, 0.5f, -1.0f}}) {
+        CHECK_THROWS_AS(pass.trace(scene, ps, all_of(ps.size()), {0.0f, 1.0f, 0.0f}, settings_of(0, bad)),
+                        std::invalid_argument);
+        CHECK(pass.status().empty());
+    }
 }

@@ -110,6 +110,7 @@ TEST_CASE("the defaults of every optional key", "[scene]") {
     CHECK(s.smoke.sigma_t == 1.0f);
     CHECK(s.smoke.alpha == 0.5f);
     CHECK(s.smoke.shape == StandInShape{StandInKind::sphere, 0});
+    CHECK(s.smoke.kernel == kUniformKernel);
     CHECK(s.render.mode == RenderMode::full);
     CHECK(s.render.cutoff == 0u);
     CHECK(s.render.groups == 1u);
@@ -138,6 +139,7 @@ TEST_CASE("every optional key is read", "[scene]") {
     j["smoke"]["sigma_t"] = 2.5;
     j["smoke"]["alpha"] = 0.25;
     j["smoke"]["shape"] = "icosphere:3";
+    j["smoke"]["kernel"] = "poly2";
     j["ground"]["color"] = {0.5, 0.5, 0.5};
     j["camera"] = {{"position", {1, 2, 3}}, {"look_at", {0, 0, -1}}, {"up", {0, 0, 1}},
                    {"fov_deg", 60}, {"width", 640}, {"height", 480}};
@@ -157,6 +159,7 @@ TEST_CASE("every optional key is read", "[scene]") {
     CHECK(s.smoke.sigma_t == 2.5f);
     CHECK(s.smoke.alpha == 0.25f);
     CHECK(s.smoke.shape == StandInShape{StandInKind::icosphere, 3});
+    CHECK(s.smoke.kernel == kPoly2Kernel);
     CHECK(s.ground->color == glm::vec3(0.5f));
     CHECK(s.camera.position == glm::vec3(1.0f, 2.0f, 3.0f));
     CHECK(s.camera.look_at == glm::vec3(0.0f, 0.0f, -1.0f));
@@ -601,10 +604,15 @@ TEST_CASE("error: an image too large", "[scene]") {
     require_error(j, "/camera", "image too large");
 }
 
-TEST_CASE("error: unknown names for shape, mode and compositing", "[scene]") {
+TEST_CASE("error: unknown names for shape, kernel, mode and compositing", "[scene]") {
     json a = minimal();
     a["smoke"]["shape"] = "icosphere:5";
     require_error(a, "/smoke/shape", "unknown shape \"icosphere:5\"");
+    json k = minimal();
+    k["smoke"]["kernel"] = "cubic";
+    require_error(k, "/smoke/kernel", "unknown kernel \"cubic\"");
+    k["smoke"]["kernel"] = 2;
+    require_error(k, "/smoke/kernel", "must be a string");
     json b = minimal();
     b["render"] = {{"mode", "simple_shadow"}};
     require_error(b, "/render/mode", "unknown mode");

@@ -9,7 +9,9 @@
 #include <smoketrace/trace/trace.hpp>
 #include <smoketrace/trace/trace_bundle.hpp>
 
-// The thesis's optical-depth pipeline: particles, their stand-ins, the pass and the resolver (eq. 3.1).
+// The thesis's optical-depth pipeline: particles, their stand-ins, the pass and the resolver (eq. 3.1), and the
+// stand-ins' smooth density kernels.
+#include <smoketrace/smoke/density_kernel.hpp>
 #include <smoketrace/smoke/optical_depth_story.hpp>
 #include <smoketrace/smoke/optical_path_lengths.hpp>
 #include <smoketrace/smoke/particle_groups.hpp>
@@ -18,6 +20,7 @@
 
 // Frames: the scene description, six-way lighting, the view compositor and the frame loop.
 #include <smoketrace/render/frame_renderer.hpp>
+#include <smoketrace/render/kernel_fit.hpp>
 #include <smoketrace/render/pixel_samples.hpp>
 #include <smoketrace/render/pixel_story.hpp>
 #include <smoketrace/render/sixway_baker.hpp>

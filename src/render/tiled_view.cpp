@@ -66,11 +66,11 @@ void render_tile(const PixelShader& shader, const Camera& camera, const PixelSam
                 sums.clear();
                 trace_bundle(scene, bundle, shader.shadow_ray_flags(), kStandInMask,
                              [&](unsigned b, const TraceHit& h) {
-                                 if (!h.front_face()) sums.add_exit(b, bundle.origin(b), particles[h.instance_id]);
+                                 if (!h.front_face()) sums.add_exit(b, h.instance_id, particles);
                                  return AnyHitDecision::ignore;
                              });
                 std::array<double, kBundleWidth> l;
-                sums.integrate(s.kernel, shader.light_unit(), l);
+                sums.integrate(s.kernel, shader.light_unit(), bundle, particles, bundle.lanes(), l);
                 for (unsigned b = 0; b < bundle.count; ++b) shadow[shadow_lane[b]] = shader.kernel_shadow(float(l[b]));
             } else {
                 const BundleResults r =

@@ -39,6 +39,10 @@ std::optional<DensityKernel> parse_density_kernel(std::string_view name) {
 }
 
 void validate(const DensityKernel& k) {
+    if (k.kind == DensityKernelKind::uniform && !(k.support == 1.0f && k.peak == 1.0f))
+        throw std::invalid_argument("density kernel uniform: the thesis's ball has support 1 and peak 1 (eq. 3.1 "
+                                    "measures lengths, not densities), not " + std::to_string(k.support) + " and " +
+                                    std::to_string(k.peak));
     if (!(k.support > 0.0f && k.support <= 1.0f))
         throw std::invalid_argument("density kernel " + k.name() + ": support " + std::to_string(k.support) +
                                     " is not in (0, 1] (the stand-in's sphere must bound the support)");
@@ -99,8 +103,8 @@ double particle_stretch_integral(const DensityKernel& kernel, const glm::vec3& o
     });
 }
 
-void KernelStretches::clear() {
-    for (Floats* v : {&ox_, &oy_, &oz_, &cx_, &cy_, &cz_, &r_}) v->clear();
+void KernelStretches::resize(std::size_t n) {
+    for (Floats* v : {&ox_, &oy_, &oz_, &cx_, &cy_, &cz_, &r_}) v->resize(n);
 }
 
 void integrate_stretches(const DensityKernel& kernel, const glm::dvec3& d, const KernelStretches& s,

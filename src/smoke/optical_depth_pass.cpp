@@ -188,32 +188,27 @@ void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> 
                         }
                         continue;
                     }
-                    // The same shader, which also notes each exit's particle (its user id) for its share.
-                    sc.exits.clear();
-                    sc.exit_lanes.clear();
+                    // The same shader, which also notes each exit's particle (its user id) for its share
+                    // (kernel_bundle_sums.hpp); after the walk, the ok rays' shares, summed.
+                    sc.kernel_sums.clear();
                     auto collect_exits = [&](unsigned lane, const TraceHit& h) {
                         const bool front = h.front_face();
                         sc.lane_hits[lane].push_back(SurfaceHit{h.t, front ? +1 : -1});
-                        if (!front) {
-                            const Particle& p = particles[h.instance_id];
-                            sc.exits.add(bundle.origin(lane), p.center, p.radius);
-                            sc.exit_lanes.push_back(std::uint8_t(lane));
-                        }
+                        if (!front) sc.kernel_sums.add_exit(lane, h.instance_id, particles);
                         return AnyHitDecision::ignore;
                     };
                     const BundleResults results =
                         trace_bundle(scene, bundle, ray_flag_none, kLightRayMask, collect_exits, limits);
-                    // Every exit of the bundle at once, over lanes; then each ray's in the order its walk met them.
-                    sc.shares.resize(sc.exits.size());
-                    integrate_stretches(settings.kernel, unit_dir, sc.exits, sc.shares);
-                    std::array<double, kBundleWidth> sum{};
-                    for (std::size_t e = 0; e < sc.shares.size(); ++e) sum[sc.exit_lanes[e]] += sc.shares[e];
+                    unsigned ok = 0;
                     for (unsigned lane = 0; lane < bundle.count; ++lane) {
                         const RayOutcome o = optical_depth_outcome(scene, bundle.ray(lane), results[lane],
                                                                    sc.lane_hits[lane], settings.cutoff);
                         rays_[k + lane] = {nullptr, o.hits, o.status};
-                        sums_[k + lane] = float(sum[lane]);
+                        ok |= unsigned(o.status == DepthStatus::ok) << lane;
                     }
+                    std::array<double, kBundleWidth> sums;
+                    sc.kernel_sums.integrate(settings.kernel, unit_dir, bundle, particles, ok, sums);
+                    for (unsigned lane = 0; lane < bundle.count; ++lane) sums_[k + lane] = float(sums[lane]);
                 }
                 // The budget, checked once per task: the hits over it are at most one task's.
                 const std::uint64_t task_hits = sc.kept - kept_before;

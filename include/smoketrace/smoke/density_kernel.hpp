@@ -69,8 +69,10 @@ struct DensityKernel {
     bool operator==(const DensityKernel&) const = default;
 };
 
-// The Gaussian's truncation, in standard deviations: f(1) = e^{−4.5} = 1.1 % of the peak at the support.
+// The Gaussian's truncation, in standard deviations, and its profile at the support, f(1) = e^{−k²/2}: the
+// density falls to 1.1 % of its peak there, and jumps to 0.
 inline constexpr double kGaussianSupportSigmas = 3.0;
+inline constexpr double kGaussianRimDensity = 0.011108996538242306;  // e^{−4.5}
 // The inradius of the thesis's icosahedron over its circumradius r (make_icosahedron(): vertices on the
 // sphere): √((5 + 2√5) / 15).
 inline constexpr double kIcosahedronInradius = 0.79465447229176611;
@@ -80,8 +82,8 @@ inline constexpr double kIcosahedronInradius = 0.79465447229176611;
 // residual, the profile); tests/test_kernel_fit.cpp refits and checks these.
 inline constexpr DensityKernel kUniformKernel{DensityKernelKind::uniform, 1.0f, 1.0f};
 inline constexpr DensityKernel kGaussianKernel{DensityKernelKind::gaussian, 0.7575f, 1.6181f};
-inline constexpr DensityKernel kPoly1Kernel{DensityKernelKind::poly1, 0.5405f, 1.2861f};
-inline constexpr DensityKernel kPoly2Kernel{DensityKernelKind::poly2, 0.6400f, 1.4232f};
+inline constexpr DensityKernel kPoly1Kernel{DensityKernelKind::poly1, 0.5407f, 1.2854f};
+inline constexpr DensityKernel kPoly2Kernel{DensityKernelKind::poly2, 0.6399f, 1.4236f};
 
 // The fitted kernel of `kind` (one of the four above).
 [[nodiscard]] DensityKernel density_kernel(DensityKernelKind kind);
@@ -90,7 +92,7 @@ inline constexpr DensityKernel kPoly2Kernel{DensityKernelKind::poly2, 0.6400f, 1
 // The names parse_density_kernel() accepts, for messages.
 inline constexpr std::string_view kDensityKernelNames = "uniform, gaussian, poly1, poly2";
 
-// Throws std::invalid_argument unless 0 < support <= 1 and peak is finite and > 0.
+// Throws std::invalid_argument unless 0 < support <= 1 and peak is finite and > 0, and both are 1 for uniform.
 void validate(const DensityKernel& kernel);
 
 namespace detail {
@@ -122,11 +124,21 @@ template <DensityKernelKind Kind, unsigned N>
             D::broadcast(4.0 / 3.0) * a2 - a * length + length * length * D::broadcast(1.0 / 5.0);
         share = length * length * length * bracket * (inv_r2 * inv_r2);
     } else {
-        // σ = R/k: the erf argument s/(σ√2) = s·k/(R√2), and b²/(2σ²) is the square of b·k/(R√2).
+        // σ = R/k: the erf argument s/(σ√2) = s·k/(R√2), and b²/(2σ²) is the square of b·k/(R√2). With
+        // erf(x) = 1 − P(x)·e^{−x²} (special_functions.hpp), e^{−b²/2σ²}·erf(x) needs no third exponential:
+        // at x = a/(σ√2) the product of the two is e^{−R²/2σ²} = e^{−k²/2}, and at s_begin it is e^{−q²k²/2},
+        // q the start's distance from the centre over R (<= 1). So, E = e^{−b²/2σ²},
+        //     share = σ√(π/2) [(E − P(a)·e^{−k²/2}) − sign(s_begin)·(E − P(s_begin)·e^{−q²k²/2})].
         const D scale = D::broadcast(kGaussianSupportSigmas / 1.4142135623730951) / radius;
-        const D e = simd::exp_negative(b2 * (scale * scale));
+        const D scale2 = scale * scale;
+        const D e = simd::exp_negative(b2 * scale2);
+        const D rim = D::broadcast(kGaussianRimDensity);
+        const D end = e - simd::erf_tail_polynomial(a * scale) * rim;
+        const D begin = copysign(e - simd::erf_tail_polynomial(s_begin * scale) *
+                                         simd::exp_negative((b2 + s_begin * s_begin) * scale2),
+                                 s_begin);
         const D sigma_root_half_pi = radius * D::broadcast(1.2533141373155003 / kGaussianSupportSigmas);  // σ√(π/2)
-        share = e * sigma_root_half_pi * (simd::erf(a * scale) - simd::erf(s_begin * scale));
+        share = sigma_root_half_pi * (end - begin);
     }
     return select(meets, share * D::broadcast(peak), zero);
 }
@@ -148,17 +160,24 @@ template <DensityKernelKind Kind, unsigned N>
 // ray's origin and the particle's centre and radius, structure of arrays, 64-byte aligned, for the lanes.
 class KernelStretches {
 public:
-    void clear();
+    // n entries, those past the old size unwritten until set(); the memory is kept for the next resize().
+    void resize(std::size_t n);
+    void set(std::size_t i, const glm::vec3& origin, const glm::vec3& centre, float radius) {
+        ox_[i] = origin.x, oy_[i] = origin.y, oz_[i] = origin.z;
+        cx_[i] = centre.x, cy_[i] = centre.y, cz_[i] = centre.z;
+        r_[i] = radius;
+    }
     void add(const glm::vec3& origin, const glm::vec3& centre, float radius) {
         ox_.push_back(origin.x), oy_.push_back(origin.y), oz_.push_back(origin.z);
         cx_.push_back(centre.x), cy_.push_back(centre.y), cz_.push_back(centre.z);
         r_.push_back(radius);
     }
+    void clear() { resize(0); }
     [[nodiscard]] std::size_t size() const { return r_.size(); }
 
 private:
     friend void integrate_stretches(const DensityKernel&, const glm::dvec3&, const KernelStretches&, std::span<double>);
-    using Floats = std::vector<float, AlignedAllocator<float, 64>>;
+    using Floats = std::vector<float, UnwrittenAllocator<float, 64>>;
     Floats ox_, oy_, oz_, cx_, cy_, cz_, r_;
 };
 

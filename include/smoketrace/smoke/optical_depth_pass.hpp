@@ -26,13 +26,16 @@
 // With a smooth density kernel (settings.kernel, density_kernel.hpp) the rays, the any-hit calls, the
 // statuses and the counts are the same, but no hit is kept: each exit (−1) adds its particle's closed-form
 // share to the ray's sum, l = Σ ∫ρ dt (the density-weighted length; τ = l·σt as before), integrated over
-// lanes for the whole bundle's exits at once after its walk, and summed per ray in double in the order the
-// walk met them (fixed for a bundle, so the same for any thread count). The sum needs no sort: the exits
-// name each particle met once. resolve() then hands out those sums; gather() gives no hits.
+// lanes for the whole bundle's ok rays' exits at once after its walk (kernel_bundle_sums.hpp, as the ground's
+// shadow rays are), and summed per ray in double in the order the walk met them (fixed for a bundle, so the same for any thread count). The sum needs no sort: the
+// exits name each particle met once. The shares are taken along the rays' own direction (to_light normalised
+// in float), normalised once more in double. resolve() then hands out those sums; gather() gives no hits;
+// a ray's hits cost no memory past its bundle.
 #include <smoketrace/core/aligned_allocator.hpp>
 #include <smoketrace/core/work_progress.hpp>
 #include <smoketrace/smoke/density_kernel.hpp>
 #include <smoketrace/smoke/hit_resolver.hpp>
+#include <smoketrace/smoke/kernel_bundle_sums.hpp>
 #include <smoketrace/geometry/ray_bundle.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>
 #include <smoketrace/trace/trace_types.hpp>
@@ -146,10 +149,7 @@ public:
 private:
     struct Scratch {
         std::array<std::vector<SurfaceHit>, kBundleWidth> lane_hits;  // the bundle in flight's, per ray
-        // A smooth kernel's: the bundle in flight's exits (ray origin, particle), each one's lane, their shares.
-        KernelStretches exits;
-        std::vector<std::uint8_t> exit_lanes;
-        std::vector<double> shares;
+        BundleKernelSums kernel_sums;  // a smooth kernel's: the bundle in flight's exits and their sums
         ListResolver resolver;  // resolve()'s, kept with its memory for lists past the sorting network
         // The hits of this thread's ok rays, packed (PackedSurfaceHit: 18 per ray at 10^6 particles without a
         // cutoff, most of the pass's memory), ray after ray, in blocks of fixed capacity (a ray with more
