@@ -19,6 +19,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <span>
 #include <stdexcept>
 #include <string>
 
@@ -63,7 +64,6 @@ struct Scratch {
     std::vector<std::uint32_t> ids;
     std::vector<Interval> intervals;
     std::vector<Interval> intervals_light;
-    std::vector<double> stretch_tau;  // exact_tau's integral of each of intervals_light at the current level
     std::vector<std::pair<double, double>> segments;  // the union of the intervals
 };
 
@@ -126,19 +126,17 @@ struct GroundTruth::Impl {
     double min_voxel = 1.0;  // the smallest puff's voxel, world units
     glm::vec3 ground_lit{0.0f};  // c_base · c_light · max(N·L, 0)
     glm::vec3 ground_ambient{0.0f};
-    // The light's half of a pixel's tolerance is split: kExactShare of the whole tolerance for the exact light
-    // rays' own error, the rest for the volume's samples left. exact_tau_error is the τ error allowed per exact
-    // ray: times the largest light a pixel can receive (its samples' weights sum to at most that: opacities and
-    // the final transmittance add up to 1 per camera ray) it stays within that share.
-    static constexpr double kExactShare = 1.0 / 16.0;
+    // An exact light ray's light, per unit of its weight, is off by rounding alone: τ is exact to 10⁻¹²
+    // relative (PuffVolume::integrate); rounding it to float moves T_ms by at most 2⁻²⁴/e (τ·|T_ms'(τ)| <= 1/e);
+    // T_ms itself is evaluated in float, a few units of 2⁻²⁴ ≈ 6·10⁻⁸ on values at most 1. Each exact sample
+    // is charged this bound times its weight in the pixel's light estimate.
+    static constexpr double kExactLightRounding = 1e-6;
     // A lit sample's volume error per unit of its light's change between the grid and the subgrid. Trilinear
     // interpolation is second order where τ is smooth (the grid's error a third of the change), but τ has a
     // square-root edge below a hard-edged density, where the subgrid's error is only √2 times the grid's;
     // the change itself bounds the grid's error wherever the subgrid's is at least twice it (any first-order
     // convergence), and is what each sample is charged.
     static constexpr double kVolumeErrorPerChange = 1.0;
-    static constexpr double kReferenceTauError = 1e-7;  // pixel() and particle_optical_depths(): far below any pixel
-    double exact_tau_error = kReferenceTauError;
     mutable tbb::enumerable_thread_specific<Scratch> scratch;
 
     void init();
@@ -164,6 +162,13 @@ struct GroundTruth::Impl {
     // The puffs whose stand-in spheres the ray meets in [tmin, tmax], found through the TLAS (any-hit on the
     // stand-ins, thesis 4.3.2's rays), with their intervals from the spheres in double, sorted by t_in.
     void puffs_on(const Ray& ray, double tmax, Scratch& sc, std::vector<Interval>& out) const {
+        puffs_on(ray, glm::dvec3(ray.origin), glm::normalize(glm::dvec3(ray.direction)), tmax, sc, out);
+    }
+    // The same with the intervals of the ray o + t·d (d unit) in double, `ray` its float copy for the TLAS: a
+    // sphere the two disagree on is grazed within float rounding, where a baked puff is 0 (its support ends
+    // at 0.95 of the sphere).
+    void puffs_on(const Ray& ray, const glm::dvec3& o, const glm::dvec3& d, double tmax, Scratch& sc,
+                  std::vector<Interval>& out) const {
         sc.ids.clear();
         const Ray r{ray.origin, ray.tmin, ray.direction, std::numeric_limits<float>::infinity()};
         trace<TlasWalk::all_hits>(accel(), r, ray_flag_force_non_opaque, kStandInMask, [&](const TraceHit& h) {
@@ -173,7 +178,6 @@ struct GroundTruth::Impl {
         std::sort(sc.ids.begin(), sc.ids.end());
         sc.ids.erase(std::unique(sc.ids.begin(), sc.ids.end()), sc.ids.end());
         out.clear();
-        const glm::dvec3 o(ray.origin), d(glm::normalize(glm::dvec3(ray.direction)));
         for (std::uint32_t id : sc.ids) {
             const PuffPlacement& p = puffs[id];
             const glm::dvec3 oc = o - p.centre;
@@ -189,50 +193,32 @@ struct GroundTruth::Impl {
         });
     }
 
-    // ∫ ρ_puff along the ray over [a, b], two-point Gauss–Legendre on each of `n` panels: exact for cubics, as
-    // the trilinear density is along a line within a voxel, and never evaluated at a stretch's ends, where a
-    // sphere's surface (the edge of a uniform test density) would be met in rounding.
-    double integrate(std::uint32_t puff, const glm::dvec3& o, const glm::dvec3& d, double a, double b, int n) const {
-        const double h = (b - a) / n;
-        const double g = 0.5 * h / std::sqrt(3.0);  // the nodes at the panel's midpoint ± h/(2√3)
-        double sum = 0.0;
-        for (int k = 0; k < n; ++k) {
-            const double mid = a + (k + 0.5) * h;
-            sum += double(density(puff, glm::vec3(o + (mid - g) * d))) + double(density(puff, glm::vec3(o + (mid + g) * d)));
-        }
-        return sum * 0.5 * h;
+    // ∫ ρ_puff(o + t·d) dt over the puff's stretch [a, b], exactly (PuffVolume::integrate_bins), cut into bins
+    // of `spacing` from `origin`. In tangent space from the point at a: the stretch lies in the puff's sphere,
+    // so the segment and its origin lie in its cube, where the integral's rounding is stated.
+    void integrate(std::uint32_t puff, const glm::dvec3& o, const glm::dvec3& d, double a, double b, double origin,
+                   double spacing, std::span<double> bins) const {
+        const PuffPlacement& p = puffs[puff];
+        const glm::dvec3 ex(p.ex), ey(p.ey), ez(p.ez);
+        const glm::dvec3 s = o + a * d - p.centre;
+        const glm::dvec3 q0 = glm::dvec3(glm::dot(s, ex), glm::dot(s, ey), glm::dot(s, ez)) / p.radius;
+        const glm::dvec3 dq = glm::dvec3(glm::dot(d, ex), glm::dot(d, ey), glm::dot(d, ez)) / p.radius;
+        flipbook[std::size_t(p.frame)].integrate_bins(q0, dq, 0.0, b - a, origin - a, spacing, bins);
     }
-    // Panels of at most `voxels` of the puff's voxel: the interpolated density is cubic along a line within a
-    // voxel, where two-point Gauss–Legendre is exact; the error comes from the voxel faces only.
-    int panels(std::uint32_t puff, double length, double voxels = 0.5) const {
-        const double voxel = puffs[puff].radius * double(flipbook[std::size_t(puffs[puff].frame)].voxel());
-        return std::max(1, int(std::ceil(length / (voxels * voxel))));
+    // The same over [a, b] whole.
+    double integrate(std::uint32_t puff, const glm::dvec3& o, const glm::dvec3& d, double a, double b) const {
+        double sum = 0.0;
+        integrate(puff, o, d, a, b, a, std::numeric_limits<double>::infinity(), {&sum, 1});
+        return sum;
     }
 
-    // Exact τ from x to the light: a light ray through the TLAS, each puff's stretch integrated by Gauss–Legendre
-    // on panels of one voxel, all panels halved together until the stretches' changes add up to less than
-    // `max_error` (the change bounds the finer sum's error as long as a halving at least halves it: order 2 at
-    // the voxel faces, 4 inside them).
-    double exact_tau(const glm::dvec3& x, Scratch& sc, double max_error) const {
+    // Exact τ from x to the light: a light ray through the TLAS finds the puffs, each one's stretch integrated
+    // exactly; rounding alone (kExactLightRounding).
+    double exact_tau(const glm::dvec3& x, Scratch& sc) const {
         const Ray ray{glm::vec3(x), 0.0f, glm::vec3(to_light), std::numeric_limits<float>::infinity()};
-        puffs_on(ray, std::numeric_limits<double>::infinity(), sc, sc.intervals_light);
-        const glm::dvec3 o{glm::vec3(x)};
-        const std::vector<Interval>& ivs = sc.intervals_light;
-        sc.stretch_tau.resize(ivs.size());
-        for (std::size_t i = 0; i < ivs.size(); ++i)
-            sc.stretch_tau[i] = integrate(ivs[i].puff, o, to_light, ivs[i].t_in, ivs[i].t_out, panels(ivs[i].puff, ivs[i].t_out - ivs[i].t_in, 1.0));
-        for (int level = 1; level <= 7; ++level) {
-            double change = 0.0;
-            for (std::size_t i = 0; i < ivs.size(); ++i) {
-                const int n = panels(ivs[i].puff, ivs[i].t_out - ivs[i].t_in, 1.0) << level;
-                const double next = integrate(ivs[i].puff, o, to_light, ivs[i].t_in, ivs[i].t_out, n);
-                change += std::abs(next - sc.stretch_tau[i]);
-                sc.stretch_tau[i] = next;
-            }
-            if (double(sigma_t) * change < max_error) break;
-        }
+        puffs_on(ray, x, to_light, std::numeric_limits<double>::infinity(), sc, sc.intervals_light);
         double tau = 0.0;
-        for (const double t : sc.stretch_tau) tau += t;
+        for (const Interval& iv : sc.intervals_light) tau += integrate(iv.puff, x, to_light, iv.t_in, iv.t_out);
         return double(sigma_t) * tau;
     }
 
@@ -348,16 +334,10 @@ void GroundTruth::Impl::fill_column(LightVolume& lv, int i, int j, const std::ve
     const double spacing = lv.spacing, t0 = spacing;
     const glm::dvec3 o = column_origin(lv, i, j);
     tau.assign(std::size_t(lv.nw), 0.0);
-    // Each puff's share of each node-to-node segment, at most half a voxel per panel; then τ of a node is the
-    // sum of the segments above it.
-    for (const Interval& iv : intervals) {
-        const int k0 = std::max(0, int(std::floor((iv.t_in - t0) / spacing)));
-        const int k1 = std::min(lv.nw - 1, int(std::ceil((iv.t_out - t0) / spacing)));
-        for (int k = k0; k < k1; ++k) {
-            const double a = std::max(iv.t_in, t0 + k * spacing), b = std::min(iv.t_out, t0 + (k + 1) * spacing);
-            if (b > a) tau[std::size_t(k)] += integrate(iv.puff, o, lv.w, a, b, panels(iv.puff, b - a));
-        }
-    }
+    // Each puff's share of each node-to-node segment (bin k: from node k to node k + 1), exact; then τ of a
+    // node is the sum of the segments above it.
+    for (const Interval& iv : intervals)
+        integrate(iv.puff, o, lv.w, iv.t_in, iv.t_out, t0, spacing, {tau.data(), std::size_t(lv.nw - 1)});
     double above = 0.0;
     float* column = &lv.tau[(std::size_t(j) * std::size_t(lv.nu) + std::size_t(i)) * std::size_t(lv.nw)];
     for (int k = lv.nw - 1; k >= 0; --k) {
@@ -413,7 +393,7 @@ GroundTruth::Impl::Sample GroundTruth::Impl::march(const Ray& ray, const std::ve
                 const double change = std::abs(double(light_t(float(tau))) - double(light_t(lv->lookup(xd, 2))));
                 sc.lit.push_back({xd, opacity * c_light, tau, opacity * c_light_max * change * kVolumeErrorPerChange, false});
             } else {
-                tau = exact_tau(xd, sc, kReferenceTauError);
+                tau = exact_tau(xd, sc);
             }
             s.color += opacity * (c_light * double(light_t(float(tau))) + c_amb);
             transmittance *= std::exp(-double(sigma) * dt);
@@ -428,7 +408,7 @@ GroundTruth::Impl::Sample GroundTruth::Impl::march(const Ray& ray, const std::ve
             const double change = std::abs(std::exp(-tau) - std::exp(-double(lv->lookup(ground_point, 2))));
             sc.lit.push_back({ground_point, lit, tau, std::max({lit.x, lit.y, lit.z}) * change * kVolumeErrorPerChange, true});
         } else {
-            tau = exact_tau(ground_point, sc, kReferenceTauError);
+            tau = exact_tau(ground_point, sc);
         }
         // Eqs. 4.3/4.4 with the field's transmittance as the shadow: c_base·(c_light·max(N·L, 0)·e^{−τ} + c_amb).
         back = glm::dvec3(ground_lit) * std::exp(-tau) + glm::dvec3(ground_ambient);
@@ -480,10 +460,10 @@ GroundTruth::Impl::PixelResult GroundTruth::Impl::shade_pixel(int x, int y, cons
 
 glm::dvec3 GroundTruth::Impl::light_correction(Scratch& sc, int spp, double half_tol, PixelResult& r) const {
     // The pixel's light error is at most the sum of its samples' errors (each enters the pixel mean with
-    // weight 1/spp): a conservative bound from the per-sample estimates. While it is above the volume's share
-    // of the half tolerance, the sample with the largest estimate takes an exact light ray instead.
+    // weight 1/spp): a conservative bound from the per-sample estimates. While it, with the exact rays'
+    // rounding, is above the light's half of the tolerance, the sample with the largest estimate takes an exact
+    // light ray instead.
     const double inv_n = 1.0 / double(spp);
-    const double share = half_tol - kExactShare * 2.0 * half_tol;
     double remaining = 0.0;
     for (const LitSample& l : sc.lit) remaining += l.estimate;
     remaining *= inv_n;
@@ -491,7 +471,7 @@ glm::dvec3 GroundTruth::Impl::light_correction(Scratch& sc, int spp, double half
     r.lit = sc.lit.size();
     glm::dvec3 correction(0.0);
     double exact_bound = 0.0;
-    if (remaining > share) {
+    if (remaining > half_tol) {
         sc.order.clear();
         for (std::size_t i = 0; i < sc.lit.size(); ++i) sc.order.emplace_back(sc.lit[i].estimate, std::uint32_t(i));
         // Largest first, ties by index: the same samples whatever the thread.
@@ -503,13 +483,12 @@ glm::dvec3 GroundTruth::Impl::light_correction(Scratch& sc, int spp, double half
             return l.ground ? std::exp(-tau) : double(light_t(float(tau)));
         };
         for (const auto& [estimate, i] : sc.order) {
-            if (remaining <= share) break;
+            if (remaining + exact_bound <= half_tol) break;
             const LitSample& l = sc.lit[i];
-            const double tau = exact_tau(l.x, sc, exact_tau_error);
+            const double tau = exact_tau(l.x, sc);
             correction += l.weight * (light(l, tau) - light(l, l.tau));
             remaining -= estimate * inv_n;
-            // T_ms and e^{-τ} fall with slope at most 1: an error δ in τ moves the sample by at most δ·weight.
-            exact_bound += std::max({l.weight.x, l.weight.y, l.weight.z}) * exact_tau_error * inv_n;
+            exact_bound += std::max({l.weight.x, l.weight.y, l.weight.z}) * kExactLightRounding * inv_n;
             ++r.exact;
         }
     }
@@ -567,9 +546,6 @@ void GroundTruth::Impl::init() {
     const float n_dot_l = smoke.has_ground() ? std::max(glm::dot(glm::normalize(smoke.ground_normal()), view.to_light), 0.0f) : 0.0f;
     ground_lit = view.ground_color * view.light_color * n_dot_l;
     ground_ambient = view.ground_color * view.ambient;
-    const glm::vec3 brightest = glm::max(view.light_color, ground_lit);
-    const double c_max = double(std::max({brightest.x, brightest.y, brightest.z}));
-    if (c_max > 0.0) exact_tau_error = kExactShare * double(settings.tolerance) / c_max;
 }
 
 namespace {
@@ -706,7 +682,7 @@ double GroundTruth::Impl::own_tau(std::uint32_t i, const glm::dvec3& x) const {
     if (disc <= 0.0) return 0.0;
     const double t_exit = -b + std::sqrt(disc);
     if (!(t_exit > 0.0)) return 0.0;
-    return double(sigma_t) * integrate(i, x, to_light, 0.0, t_exit, panels(i, t_exit));
+    return double(sigma_t) * integrate(i, x, to_light, 0.0, t_exit);
 }
 
 void GroundTruth::Impl::build_own_volumes(LadderLight& ll) const {
@@ -986,7 +962,7 @@ std::vector<double> GroundTruth::particle_optical_depths() const {
     std::vector<double> tau(m.puffs.size());
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tau.size(), 16), [&](const tbb::blocked_range<std::size_t>& r) {
         Scratch& sc = m.scratch.local();
-        for (std::size_t i = r.begin(); i != r.end(); ++i) tau[i] = m.exact_tau(m.puffs[i].centre, sc, Impl::kReferenceTauError);
+        for (std::size_t i = r.begin(); i != r.end(); ++i) tau[i] = m.exact_tau(m.puffs[i].centre, sc);
     });
     return tau;
 }

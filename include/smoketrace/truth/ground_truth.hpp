@@ -153,7 +153,7 @@ public:
     [[nodiscard]] TruthCheck check(const ImageRgba& image, const TruthReport& report, int stride,
                                    WorkProgress* progress = nullptr) const;
     // τ from each particle's centre to the light, exact light rays (the thesis's l also starts at the centre
-    // and counts its own sphere's exit), converged by step halving.
+    // and counts its own sphere's exit): each puff's integral exact up to rounding (PuffVolume::integrate).
     [[nodiscard]] std::vector<double> particle_optical_depths() const;
     // 1 where the pixel centre's camera ray reaches the ground and the ground point's light ray meets a puff's
     // sphere (the region the ground-shadow error is measured in), else 0; width*height, row 0 at the top.
