@@ -119,7 +119,7 @@ std::string threshold_name(float t) {
 
 std::string describe(const RenderOptions& o) {
     const RenderSettings& r = o.render;
-    return std::string(to_string(r.mode)) + ", " + o.shape.name() + ", cutoff " +
+    return std::string(to_string(r.mode)) + ", " + o.shape.name() + ", " + o.kernel.name() + ", cutoff " +
            (r.cutoff ? std::to_string(r.cutoff) : std::string("none")) + ", groups " + std::to_string(r.groups) +
            ", spp " + std::to_string(r.spp) + ", " +
            (r.compositing == Compositing::thesis ? std::string("eq. 4.1") : std::string("over")) + ", threshold " +
@@ -141,6 +141,9 @@ std::vector<Config> configurations(const RenderOptions& scene, bool animated) {
     vary("shape", "icosahedron", [](RenderOptions& o) { o.shape = {StandInKind::icosahedron, 0}; });
     for (int level = 1; level <= 3; ++level)
         vary("shape", "icosphere:" + std::to_string(level), [&](RenderOptions& o) { o.shape = {StandInKind::icosphere, level}; });
+    for (const DensityKernelKind kind : {DensityKernelKind::uniform, DensityKernelKind::gaussian, DensityKernelKind::poly1,
+                                         DensityKernelKind::poly2})
+        vary("kernel", density_kernel(kind).name(), [&](RenderOptions& o) { o.kernel = density_kernel(kind); });
     vary("cutoff", "none", [](RenderOptions& o) { o.render.cutoff = 0; });
     for (std::uint32_t cutoff : {20u, 40u, 60u, 80u, 120u})
         vary("cutoff", std::to_string(cutoff), [&](RenderOptions& o) { o.render.cutoff = cutoff; });
@@ -156,6 +159,7 @@ std::vector<Config> configurations(const RenderOptions& scene, bool animated) {
     // particle every frame, its compositing rule, one sample per pixel.
     vary("named", "thesis", [](RenderOptions& o) {
         o.shape = {StandInKind::icosahedron, 0};
+        o.kernel = kUniformKernel;
         o.render.cutoff = 60;
         o.render.groups = 1;
         o.render.compositing = Compositing::thesis;
@@ -164,6 +168,7 @@ std::vector<Config> configurations(const RenderOptions& scene, bool animated) {
     // The project's most exact own model (the `error` section's reference, with 16 samples per pixel).
     vary("named", "own-exact", [](RenderOptions& o) {
         o.shape = {StandInKind::sphere, 0};
+        o.kernel = kUniformKernel;
         o.render.cutoff = 0;
         o.render.groups = 1;
         o.render.transmittance_threshold = 0.0f;
@@ -173,11 +178,16 @@ std::vector<Config> configurations(const RenderOptions& scene, bool animated) {
     // Approximation (a) put back to its exact form: the scene's settings, and the own exact model, drawn with
     // each particle's true optical depth. What is left is the billboard's: one transmittance per billboard,
     // the six-way light map, the billboard instead of the volume.
-    c.push_back({"exact", "true-tau", scene, Depths::true_tau});
+    // The true-τ frames keep the thesis's ground shadow (eq. 4.3: the nearest particle's transmittance, here
+    // its true one), whatever kernel the scene has: the ladder's rungs shade the ground so.
+    RenderOptions thesis_shadow = scene;
+    thesis_shadow.kernel = kUniformKernel;
+    c.push_back({"exact", "true-tau", thesis_shadow, Depths::true_tau});
     Config exact_all = *std::find_if(c.begin(), c.end(), [](const Config& k) { return k.value == "own-exact"; });
     exact_all.sweep = "exact";
     exact_all.value = "true-tau+own-exact";
     exact_all.depths = Depths::true_tau;
+    exact_all.options.kernel = kUniformKernel;
     c.push_back(exact_all);
     // The ladder (docs/ground-truth.md): from the truth, the frame's approximations of the light put in one at a
     // time, each rung keeping the ones before it; then the billboards with the true τ (exact true-tau) and the
@@ -189,7 +199,7 @@ std::vector<Config> configurations(const RenderOptions& scene, bool animated) {
     }
     // The billboards with the true τ and the scene's alpha matched to the volume's opacity: how much of the
     // billboard's error is the opacity the scene gives it (alpha filled in by run_truth()).
-    Config matched{"exact", "true-tau+matched-alpha", scene, Depths::true_tau};
+    Config matched{"exact", "true-tau+matched-alpha", thesis_shadow, Depths::true_tau};
     matched.alpha = 0.0f;
     c.push_back(matched);
     return c;
@@ -364,7 +374,8 @@ void run_truth(const BenchOptions& options) {
                 if (runs[i].config.id() == id) return i;
             throw std::logic_error("truth: no configuration " + id);
         };
-        const std::size_t scene_row = 0, thesis = index_of("named_thesis"), own_exact = index_of("named_own-exact"),
+        const std::size_t scene_row = 0, uniform_row = defaults.kernel.smooth() ? index_of("kernel_uniform") : scene_row,
+                          thesis = index_of("named_thesis"), own_exact = index_of("named_own-exact"),
                           true_tau = index_of("exact_true-tau"), true_tau_exact = index_of("exact_true-tau-own-exact");
         for (std::size_t i = 0; i < runs.size(); ++i) {
             total[i] = runs[i].stages[4].median;
@@ -422,7 +433,7 @@ void run_truth(const BenchOptions& options) {
                 {"(d) six axis lights", index_of("ladder_six-axis")},
                 {"    the bake's extinction", index_of("ladder_bake-extinction")},
                 {"(c) billboards (the true tau)", true_tau},
-                {"(a) the stand-ins' tau: the frame", scene_row}};
+                {"(a) the stand-ins' tau: the thesis's balls", uniform_row}};
             std::cout << "  ladder (truth " << fmt(truth.ladder.seconds, 1) << " s; view steps " << truth.ladder.view_error_estimate
                       << ", own light volumes' estimate " << truth.ladder.own_light_error_estimate << ", unconverged "
                       << truth.ladder.unconverged_pixels << "):\n";
@@ -435,10 +446,35 @@ void run_truth(const BenchOptions& options) {
                           << fmt(mse, 5) << " (+" << fmt(mse - previous, 5) << ")\n";
                 previous = mse;
             }
+            // The soft stand-ins in place of (a): each kernel's frame, the rest of the scene's settings kept.
+            for (const DensityKernelKind kind : {DensityKernelKind::gaussian, DensityKernelKind::poly1, DensityKernelKind::poly2}) {
+                const std::string name = density_kernel(kind).name();
+                const std::size_t i = defaults.kernel.kind == kind ? scene_row : index_of("kernel_" + name);
+                const double mse = runs[i].picture.rmse * runs[i].picture.rmse;
+                std::cout << "    " << std::left << std::setw(42) << ("    instead, the " + name + " kernel") << std::right
+                          << " psnr " << std::setw(5) << fmt(runs[i].picture.psnr_db, 1) << "  shadow " << std::setw(5)
+                          << (truth.shadow.empty() ? std::string("-") : fmt(runs[i].shadow.error.psnr_db, 1)) << "  mse "
+                          << fmt(mse, 5) << "\n";
+            }
             std::cout << "    matched alpha " << fmt(alpha_matched, 3) << " (scene " << fmt(scene.smoke.alpha, 3)
                       << "): billboards with the true tau at it, psnr "
                       << fmt(runs[index_of("exact_true-tau-matched-alpha")].picture.psnr_db, 1) << "\n"
                       << std::flush;
+            // Issue 33's targets, each kernel against the thesis's balls with the rest of the scene's settings:
+            // the ground shadow's RMSE and the particles' mean transmittance error, both as ratios, and the time.
+            for (const DensityKernelKind kind : {DensityKernelKind::gaussian, DensityKernelKind::poly1, DensityKernelKind::poly2}) {
+                const std::string name = density_kernel(kind).name();
+                const std::size_t i = defaults.kernel.kind == kind ? scene_row : index_of("kernel_" + name);
+                const Run &k = runs[i], &u = runs[uniform_row];
+                const double shadow_ratio = truth.shadow.empty() ? 0.0 : k.shadow.error.rmse / u.shadow.error.rmse;
+                const double t_ratio = k.has_depths && u.has_depths ? k.transmittance.mean / u.transmittance.mean : 0.0;
+                const double time_ratio = k.stages[4].median / u.stages[4].median;
+                std::cout << "    " << name << " / uniform: shadow rmse " << fmt(shadow_ratio, 3) << ", T err mean "
+                          << fmt(t_ratio, 3) << ", frame time " << fmt(time_ratio, 3) << "\n";
+                report("truth_kernel_" + name + "_shadow_rmse_over_uniform_" + std::string(ts.name), shadow_ratio);
+                report("truth_kernel_" + name + "_transmittance_err_over_uniform_" + std::string(ts.name), t_ratio);
+                report("truth_kernel_" + name + "_psnr_db_" + std::string(ts.name), k.picture.psnr_db);
+            }
             for (const auto& [name, i] : chain)
                 if (runs[i].config.ladder())
                     report("truth_ladder_psnr_db_" + runs[i].config.value + "_" + ts.name, runs[i].picture.psnr_db);

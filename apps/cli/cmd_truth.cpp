@@ -138,7 +138,8 @@ constexpr OptionHelp kOptions[] = {
     {"--tolerance", "X", "1/512", "per pixel and channel, linear radiance: steps are halved and exact light rays "
                                   "replace the light volume until the pixel's error estimate is below X"},
     {"--light-spacing", "V", "2", "the light volume's node spacing in voxels of the smallest puff; exact light rays "
-                                  "make up for it where a pixel needs them, so it changes the time, not the bound"},
+                                  "make up for it where the estimate asks, which a coarser volume makes less reliable "
+                                  "(docs/ground-truth.md, the spacing)"},
     {"--spp", "N", "16", "samples per pixel (the pixel_samples pattern render uses), averaged: an anti-aliased truth"},
     {"--threads", "T", "all cores", "worker threads; the image is the same for any T"},
     {"--assets", "DIR", "as render's", "folder of the six-way textures: the puff is read from sixway.json's \"bake\""},

@@ -48,7 +48,7 @@ struct Interval {
 // A lit point of a camera ray whose τ_light came from the light volume: where it is, the weight its light
 // enters the pixel with (view transmittance · opacity · c_light per channel, or T_view · the ground's lit term),
 // τ from the grid, and its error estimate (the weight's largest channel times the light's change between the
-// grid and the subgrid, over 3).
+// grid and the subgrid).
 struct LitSample {
     glm::dvec3 x;
     glm::dvec3 weight;
@@ -222,7 +222,6 @@ struct GroundTruth::Impl {
         return double(sigma_t) * tau;
     }
 
-    // The light volume's frame and node grid at `spacing` (nothing allocated yet), and the volume filled on it.
     // The light volume's frame and node grid at `spacing` over the spheres of puffs [first, last) (nothing
     // allocated yet), one column of it filled with τ from the puffs of `intervals` (their stretches of the
     // column's ray), and the whole volume filled from the puffs each column's ray meets in the TLAS.
@@ -237,7 +236,7 @@ struct GroundTruth::Impl {
     }
 
     // One camera sample's radiance with midpoint steps of `step`; τ_light from the volume, each lit point
-    // appended to sc.lit with its estimate, or (no volume) from exact light rays to the reference precision.
+    // appended to sc.lit with its estimate, or (no volume) from exact light rays.
     struct Sample {
         glm::dvec3 color{0.0};
         std::uint64_t steps = 0;
