@@ -120,7 +120,7 @@ TEST_CASE("cli: depths writes one CSV row per particle", "[cli]") {
         REQUIRE(header == "particle,optical_path_length,hits,status");
 
         const SceneDescription desc = load_scene_file(run.scene);
-        const Depths want = library_depths(desc, run.cutoff);
+        const Depths want = library_depths(desc, run.cutoff, desc.smoke.kernel);  // the scene's: the default
         REQUIRE(rows.size() == desc.smoke.particles.size());
         for (std::size_t i = 0; i < rows.size(); ++i) {
             const CsvRow& row = rows[i];
@@ -159,8 +159,8 @@ std::uint64_t fnv1a(const std::string& bytes) {
 
 TEST_CASE("cli: depths --kernel uniform writes the CSV of before the kernels, byte for byte", "[cli]") {
     // FNV-1a 64 of `depths two_tubes_above.json` (the scene's cutoff 60) and of the same with --shape
-    // icosahedron, written by the commit before density kernels existed. The default kernel, --kernel uniform
-    // and a scene file saying "kernel": "uniform" must all still write those bytes.
+    // icosahedron, written by the commit before density kernels existed. --kernel uniform and a scene file
+    // saying "kernel": "uniform" must still write those bytes (the default is now poly1: other bytes).
     TempDir dir;
     const std::string above = std::string(SMOKETRACE_ASSET_DIR) + "/scenes/two_tubes_above.json";
     std::string text = file_bytes(above);
@@ -172,7 +172,7 @@ TEST_CASE("cli: depths --kernel uniform writes the CSV of before the kernels, by
         std::string args;
         std::uint64_t hash;
     };
-    for (const Run& run : {Run{above, 13216367947350250666ull}, Run{above + " --kernel uniform", 13216367947350250666ull},
+    for (const Run& run : {Run{above + " --kernel uniform", 13216367947350250666ull},
                            Run{with_kernel.string(), 13216367947350250666ull},
                            Run{above + " --kernel uniform --shape icosahedron", 13359516651570021001ull}}) {
         const fs::path out = dir.path / "d.csv";

@@ -395,7 +395,8 @@ SceneDescription by_hand_scene() {
 
 TEST_CASE("render by hand: sky, lit and shadowed ground and billboards match eqs. 4.1-4.4 in every mode",
           "[view][by_hand]") {
-    const SceneDescription scene = by_hand_scene();
+    SceneDescription scene = by_hand_scene();
+    scene.smoke.kernel = kUniformKernel;  // the thesis's balls, whose equations these are (kernels: below)
     const SixwayTexture texture = make_texture();
 
     for (const RenderMode mode : {RenderMode::basic, RenderMode::simple_shadow, RenderMode::full})

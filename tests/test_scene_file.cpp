@@ -110,7 +110,7 @@ TEST_CASE("the defaults of every optional key", "[scene]") {
     CHECK(s.smoke.sigma_t == 1.0f);
     CHECK(s.smoke.alpha == 0.5f);
     CHECK(s.smoke.shape == StandInShape{StandInKind::sphere, 0});
-    CHECK(s.smoke.kernel == kUniformKernel);
+    CHECK(s.smoke.kernel == kPoly1Kernel);  // the error study's choice (docs/accuracy.md)
     CHECK(s.render.mode == RenderMode::full);
     CHECK(s.render.cutoff == 0u);
     CHECK(s.render.groups == 1u);

@@ -24,7 +24,7 @@ namespace smoketrace {
 struct RenderOptions {
     RenderSettings render;            // mode, cutoff, groups, frames, softness, threshold, compositing, spp
     StandInShape shape{};
-    DensityKernel kernel{};           // the stand-ins' density: optical depths and shadows (density_kernel.hpp)
+    DensityKernel kernel = kPoly1Kernel;  // the stand-ins' density: optical depths and shadows (as SmokeDescription's)
     int width = 512, height = 512;
     CompositorKind compositor = CompositorKind::tiled;
     HitSort sort = HitSort::adaptive;

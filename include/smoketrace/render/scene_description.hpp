@@ -34,7 +34,9 @@ struct SmokeDescription {
     float sigma_t = 1.0f;
     float alpha = 0.5f;
     StandInShape shape{};              // sphere
-    DensityKernel kernel{};            // uniform: the thesis's balls (eq. 3.1)
+    // The stand-ins' density (density_kernel.hpp): poly1, the kernel the error study against the ground truth
+    // recommends (docs/accuracy.md); kUniformKernel is the thesis's balls (eq. 3.1).
+    DensityKernel kernel = kPoly1Kernel;
 };
 
 struct GroundDescription {
