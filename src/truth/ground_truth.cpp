@@ -235,6 +235,21 @@ struct GroundTruth::Impl {
         return glm::dvec3(glm::vec3(o));
     }
 
+    // The camera march's steps: each segment of the union cut into equal steps of at most `step`, and
+    // visit(t, dt, x) at each step's midpoint x = o + t·d, front to back (march() and march_ladder()).
+    template <class Visit>
+    static void for_each_step(const Ray& ray, const std::vector<std::pair<double, double>>& segments, double step,
+                              Visit&& visit) {
+        const glm::dvec3 o(ray.origin), d(ray.direction);
+        for (const auto& [a, b] : segments) {
+            const int n = std::max(1, int(std::ceil((b - a) / step)));
+            const double dt = (b - a) / n;
+            for (int k = 0; k < n; ++k) {
+                const double t = a + (k + 0.5) * dt;
+                visit(t, dt, o + t * d);
+            }
+        }
+    }
     // One camera sample's radiance with midpoint steps of `step`; τ_light from the volume, each lit point
     // appended to sc.lit with its estimate, or (no volume) from exact light rays.
     struct Sample {
@@ -370,34 +385,27 @@ GroundTruth::Impl::Sample GroundTruth::Impl::march(const Ray& ray, const std::ve
     const OctaveTransmittance light_t(scattering);
     const glm::dvec3 c_light(view.light_color), c_amb(view.ambient);
     const double c_light_max = std::max({c_light.x, c_light.y, c_light.z});
-    const glm::dvec3 o(ray.origin), d(ray.direction);
     Sample s;
     double transmittance = 1.0;
-    for (const auto& [a, b] : segments) {
-        const int n = std::max(1, int(std::ceil((b - a) / step)));
-        const double dt = (b - a) / n;
-        for (int k = 0; k < n; ++k) {
-            const double t = a + (k + 0.5) * dt;
-            const glm::dvec3 xd = o + t * d;
-            const glm::vec3 x(xd);
-            const float sigma = sigma_at(x, t, intervals);
-            ++s.steps;
-            if (sigma == 0.0f) continue;
-            // The baker's voxel rule, per step: the share of the view ray the step stops, 1 − e^{−σΔ}, scatters
-            // the light that reaches it (T_ms of its τ toward the light) plus the ambient term; Beer–Lambert (eq. 2.10).
-            const double opacity = transmittance * -std::expm1(-double(sigma) * dt);
-            double tau;
-            if (lv) {
-                tau = double(lv->lookup(xd, 1));
-                const double change = std::abs(double(light_t(float(tau))) - double(light_t(lv->lookup(xd, 2))));
-                sc.lit.push_back({xd, opacity * c_light, tau, opacity * c_light_max * change * kVolumeErrorPerChange, false});
-            } else {
-                tau = exact_tau(xd, sc);
-            }
-            s.color += opacity * (c_light * double(light_t(float(tau))) + c_amb);
-            transmittance *= std::exp(-double(sigma) * dt);
+    for_each_step(ray, segments, step, [&](double t, double dt, const glm::dvec3& xd) {
+        const glm::vec3 x(xd);
+        const float sigma = sigma_at(x, t, intervals);
+        ++s.steps;
+        if (sigma == 0.0f) return;
+        // The baker's voxel rule, per step: the share of the view ray the step stops, 1 − e^{−σΔ}, scatters
+        // the light that reaches it (T_ms of its τ toward the light) plus the ambient term; Beer–Lambert (eq. 2.10).
+        const double opacity = transmittance * -std::expm1(-double(sigma) * dt);
+        double tau;
+        if (lv) {
+            tau = double(lv->lookup(xd, 1));
+            const double change = std::abs(double(light_t(float(tau))) - double(light_t(lv->lookup(xd, 2))));
+            sc.lit.push_back({xd, opacity * c_light, tau, opacity * c_light_max * change * kVolumeErrorPerChange, false});
+        } else {
+            tau = exact_tau(xd, sc);
         }
-    }
+        s.color += opacity * (c_light * double(light_t(float(tau))) + c_amb);
+        transmittance *= std::exp(-double(sigma) * dt);
+    });
     glm::dvec3 back(view.background);
     if (ground) {
         double tau;
@@ -759,44 +767,37 @@ GroundTruth::Impl::RungSample GroundTruth::Impl::march_ladder(const Ray& ray, co
                                                               const LadderLight& ll) const {
     const glm::dvec3 c_light(view.light_color), c_amb(view.ambient);
     const double c_light_max = std::max({c_light.x, c_light.y, c_light.z});
-    const glm::dvec3 o(ray.origin), d(ray.direction);
     RungSample s;
     double transmittance = 1.0;
     std::array<double, kTruthRungs> lit{}, puff_lit{};
-    for (const auto& [a, b] : segments) {
-        const int n = std::max(1, int(std::ceil((b - a) / step)));
-        const double dt = (b - a) / n;
-        for (int k = 0; k < n; ++k) {
-            const double t = a + (k + 0.5) * dt;
-            const glm::dvec3 xd = o + t * d;
-            const glm::vec3 x(xd);
-            ++s.steps;
-            // As sigma_at(): the densities summed in float in interval order, then σt; each puff's share of the
-            // sample's scattering lit by its own rung light.
-            float sum = 0.0f;
-            double change = 0.0;
-            lit.fill(0.0);
-            for (const Interval& iv : intervals) {
-                if (t < iv.t_in || t > iv.t_out) continue;
-                const float rho = density(iv.puff, x);
-                if (rho == 0.0f) continue;
-                sum += rho;
-                double own_change;
-                rung_lights(iv.puff, xd, ll, puff_lit, own_change);
-                for (int r = 0; r < kTruthRungs; ++r) lit[std::size_t(r)] += double(rho) * puff_lit[std::size_t(r)];
-                change += double(rho) * own_change;
-            }
-            const float sigma = sigma_t * sum;
-            if (sigma == 0.0f) continue;
-            const double opacity = transmittance * -std::expm1(-double(sigma) * dt);  // eq. 2.10, as march()
-            for (int r = 0; r < kTruthRungs; ++r)
-                s.color[std::size_t(r)] += opacity * (c_light * (lit[std::size_t(r)] / double(sum)) + c_amb);
-            // The own light's change enters both rungs that use it, each with at most this weight (the
-            // transmittance from the centre is at most 1; T_ms is 1-Lipschitz).
-            s.own_estimate += opacity * c_light_max * change / double(sum);
-            transmittance *= std::exp(-double(sigma) * dt);
+    for_each_step(ray, segments, step, [&](double t, double dt, const glm::dvec3& xd) {
+        const glm::vec3 x(xd);
+        ++s.steps;
+        // As sigma_at(): the densities summed in float in interval order, then σt; each puff's share of the
+        // sample's scattering lit by its own rung light.
+        float sum = 0.0f;
+        double change = 0.0;
+        lit.fill(0.0);
+        for (const Interval& iv : intervals) {
+            if (t < iv.t_in || t > iv.t_out) continue;
+            const float rho = density(iv.puff, x);
+            if (rho == 0.0f) continue;
+            sum += rho;
+            double own_change;
+            rung_lights(iv.puff, xd, ll, puff_lit, own_change);
+            for (int r = 0; r < kTruthRungs; ++r) lit[std::size_t(r)] += double(rho) * puff_lit[std::size_t(r)];
+            change += double(rho) * own_change;
         }
-    }
+        const float sigma = sigma_t * sum;
+        if (sigma == 0.0f) return;
+        const double opacity = transmittance * -std::expm1(-double(sigma) * dt);  // eq. 2.10, as march()
+        for (int r = 0; r < kTruthRungs; ++r)
+            s.color[std::size_t(r)] += opacity * (c_light * (lit[std::size_t(r)] / double(sum)) + c_amb);
+        // The own light's change enters both rungs that use it, each with at most this weight (the
+        // transmittance from the centre is at most 1; T_ms is 1-Lipschitz).
+        s.own_estimate += opacity * c_light_max * change / double(sum);
+        transmittance *= std::exp(-double(sigma) * dt);
+    });
     glm::dvec3 back(view.background);
     if (ground) {
         // Eq. 4.3 with the true τ: the shadow is the transmittance of the nearest particle toward the light,
