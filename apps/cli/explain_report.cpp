@@ -2,7 +2,7 @@
 #include "explain_report.hpp"
 
 #include <smoketrace/core/image.hpp>
-#include <smoketrace/render/scene_description.hpp>
+#include <smoketrace/smoke/scene_description.hpp>
 
 #include <algorithm>
 #include <charconv>

@@ -7,7 +7,7 @@
 #include "command.hpp"
 
 #include <smoketrace/render/frame_renderer.hpp>
-#include <smoketrace/render/scene_description.hpp>
+#include <smoketrace/smoke/scene_description.hpp>
 
 #include <cstdint>
 #include <optional>

@@ -8,7 +8,7 @@
 // "origin", else one near the first particle or the tubes' centre: docs/scene-format.md). The particles may
 // also come from a PLY point cloud the file names ("particles": "cloud.ply", ply_points.hpp), read through
 // the same checks; its problems name the PLY file, the vertex and the property.
-#include <smoketrace/render/scene_description.hpp>
+#include <smoketrace/smoke/scene_description.hpp>
 #include <smoketrace/smoke/particle_system.hpp>
 
 #include <glm/vec3.hpp>

@@ -12,7 +12,7 @@
 #include <smoketrace/core/work_progress.hpp>
 #include <smoketrace/smoke/optical_path_lengths.hpp>
 #include <smoketrace/smoke/particle_system.hpp>
-#include <smoketrace/render/scene_description.hpp>
+#include <smoketrace/smoke/scene_description.hpp>
 #include <smoketrace/render/sixway_texture.hpp>
 #include <smoketrace/render/view_compositor.hpp>
 

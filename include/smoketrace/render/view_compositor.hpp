@@ -19,7 +19,7 @@
 #include <smoketrace/render/camera.hpp>
 #include <smoketrace/core/image.hpp>
 #include <smoketrace/core/work_progress.hpp>
-#include <smoketrace/render/scene_description.hpp>
+#include <smoketrace/smoke/scene_description.hpp>
 #include <smoketrace/render/sixway_texture.hpp>
 #include <smoketrace/smoke/density_kernel.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>

@@ -16,7 +16,7 @@
 // step until the pixel settles.
 #include <smoketrace/core/image.hpp>
 #include <smoketrace/core/work_progress.hpp>
-#include <smoketrace/render/scene_description.hpp>
+#include <smoketrace/smoke/scene_description.hpp>
 #include <smoketrace/render/sixway_baker.hpp>
 #include <smoketrace/truth/puff_volume.hpp>
 

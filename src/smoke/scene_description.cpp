@@ -1,5 +1,5 @@
 // The scene description's own behaviour: the light's turn per frame, and names of the settings.
-#include <smoketrace/render/scene_description.hpp>
+#include <smoketrace/smoke/scene_description.hpp>
 
 #include <glm/vec3.hpp>
 

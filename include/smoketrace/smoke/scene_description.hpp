@@ -1,7 +1,8 @@
 #pragma once
 // The plain data a scene becomes (light, smoke, ground, camera, render settings): what the renderer
 // takes, whoever made it. io/scene_file.hpp reads it from a scene file, with the format and its
-// defaults in docs/scene-format.md; a program may also fill it in directly.
+// defaults in docs/scene-format.md; a program may also fill it in directly. A description, not a render
+// type: it lives beside the particles, so that `depths` and the optical-depth pass need nothing of render/.
 #include <smoketrace/smoke/density_kernel.hpp>
 #include <smoketrace/smoke/particle_system.hpp>
 #include <smoketrace/smoke/stand_in_shapes.hpp>
