@@ -14,6 +14,7 @@
 #include <smoketrace/io/png_io.hpp>
 #include <smoketrace/io/scene_file.hpp>
 #include <smoketrace/io/sixway_files.hpp>
+#include <smoketrace/textbook/frame.hpp>
 
 #include <algorithm>
 #include <charconv>
@@ -47,10 +48,17 @@ int run_render(const Args& args) {
     const auto assets = in.string("--assets");
     const auto textures = in.string("--textures");
     const bool timings = in.flag("--timings");
+    const auto path = in.string("--path");
     // After every flag has taken its value, so that "-o OUT" is never mistaken for the scene file.
     const std::string scene_path = in.positional("scene file (smoketrace render SCENE.json -o OUT.png)");
     in.finish();
     if (!out_arg) throw CliError("missing -o OUT.png");
+    // The textbook path (src/textbook/) is the method in plain code; the fast path's own knobs do not apply.
+    const bool textbook = path && *path == "textbook";
+    if (path && !textbook && *path != "fast")
+        throw CliError("--path: " + quoted_arg(*path) + " is not one of textbook, fast");
+    if (textbook && compositor) throw CliError("--compositor: the textbook path has one compositor; give --path fast");
+    if (textbook && timings) throw CliError("--timings: the textbook path is not timed; give --path fast");
     const std::filesystem::path out(*out_arg);
     const bool to_stdout = out == kStandardOutputPath;
     // One file that plays the whole sequence, where a browser can watch it; the name says which is wanted.
@@ -113,15 +121,29 @@ int run_render(const Args& args) {
     const SixwayTexture texture = load_sixway_texture(layout.positive, layout.negative, layout.grid);
 
     if (work) work->begin("building the scene", 0);
-    FrameRenderer renderer(scene, options, texture);
-    renderer.count_progress(work);
-    renderer.skip_to(first);  // particles, light, TLAS and the groups' optical depths as the full run has them
+    std::optional<FrameRenderer> renderer;
+    std::optional<textbook::FrameLoop> textbook_loop;  // advances over the frames before `first` itself
+    if (textbook) {
+        textbook_loop.emplace(scene, textbook::FrameOptions{options.render, options.shape, options.kernel,
+                                                            options.width, options.height},
+                              texture);
+    } else {
+        renderer.emplace(scene, options, texture);
+        renderer->count_progress(work);
+        renderer->skip_to(first);  // particles, light, TLAS and the groups' optical depths as the full run has them
+    }
     std::vector<FrameTimings> all;
     ImageRgba image;
     const std::string image_stage =
         "writing the " + std::string(to_string(animated ? ImageFileKind::png : output_image_kind(out)));
     const auto render_frame = [&](std::uint32_t f) {
-        const FrameReport r = renderer.render(f, image);
+        if (textbook_loop) {
+            if (work) work->begin("the textbook frame", 0);
+            textbook_loop->render(f, image);
+            if (work) work->begin(animation ? "compressing the frame" : image_stage.c_str(), 0);
+            return;
+        }
+        const FrameReport r = renderer->render(f, image);
         all.push_back(r.timings);
         if (timings) {
             progress.clear_line();
@@ -187,7 +209,10 @@ constexpr OptionHelp kOptions[] = {
     kCompositingHelp,
     {"--compositor", "tiled|one-traversal|retrace", "tiled",
      "tiled: 16x16 pixels' camera rays traced together; one-traversal: each pixel's rays alone (the reference); "
-     "retrace: the thesis's closest-hit loop (all three give the same image)"},
+     "retrace: the thesis's closest-hit loop (all three give the same image); fast path only"},
+    {"--path", "textbook|fast", "fast",
+     "fast: the optimised renderer; textbook: the method in plain scalar code (src/textbook/, the reference the "
+     "fast path is tested against; slower, no --compositor or --timings)"},
     kSppHelp,
     {"--assets", "DIR", "SMOKETRACE_ASSETS, else <prefix>/share/smoketrace or assets/ beside the binary",
      "folder of the six-way textures (sixway.json, sixway_pos.png, sixway_neg.png)"},
@@ -201,7 +226,7 @@ const RegisterCommand registration{
      "render SCENE.json -o OUT.png|OUT.exr|OUT.pfm|OUT.apng|- [--mode basic|simple-shadow|full] [--size WxH] "
      "[--frames N|A:B] [--groups G] "
      "[--cutoff K] [--shape S] [--kernel NAME] [--threads T] [--timings] [--compositing over|thesis] "
-     "[--compositor tiled|one-traversal|retrace] [--spp N] [--assets DIR]",
+     "[--compositor tiled|one-traversal|retrace] [--spp N] [--path textbook|fast] [--assets DIR]",
      "render a frame (PNG, or linear float EXR or PFM; -o -: on standard output), or N frames OUT_0000.png … or "
      "one animated OUT.apng, of the smoke scene", &run_render,
      kOptions}};
