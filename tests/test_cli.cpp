@@ -627,3 +627,38 @@ TEST_CASE("cli: truth writes the image and its bound, depths --truth adds the tr
     CHECK_THAT(bad.err, Catch::Contains("sixway.json") && Catch::Contains("/bake"));
     CHECK_FALSE(fs::exists(image));
 }
+
+TEST_CASE("cli: render --path textbook draws the fast path's frames and refuses its options", "[cli][textbook]") {
+    // The textbook path is held to the fast one in linear colour (tests/test_textbook_frame.cpp); the 8-bit
+    // sRGB images may then differ where a value lies at a rounding boundary, by one step at most.
+    constexpr int kMaxStepDifference = 1;
+    TempDir dir;
+    const std::string sequence = std::string(SMOKETRACE_ASSET_DIR) + "/scenes/two_tubes_sequence.json";
+    for (const auto& [scene, options] : {std::pair{kScene, std::string(" --mode simple-shadow --spp 4")},
+                                         std::pair{sequence, std::string(" --frames 3:4 --kernel uniform")}}) {
+        INFO(scene << options);
+        const auto render = [&](const std::string& name, const std::string& path) {
+            const fs::path out = dir.path / name;
+            const CliRun r = run_cli("render " + scene + " -o " + out.string() + " --size 32x32" + options + path);
+            INFO(r.err);
+            REQUIRE(r.exit_code == 0);
+            const bool one_frame = options.find("--frames") == std::string::npos;
+            return read_png_rgba8(one_frame ? out : dir.path / (out.stem().string() + "_0003.png"), 32, 32);
+        };
+        const Rgba8Image fast = render("fast.png", ""), textbook = render("textbook.png", " --path textbook");
+        int worst = 0;
+        for (std::size_t i = 0; i < fast.pixels.size(); ++i)
+            worst = std::max(worst, std::abs(int(fast.pixels[i]) - int(textbook.pixels[i])));
+        CHECK(worst <= kMaxStepDifference);
+        CHECK(render("explicit_fast.png", " --path fast").pixels == fast.pixels);
+    }
+    for (const std::string& bad : {std::string(" --path textbook --compositor tiled"),
+                                   std::string(" --path textbook --timings"), std::string(" --path slow")}) {
+        const fs::path out = dir.path / "refused.png";
+        const CliRun r = run_cli("render " + kScene + " -o " + out.string() + bad);
+        INFO(bad << ": " << r.err);
+        CHECK(r.exit_code == 2);
+        CHECK(r.err.find(bad.find("slow") != std::string::npos ? "--path" : "textbook") != std::string::npos);
+        CHECK(!fs::exists(out));
+    }
+}
