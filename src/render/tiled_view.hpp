@@ -1,4 +1,7 @@
 #pragma once
+// Contract: every sample bit for bit one_traversal_sample()'s (per_ray_view.hpp), and so within
+// kFastVsTextbookTolerance of textbook::camera_ray_color() (tests/test_textbook_frame.cpp).
+//
 // The tiled compositor (view_compositor.hpp): a block of pixels' camera rays traced together, one sample
 // position at a time. Internal to the render layer.
 #include "pixel_shading.hpp"

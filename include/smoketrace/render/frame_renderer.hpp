@@ -1,4 +1,9 @@
 #pragma once
+// Contract: frame by frame the particles, light and particle groups of textbook::FrameLoop (textbook/frame.hpp),
+// each image within kFastVsTextbookTolerance of its image per pixel (tests/test_textbook_frame.cpp): float
+// shading and world-space hits against the textbook's double and object space (view_compositor.hpp), and the
+// fast optical-depth pass's lengths against the textbook's (smoke/optical_depth_pass.hpp states that contract).
+//
 // One frame of the thesis's render loop (4.3, figure 4.1), and the sequence of frames (5.2.2):
 //   advance particles → TLAS update (none / refit / rebuild) → optical-depth pass and resolve for this
 //   frame's particle group (skipped in basic mode) → view pass → image.

@@ -1,4 +1,8 @@
 #pragma once
+// Contract: within kFastVsTextbookTolerance per pixel and channel (tests/test_textbook_frame.cpp) of the textbook
+// view (textbook/frame.hpp, compositor.hpp), not bit for bit: it shades in float where the textbook shades in
+// double, and its rays meet billboards and stand-ins in world space where textbook::trace works in object space.
+//
 // The view pass (thesis 4.3.5): per pixel, the billboards along the camera ray are shaded with six-way
 // lighting and attenuated by their particle's optical depth, composited front to back over the ground
 // (lit, with a shadow ray) or the sky.
