@@ -20,14 +20,14 @@ using namespace smoketrace;
 namespace {
 
 // Most a linear colour channel of the fast frame may differ from the textbook's, per pixel. The fast path
-// shades in float, the textbook in double, from the same float inputs (texture texels, colours, light); its
-// camera rays meet the billboards and stand-ins in world space where the textbook's trace transforms the ray
-// into the instance's object space, so hit distances and barycentrics differ by a few float ulps, which move a
-// texture look-up by ~1e-5 texel. A pixel's colour is a sum of at most a few hundred layers' products, each
-// within ~10 float ulps (~1e-6) of the double one; the optical path lengths differ by float rounding of their
-// stretches (the fast pass sums in float lanes). Measured: MEASURED_TODO. 2e-4 is a fifth of a step of an
-// 8-bit image's linear value near black (1/255 · 0.05), far above the rounding and far below any real change
-// (a layer missed, a shadow lost: differences of 1e-2 and more).
+// shades in float, the textbook in double, from the same float inputs (texels, colours, light), and the fast
+// trace meets billboards and stand-ins in world space where textbook::trace takes the ray into each instance's
+// object space: hit distances and barycentrics differ by a few float ulps (~5e-7 of the quad), which move a
+// look-up in a 128-texel tile by ~6e-5 texel, so a layer's alpha and light map by at most 6e-5 of a full texel
+// step each, and T·a·c by at most ~1.2e-4 summed over layers whose weights add up to at most 1; the float sums
+// of a few hundred layers add ~1e-5. Measured on the cases below: at most 7.5e-6 (two_tubes_above.json). 2e-4
+// lies under the smallest step of the 8-bit sRGB image (1/(255·12.92) = 3e-4, at black) and far under what a
+// real fault moves (two layers at equal depth swapped: 7.6e-3; a lost fade, shadow or early stop fail too).
 constexpr float kFastVsTextbookTolerance = 2e-4f;
 
 const SixwayTexture& texture() {
@@ -143,17 +143,26 @@ Particle puff(glm::vec3 center, float radius) {
 
 TEST_CASE("textbook frame: the fast frame matches it on adversarial scenes", "[textbook][frame]") {
     SECTION("billboards at equal depth") {
-        // Two identical puffs and a smaller one at the same centre: their quads are coplanar, every camera ray
-        // meets them at the same t, and only the order by particle index decides the compositing.
-        WARN("equal depth: max difference " << check_scene(minimal_with(
-                 {puff({0.3f, 0.2f, 0.4f}, 0.45f), puff({0.3f, 0.2f, 0.4f}, 0.45f), puff({0.3f, 0.2f, 0.4f}, 0.3f)}),
-                                                                         0, /*with_retrace=*/false));
+        // Two pairs of identical puffs (the same centre and radius): each pair's quads are the same quad, every
+        // camera ray meets both at the same t in either path, and only the order by particle index decides the
+        // compositing (their flipbook frames differ). Coplanar quads of different sizes are not a case: their
+        // exact depths are equal, their rounded ones differ between world and object space, and the two paths
+        // may put them in either order (measured: 0.048 with a third puff of radius 0.3 at the first centre).
+        WARN("equal depth: max difference "
+             << check_scene(minimal_with({puff({0.3f, 0.2f, 0.4f}, 0.45f), puff({0.3f, 0.2f, 0.4f}, 0.45f),
+                                          puff({-0.4f, -0.3f, 0.6f}, 0.35f), puff({-0.4f, -0.3f, 0.6f}, 0.35f)}),
+                            0, /*with_retrace=*/false));
     }
     SECTION("particles behind and in the ground") {
         // Below the ground (its billboard hidden, its optical-depth ray blocked: fully dark) and half in it (the
         // soft-particle fade, a stand-in that reaches through the ground).
-        WARN("behind the ground: max difference "
-             << check_scene(minimal_with({puff({0.0f, -1.6f, 0.5f}, 0.4f), puff({0.8f, -1.0f, 0.6f}, 0.45f)})));
+        const SceneDescription scene =
+            minimal_with({puff({0.0f, -1.6f, 0.5f}, 0.4f), puff({0.8f, -1.0f, 0.6f}, 0.45f)});
+        WARN("behind the ground: max difference " << check_scene(scene));
+        textbook::FrameLoop loop(scene, textbook::FrameOptions::from_scene(scene), texture());
+        ImageRgba image;
+        loop.render(0, image);
+        CHECK(std::isinf(loop.lengths()[5]));  // the scene is what it says: the ground blocks the light's way
     }
     SECTION("the camera inside the smoke") {
         SceneDescription scene = shipped("minimal.json");
