@@ -14,7 +14,7 @@
 #include <smoketrace/render/view_compositor.hpp>
 #include <smoketrace/smoke/density_kernel.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>
-#include <smoketrace/trace/trace_types.hpp>
+#include <smoketrace/accel/trace_types.hpp>
 
 #include <glm/geometric.hpp>
 

@@ -4,7 +4,7 @@
 #include <smoketrace/accel/accel_scene.hpp>
 #include <smoketrace/core/prng.hpp>
 #include <smoketrace/smoke/stand_in_shapes.hpp>
-#include <smoketrace/trace/trace_types.hpp>
+#include <smoketrace/accel/trace_types.hpp>
 
 #include <glm/geometric.hpp>
 
@@ -47,9 +47,9 @@ inline TriangleMesh quad() {
 
 // 400 instances of six kinds: world spheres (similarity transforms), object-space spheres (non-uniform
 // scale), icospheres (object-space meshes), world-space quads, opaque quads, opaque world spheres; masks
-// 1, 2 or 4.
-inline AccelScene mixed_scene(Pcg32& rng) {
-    AccelScene s;
+// 1, 2 or 4. `paths`: object_space_only takes every instance through trace()'s general path.
+inline AccelScene mixed_scene(Pcg32& rng, InstancePaths paths = InstancePaths::fastest) {
+    AccelScene s(paths);
     const std::uint32_t sphere = s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 1.0f}}, false));
     const std::uint32_t ico = s.add_bottom_level(BottomLevel::from_mesh(make_icosphere(1, 1.0f), false));
     const std::uint32_t glass = s.add_bottom_level(BottomLevel::from_mesh(quad(), false));

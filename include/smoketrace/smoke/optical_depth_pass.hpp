@@ -38,7 +38,7 @@
 #include <smoketrace/smoke/kernel_bundle_sums.hpp>
 #include <smoketrace/geometry/ray_bundle.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>
-#include <smoketrace/trace/trace_types.hpp>
+#include <smoketrace/accel/trace_types.hpp>
 
 #include <array>
 #include <cstdint>

@@ -17,7 +17,7 @@
 #include <smoketrace/smoke/hit_resolver.hpp>
 #include <smoketrace/smoke/optical_depth_pass.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>
-#include <smoketrace/trace/trace_types.hpp>
+#include <smoketrace/accel/trace_types.hpp>
 
 #include <cstdint>
 #include <optional>

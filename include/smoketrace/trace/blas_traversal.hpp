@@ -4,7 +4,7 @@
 // call site: no std::function, no virtual call, no allocation).
 //
 // The kernels mesh_leaf_hits / sphere_leaf_hits are also what trace() runs inside each instance.
-#include <smoketrace/trace/any_hit.hpp>
+#include <smoketrace/accel/any_hit.hpp>
 #include <smoketrace/accel/blas_wide_traversal.hpp>
 #include <smoketrace/accel/bvh_traversal.hpp>
 #include <smoketrace/geometry/ray_sphere.hpp>

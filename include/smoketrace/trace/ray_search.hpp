@@ -3,16 +3,25 @@
 // happens at each instance the walk reaches (trace.hpp's rules 1-8 and the cutoff). trace() runs one
 // RaySearch under its TLAS walk; trace_bundle() runs one per ray under a walk its rays share. Either way
 // a ray meets the same candidates and commits the same hit: the rules live here, once.
-#include <smoketrace/trace/any_hit.hpp>
+#include <smoketrace/accel/any_hit.hpp>
 #include <smoketrace/trace/blas_traversal.hpp>
 #include <smoketrace/geometry/ray_sphere.hpp>
 #include <smoketrace/accel/accel_scene.hpp>
-#include <smoketrace/trace/trace_types.hpp>
+#include <smoketrace/accel/trace_types.hpp>
 
 #include <cstdint>
 #include <type_traits>
 
 namespace smoketrace {
+
+// One ray's view of a callback shared by many rays (trace_bundle(), trace_tile(): any_hit(lane, hit)): what
+// that ray's RaySearch calls.
+template <class AnyHit>
+struct LaneAnyHit {
+    AnyHit* any_hit;
+    unsigned lane;
+    AnyHitDecision operator()(const TraceHit& h) const { return (*any_hit)(lane, h); }
+};
 
 // Rules 1-3: whether an instance takes part in a ray's search at all, and whether its primitives are
 // opaque. They depend on the instance and on the ray's flags and inclusion mask only, so rays that share

@@ -41,7 +41,7 @@
 #include <smoketrace/accel/bvh_traversal.hpp>
 #include <smoketrace/trace/ray_search.hpp>
 #include <smoketrace/accel/accel_scene.hpp>
-#include <smoketrace/trace/trace_types.hpp>
+#include <smoketrace/accel/trace_types.hpp>
 #include <smoketrace/accel/wide_bvh_traversal.hpp>
 
 #include <cstdint>

@@ -24,7 +24,7 @@
 #include <smoketrace/trace/ray_search.hpp>
 #include <smoketrace/geometry/ray_sphere_bundle.hpp>
 #include <smoketrace/accel/accel_scene.hpp>
-#include <smoketrace/trace/trace_types.hpp>
+#include <smoketrace/accel/trace_types.hpp>
 
 #include <array>
 #include <bit>

@@ -29,7 +29,7 @@
 #include <smoketrace/geometry/ray_tile.hpp>
 #include <smoketrace/geometry/ray_triangle_tile.hpp>
 #include <smoketrace/trace/ray_search.hpp>
-#include <smoketrace/trace/trace_types.hpp>
+#include <smoketrace/accel/trace_types.hpp>
 
 #include <algorithm>
 #include <array>

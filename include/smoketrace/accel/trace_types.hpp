@@ -1,7 +1,8 @@
 #pragma once
-// What a trace call takes and gives (trace.hpp, trace_bundle.hpp): DXR's ray flags and hit kinds, the
-// hit an any-hit callback sees, the per-ray counters, the cutoff and the result.
-#include <smoketrace/trace/any_hit.hpp>
+// What a trace call takes and gives (textbook/trace.hpp, trace/trace.hpp, trace_bundle.hpp): DXR's ray flags
+// and hit kinds, the hit an any-hit callback sees, the per-ray counters, the cutoff and the result. Plain
+// data beside the acceleration structures, so that the textbook trace and the fast ones share them.
+#include <smoketrace/accel/any_hit.hpp>
 #include <smoketrace/accel/accel_scene.hpp>
 
 #include <glm/vec2.hpp>
@@ -65,15 +66,6 @@ struct TraceResult {
 // The any-hit callback for rays that need none: accept every candidate (DXR without an any-hit shader).
 struct AcceptAll {
     constexpr AnyHitDecision operator()(const TraceHit&) const { return AnyHitDecision::accept; }
-};
-
-// One ray's view of a callback shared by many rays (trace_bundle(), trace_tile(): any_hit(lane, hit)): what
-// that ray's RaySearch calls.
-template <class AnyHit>
-struct LaneAnyHit {
-    AnyHit* any_hit;
-    unsigned lane;
-    AnyHitDecision operator()(const TraceHit& h) const { return (*any_hit)(lane, h); }
 };
 
 }  // namespace smoketrace
