@@ -1,6 +1,8 @@
 // The textbook frame, compositor (thesis 4.3.5, eqs. 4.1, 4.3): see compositor.hpp.
 #include <smoketrace/textbook/compositor.hpp>
-#include "trace_interim.hpp"
+#include <smoketrace/textbook/trace.hpp>
+
+#include <glm/geometric.hpp>
 
 #include <algorithm>
 #include <cmath>
