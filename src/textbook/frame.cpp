@@ -74,10 +74,10 @@ void FrameLoop::advance_to(std::uint64_t frame) {
         // The first frame gives every particle its value; after that one group per frame (4.4.2), the
         // others keeping theirs.
         const auto group = particle_group(particles_.size(), f == 0 ? 1 : options_.render.groups, f);
-        const std::vector<float> l = optical_path_lengths(scene_, particles_.particles(), group,
-                                                          desc_.light.direction_at_frame(std::int64_t(f)),
-                                                          options_.render.cutoff, options_.kernel);
-        for (std::size_t k = 0; k < group.size(); ++k) lengths_[group[k]] = l[k];
+        const OpticalDepths d = optical_depths(scene_, particles_.particles(), group,
+                                               desc_.light.direction_at_frame(std::int64_t(f)),
+                                               options_.render.cutoff, options_.kernel);
+        for (std::size_t k = 0; k < group.size(); ++k) lengths_[group[k]] = d.lengths[k];
     }
 }
 

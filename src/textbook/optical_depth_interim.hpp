@@ -3,7 +3,10 @@
 #include <smoketrace/smoke/optical_path_lengths.hpp>
 #include <vector>
 namespace smoketrace::textbook {
-inline std::vector<float> optical_path_lengths(const SmokeScene& scene, std::span<const Particle> particles,
+struct OpticalDepths {
+    std::vector<float> lengths;
+};
+inline OpticalDepths optical_depths(const SmokeScene& scene, std::span<const Particle> particles,
                                                std::span<const std::uint32_t> which, const glm::vec3& to_light,
                                                std::uint32_t cutoff, const DensityKernel& kernel) {
     OpticalPathLengths all(particles.size());
@@ -12,8 +15,8 @@ inline std::vector<float> optical_path_lengths(const SmokeScene& scene, std::spa
     s.kernel = kernel;
     FrameTimings t;
     all.update(scene, particles, which, to_light, s, HitSort::adaptive, t);
-    std::vector<float> out;
-    for (std::uint32_t i : which) out.push_back(all.lengths()[i]);
+    OpticalDepths out;
+    for (std::uint32_t i : which) out.lengths.push_back(all.lengths()[i]);
     return out;
 }
 }  // namespace smoketrace::textbook
