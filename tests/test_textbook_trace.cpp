@@ -51,30 +51,35 @@ AnyHitDecision decide(Policy p, std::size_t n) {
     return AnyHitDecision::ignore;
 }
 
-// A ray's candidates, in the order met, and its result.
+// A ray's candidates, in the order met, and its result; `ended` when the search stopped before the whole ray
+// (the cutoff, ACCEPT_FIRST_HIT_AND_END_SEARCH or accept-and-end).
 struct Seen {
     std::vector<TraceHit> candidates;
     TraceResult result;
+    bool ended = false;
 };
 
 template <class Run>
-Seen record(Policy p, Run&& run) {
+Seen record(Policy p, std::uint32_t flags, Run&& run) {
     Seen s;
     s.result = run([&s, p](const TraceHit& h) {
         s.candidates.push_back(h);
-        return decide(p, s.candidates.size() - 1);
+        const AnyHitDecision d = decide(p, s.candidates.size() - 1);
+        s.ended = s.ended || d == AnyHitDecision::accept_and_end;
+        return d;
     });
+    s.ended = s.ended || s.result.cut_off || (s.result.hit && (flags & ray_flag_accept_first_hit_and_end_search));
     return s;
 }
 
 Seen textbook_seen(const AccelScene& scene, const Ray& ray, std::uint32_t flags, std::uint8_t mask, Policy p,
                    TraceLimits limits = {}) {
-    return record(p, [&](auto&& any_hit) { return textbook::trace(scene, ray, flags, mask, any_hit, limits); });
+    return record(p, flags, [&](auto&& any_hit) { return textbook::trace(scene, ray, flags, mask, any_hit, limits); });
 }
 template <TlasWalk Walk>
 Seen fast_seen(const AccelScene& scene, const Ray& ray, std::uint32_t flags, std::uint8_t mask, Policy p,
                TraceLimits limits = {}) {
-    return record(p, [&](auto&& any_hit) { return trace<Walk>(scene, ray, flags, mask, any_hit, limits); });
+    return record(p, flags, [&](auto&& any_hit) { return trace<Walk>(scene, ray, flags, mask, any_hit, limits); });
 }
 
 bool same_bits(float a, float b) { return std::bit_cast<std::uint32_t>(a) == std::bit_cast<std::uint32_t>(b); }
@@ -86,12 +91,15 @@ bool same_hit(const TraceHit& a, const TraceHit& b) {
            a.primitive_index == b.primitive_index && a.kind == b.kind && a.geometry == b.geometry;
 }
 
-void check_same_counters(const TraceCounters& a, const TraceCounters& b) {
+// `ended`: the search stopped inside a leaf, whose triangles the fast trace counts whole (it tests them eight
+// at a time, ray_triangle_block.hpp) and the textbook one by one, up to where it stopped.
+void check_same_counters(const TraceCounters& a, const TraceCounters& b, bool ended = false) {
     CHECK(a.tlas_nodes == b.tlas_nodes);
     CHECK(a.blas_nodes == b.blas_nodes);
     CHECK(a.boxes_tested == b.boxes_tested);
     CHECK(a.instances_entered == b.instances_entered);
-    CHECK(a.primitives_tested == b.primitives_tested);
+    if (ended) CHECK(a.primitives_tested >= b.primitives_tested);
+    else CHECK(a.primitives_tested == b.primitives_tested);
     CHECK(a.any_hit_invocations == b.any_hit_invocations);
     CHECK(a.hits_accepted == b.hits_accepted);
 }
@@ -106,7 +114,8 @@ void check_same_search(const Seen& fast, const Seen& book) {
     CHECK(fast.result.hit == book.result.hit);
     CHECK(fast.result.cut_off == book.result.cut_off);
     CHECK(same_hit(fast.result.committed, book.result.committed));
-    check_same_counters(fast.result.counters, book.result.counters);
+    CHECK(fast.ended == book.ended);
+    check_same_counters(fast.result.counters, book.result.counters, book.ended);
 }
 
 // The candidates a search is bound to meet whatever its order: those before the committed t (DXR reports a
@@ -120,13 +129,21 @@ std::vector<test::HitKey> bound_candidates(const Seen& s) {
 }
 
 // The same candidates as a set, bit for bit, and the same committed hit: for walks that meet them in another
-// order, under the ignore and accept policies (whose outcome does not depend on the order).
-void check_same_outcome(const Seen& fast, const Seen& book) {
+// order, under the ignore and accept policies (whose outcome does not depend on the order). `counters`: false
+// for a tile, which counts its own work (trace_tile.hpp).
+// A search cut off has met K candidates, which K depends on the order, as does whether an opaque hit came
+// before the (K + 1)-th: then only, where neither committed one, the cutoff and the number are compared.
+void check_same_outcome(const Seen& fast, const Seen& book, bool counters = true) {
+    if (fast.result.cut_off || book.result.cut_off) {
+        if (fast.result.hit || book.result.hit) return;
+        CHECK(fast.result.cut_off == book.result.cut_off);
+        CHECK(fast.candidates.size() == book.candidates.size());
+        return;
+    }
     CHECK(bound_candidates(fast) == bound_candidates(book));
     REQUIRE(fast.result.hit == book.result.hit);
-    CHECK(fast.result.cut_off == book.result.cut_off);
     if (book.result.hit) CHECK(same_hit(fast.result.committed, book.result.committed));
-    if (!book.result.hit) {  // nothing shrank tmax: the same work, counted the same
+    if (counters && !book.result.hit) {  // nothing shrank tmax: the same work, counted the same
         CHECK(fast.result.counters.instances_entered == book.result.counters.instances_entered);
         CHECK(fast.result.counters.primitives_tested == book.result.counters.primitives_tested);
         CHECK(fast.result.counters.any_hit_invocations == book.result.counters.any_hit_invocations);
@@ -217,4 +234,225 @@ TEST_CASE("textbook trace: the shipped scenes' light rays meet what the fast tra
     }
     CHECK(rays > 1000);
     CHECK(candidates > 10 * rays);
+}
+
+namespace {
+
+// Every candidate of each ray of a bundle of light rays (kBundleWidth neighbours, as the optical-depth pass
+// groups them), against the textbook ray by ray.
+void check_bundle(const AccelScene& scene, const RayBundle& bundle, std::uint32_t flags, std::uint8_t mask,
+                  TraceLimits limits) {
+    std::vector<TraceHit> got[kBundleWidth];
+    const BundleResults results = trace_bundle(scene, bundle, flags, mask, [&](unsigned lane, const TraceHit& h) {
+        got[lane].push_back(h);
+        return AnyHitDecision::ignore;
+    }, limits);
+    for (unsigned lane = 0; lane < bundle.count; ++lane) {
+        CAPTURE(lane);
+        check_same_outcome(Seen{got[lane], results[lane]},
+                           textbook_seen(scene, bundle.ray(lane), flags, mask, Policy::ignore, limits));
+    }
+}
+
+// The camera rays of a tile under `policy` (ignore or accept), against the textbook ray by ray.
+void check_tile(const AccelScene& scene, const RayTile& start, std::uint32_t flags, std::uint8_t mask, Policy policy) {
+    TileScratch scratch;
+    TileResults results;
+    RayTile tile = start;
+    std::vector<TraceHit> got[kTileRays];
+    trace_tile(scene, tile, flags, mask, [&](unsigned lane, const TraceHit& h) {
+        got[lane].push_back(h);
+        return decide(policy, got[lane].size() - 1);
+    }, results, scratch);
+    for (unsigned r = 0; r < start.rows(); ++r)
+        for (unsigned c = 0; c < start.columns(); ++c) {
+            const unsigned lane = RayTile::lane(c, r);
+            CAPTURE(c, r);
+            const Seen book = textbook_seen(scene, start.ray(lane), flags, mask, policy);
+            if (policy == Policy::ignore) check_same_outcome(Seen{got[lane], results[lane]}, book, false);
+            REQUIRE(results[lane].hit == book.result.hit);
+            if (book.result.hit) CHECK(same_hit(results[lane].committed, book.result.committed));
+        }
+}
+
+}  // namespace
+
+TEST_CASE("textbook trace: trace_bundle() gives the shipped scenes' light rays the textbook's candidates",
+          "[textbook][trace]") {
+    for (const auto& file : shipped_scenes()) {
+        CAPTURE(file.string());
+        const Shipped s = load_shipped(file);
+        const AccelScene general = object_space_copy(s.smoke.scene());
+        const auto& particles = s.desc.smoke.particles;
+        for (const std::uint32_t cutoff : {0u, s.desc.render.cutoff, 3u}) {
+            // Bundles of consecutive particles: the tubes' particles lie in order, so these are neighbours.
+            for (std::size_t first = 0; first < particles.size(); first += kBundleWidth) {
+                RayBundle bundle(glm::normalize(s.desc.light.direction));
+                for (std::size_t i = first; i < std::min(particles.size(), first + kBundleWidth); ++i) {
+                    const Ray r = light_ray(s.desc, particles[i]);
+                    bundle.add(r.origin, r.tmin, r.tmax);
+                }
+                check_bundle(general, bundle, ray_flag_none, kLightRayMask, TraceLimits{cutoff});
+            }
+        }
+    }
+}
+
+TEST_CASE("textbook trace: the shipped scenes' camera rays, one by one and by tiles", "[textbook][trace]") {
+    std::size_t candidates = 0;
+    for (const auto& file : shipped_scenes()) {
+        CAPTURE(file.string());
+        const Shipped s = load_shipped(file);
+        const AccelScene general = object_space_copy(s.smoke.scene());
+        const auto& cam = s.desc.camera;
+        const Camera camera(cam.position, cam.look_at, cam.up, cam.fov_deg, 48, 48);
+        for (int y = 0; y < 48; ++y)
+            for (int x = 0; x < 48; ++x) {
+                CAPTURE(x, y);
+                const Ray ray = camera.ray(x, y, 1e-3f);
+                for (const Policy p : {Policy::ignore, Policy::accept, Policy::end_at_third, Policy::alternate}) {
+                    const Seen book = textbook_seen(general, ray, ray_flag_none, kViewRayMask, p);
+                    check_same_search(fast_seen<TlasWalk::nearest_first>(general, ray, ray_flag_none, kViewRayMask, p),
+                                      book);
+                    if (p == Policy::ignore) candidates += book.candidates.size();
+                }
+            }
+        for (int y0 = 0; y0 < 48; y0 += int(kTileRows))
+            for (int x0 = 0; x0 < 48; x0 += int(kTileColumns))
+                for (const Policy p : {Policy::ignore, Policy::accept})
+                    check_tile(general, camera.tile(x0, y0, int(kTileColumns), int(kTileRows), glm::vec2(0.5f), 1e-3f),
+                               ray_flag_none, kViewRayMask, p);
+    }
+    CHECK(candidates > 48 * 48);
+}
+
+namespace {
+
+// Spheres nested (one centre, three radii), overlapping and far apart in one sphere-set BLAS (a binary tree of
+// several leaves, walked alike by both).
+std::vector<Sphere> sphere_cluster() {
+    std::vector<Sphere> s = {{{0, 0, 0}, 1.0f}, {{0, 0, 0}, 0.5f}, {{0, 0, 0}, 0.25f}, {{0.6f, 0, 0}, 0.5f},
+                             {{-0.6f, 0.1f, 0}, 0.5f}};
+    for (int k = 0; k < 12; ++k) s.push_back({{1.5f * float(k % 4) - 2.0f, 1.5f * float(k / 4) - 1.5f, 2.0f}, 0.4f});
+    return s;
+}
+
+// An adversarial scene: nested and overlapping spheres (a multi-leaf sphere set, and single spheres under
+// similarity and general transforms), icosahedra (one-leaf meshes), glass and opaque quads, opaque balls;
+// masks 1, 2, 4, 8 and every combination of the four instance flags.
+AccelScene adversarial_scene(Pcg32& rng, InstancePaths paths) {
+    AccelScene s(paths);
+    const std::uint32_t blas[] = {
+        s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 1.0f}}, false)),
+        s.add_bottom_level(BottomLevel::from_spheres(sphere_cluster(), false)),
+        s.add_bottom_level(BottomLevel::from_mesh(make_icosahedron(1.0f), false)),
+        s.add_bottom_level(BottomLevel::from_mesh(test::quad(), false)),
+        s.add_bottom_level(BottomLevel::from_mesh(test::quad(), true)),
+        s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0.1f, 0, 0}, 0.5f}}, true)),
+    };
+    for (int i = 0; i < 120; ++i) {
+        const int kind = i % 6;
+        const AffineTransform m = test::random_transform(rng, kind == 0 ? i % 12 < 6 : kind == 5, i);
+        s.add_instance(Instance{blas[kind], m, std::uint8_t(1u << (i % 4)), std::uint32_t(1000 + i),
+                                std::uint8_t((i / 6) % 16)});
+    }
+    s.commit();
+    return s;
+}
+
+// Rays that make trouble: toward a random instance's centre; grazing a unit sphere (instances 0, 6, 12, …),
+// past its rim by 2^-8 … 2^-30 of its radius, either side; through a vertex or an edge's midpoint of an
+// icosahedron (instances 2, 8, 14, …), where ray_triangle.hpp's tie-break decides.
+Ray adversarial_ray(Pcg32& rng, const AccelScene& s, int k) {
+    const std::uint32_t kinds = std::uint32_t(s.instance_count()) / 6;
+    glm::dvec3 from(rng.uniform(-25, 25), rng.uniform(-25, 25), rng.uniform(-25, 25));
+    glm::dvec3 target(0.0);
+    if (k % 3 == 0) {
+        target = s.transform(rng.below(std::uint32_t(s.instance_count()))).translation;
+    } else if (k % 3 == 1) {
+        const AffineTransform m = s.transform(6 * rng.below(kinds));
+        const glm::dvec3 u(test::random_unit(rng));
+        glm::dvec3 d = glm::cross(u, glm::dvec3(test::random_unit(rng)));
+        d = glm::normalize(d);
+        const glm::dvec3 closest = u * (1.0 + (k % 2 ? 1.0 : -1.0) * std::ldexp(1.0, -8 - k % 23));
+        from = m.point(closest - 20.0 * d);  // the object-space ray passes `closest` at right angles
+        target = m.point(closest);
+    } else {
+        const AffineTransform m = s.transform(6 * rng.below(kinds) + 2);
+        const TriangleMesh ico = make_icosahedron(1.0f);
+        const glm::uvec3 tri = ico.triangles[rng.below(std::uint32_t(ico.triangles.size()))];
+        const glm::dvec3 a(ico.vertices[tri.x]), b(ico.vertices[tri.y]);
+        target = m.point(k % 2 ? a : 0.5 * (a + b));
+    }
+    return Ray{glm::vec3(from), 0.0f, glm::vec3(target - from), kInf};
+}
+
+}  // namespace
+
+TEST_CASE("textbook trace: adversarial rays, every ray flag, masks, cutoffs at K and K + 1, accept-and-end",
+          "[textbook][trace]") {
+    Pcg32 rng(34);
+    const AccelScene general = adversarial_scene(rng, InstancePaths::object_space_only);
+    std::size_t candidates = 0, cut = 0;
+    for (int k = 0; k < 3000; ++k) {
+        const Ray ray = adversarial_ray(rng, general, k);
+        const std::uint32_t flags = std::uint32_t(k) % 256;  // every combination of the eight ray flags
+        const std::uint8_t mask = k % 7 == 0 ? 0xFF : std::uint8_t(rng.below(256));
+        CAPTURE(k, flags, int(mask));
+        const Seen all = textbook_seen(general, ray, flags, mask, Policy::ignore);
+        const std::uint32_t n = all.result.counters.any_hit_invocations;
+        candidates += n;
+        for (const Policy p : {Policy::ignore, Policy::accept, Policy::end_at_third, Policy::alternate})
+            for (const std::uint32_t K : {0u, n, n > 0 ? n - 1 : 0u}) {
+                CAPTURE(int(p), K);
+                const Seen book = textbook_seen(general, ray, flags, mask, p, TraceLimits{K});
+                check_same_search(fast_seen<TlasWalk::nearest_first>(general, ray, flags, mask, p, TraceLimits{K}),
+                                  book);
+                // Another order commits another hit first, so ACCEPT_FIRST_HIT_AND_END_SEARCH ends elsewhere.
+                if ((p == Policy::ignore || p == Policy::accept) && !(flags & ray_flag_accept_first_hit_and_end_search))
+                    check_same_outcome(fast_seen<TlasWalk::all_hits>(general, ray, flags, mask, p, TraceLimits{K}),
+                                       book);
+                if (p != Policy::ignore || K == 0) continue;
+                // The cutoff: exactly K candidates are never cut off; the (K + 1)-th ends the search uncalled.
+                CHECK(book.result.cut_off == (K < n));
+                CHECK(book.result.counters.any_hit_invocations == K);
+                cut += book.result.cut_off;
+            }
+        // SKIP_CLOSEST_HIT_SHADER leaves the committed hit default; ACCEPT_FIRST_HIT_AND_END_SEARCH commits once.
+        if (flags & ray_flag_skip_closest_hit_shader) CHECK(same_hit(all.result.committed, TraceHit{}));
+        if (flags & ray_flag_accept_first_hit_and_end_search) CHECK(all.result.counters.hits_accepted <= 1);
+    }
+    CHECK(candidates > 3000);
+    CHECK(cut > 300);
+}
+
+TEST_CASE("textbook trace: a ray through a shared vertex or edge of a closed mesh crosses it once each way",
+          "[textbook][trace]") {
+    // An icosphere of 320 triangles (a BLAS of several leaves: the fast trace walks its wide tree, so the
+    // candidates are compared as sets) under the identity, so that a ray aimed at a vertex or an edge's midpoint
+    // from outside meets it exactly (float vertices; a midpoint of two floats is rounded, and may fall in a face).
+    const TriangleMesh mesh = make_icosphere(2, 1.0f);
+    for (const InstancePaths paths : {InstancePaths::object_space_only, InstancePaths::fastest}) {
+        AccelScene s(paths);
+        s.add_instance(Instance{s.add_bottom_level(BottomLevel::from_mesh(mesh, false)), AffineTransform{}, 0xFF, 7, 0});
+        s.commit();
+        Pcg32 rng(7);
+        std::size_t rays = 0;
+        for (const glm::uvec3& tri : mesh.triangles)
+            for (int k = 0; k < 6; ++k) {
+                const glm::vec3 a = mesh.vertices[tri[k % 3]], b = mesh.vertices[tri[(k + 1) % 3]];
+                const glm::vec3 target = k < 3 ? a : 0.5f * (a + b);
+                // From outside, toward the centre's side, so that the ray enters at the target and leaves elsewhere.
+                const glm::vec3 from = 3.0f * target + 0.5f * test::random_unit(rng);
+                const Ray ray{from, 0.0f, target - from, kInf};
+                CAPTURE(rays, k);
+                const Seen book = textbook_seen(s, ray, ray_flag_none, 0xFF, Policy::ignore);
+                REQUIRE(book.candidates.size() == 2);
+                CHECK(book.candidates[0].kind != book.candidates[1].kind);  // one front face, one back face
+                check_same_outcome(fast_seen<TlasWalk::nearest_first>(s, ray, ray_flag_none, 0xFF, Policy::ignore), book);
+                check_same_outcome(fast_seen<TlasWalk::all_hits>(s, ray, ray_flag_none, 0xFF, Policy::ignore), book);
+                ++rays;
+            }
+        CHECK(rays == 6 * mesh.triangles.size());
+    }
 }

@@ -13,6 +13,7 @@
 #include <smoketrace/smoke/particle_groups.hpp>
 #include <smoketrace/io/scene_file.hpp>
 #include <smoketrace/io/sixway_files.hpp>
+#include <smoketrace/textbook/optical_depth.hpp>
 #include <smoketrace/truth/ground_truth.hpp>
 
 #include <iostream>
@@ -38,11 +39,18 @@ int run_depths(const Args& args) {
     const bool timings = in.flag("--timings");
     const bool truth = in.flag("--truth");
     const auto assets = in.string("--assets");
+    const auto path = in.string("--path");
     // After every flag has taken its value, so that "-o OUT" is never mistaken for the scene file.
     const std::string scene_path = in.positional("scene file (smoketrace depths SCENE.json -o OUT.csv)");
     in.finish();
     if (!out_path) throw CliError("missing -o OUT.csv");
     if (assets && !truth) throw CliError("--assets: only --truth reads the six-way textures' puff");
+    // The textbook path (src/textbook/) is the method in plain code; the fast path's own knobs do not apply.
+    const bool textbook = path && *path == "textbook";
+    if (path && !textbook && *path != "fast")
+        throw CliError("--path: " + quoted_arg(*path) + " is not one of textbook, fast");
+    if (textbook && sort_arg) throw CliError("--sort: the textbook path sorts with std::sort; give --path fast");
+    if (textbook && timings) throw CliError("--timings: the textbook path is not timed; give --path fast");
 
     const HitSort sort = sort_arg ? parse_sort(*sort_arg) : HitSort::adaptive;
     const ThreadLimit limit(threads ? int(*threads) : 0);
@@ -70,6 +78,7 @@ int run_depths(const Args& args) {
 
     std::vector<FrameTimings> runs;
     std::unique_ptr<OpticalPathLengths> depths;
+    textbook::OpticalDepths textbook_depths;
     for (long long r = 0; r < (repeat ? *repeat : 1); ++r) {
         FrameTimings t;
         StageClock clock;
@@ -77,8 +86,14 @@ int run_depths(const Args& args) {
         SmokeScene smoke(particles, options.shape, ground, /*billboards=*/false);
         smoke.update(particles, desc.camera.position);
         t.tlas_update = clock.lap_ms();
-        depths = std::make_unique<OpticalPathLengths>(particles.size());
-        depths->update(smoke, particles, all, desc.light.direction, settings, sort, t);
+        if (textbook) {
+            if (work) work->begin("optical depths (textbook)", 0);
+            textbook_depths = textbook::optical_depths(smoke, particles, all, desc.light.direction, settings.cutoff,
+                                                       settings.kernel);
+        } else {
+            depths = std::make_unique<OpticalPathLengths>(particles.size());
+            depths->update(smoke, particles, all, desc.light.direction, settings, sort, t);
+        }
         t.total = t.tlas_update + t.od_pass + t.resolve;
         runs.push_back(t);
         progress.step();
@@ -96,8 +111,11 @@ int run_depths(const Args& args) {
     if (work) work->begin("writing the CSV", 0);
     StageClock write_clock;
     write_output(output, [&](std::ostream& out) {
-        for (const std::string& piece : format_depths_csv(depths->lengths(), depths->hit_counts(), depths->status(), true_depths))
-            out.write(piece.data(), std::streamsize(piece.size()));
+        const auto pieces = textbook ? format_depths_csv(textbook_depths.lengths, textbook_depths.hit_counts,
+                                                         textbook_depths.status, true_depths)
+                                     : format_depths_csv(depths->lengths(), depths->hit_counts(), depths->status(),
+                                                         true_depths);
+        for (const std::string& piece : pieces) out.write(piece.data(), std::streamsize(piece.size()));
     });
     const double write_ms = write_clock.lap_ms();
     progress.finish();
@@ -125,14 +143,18 @@ constexpr OptionHelp kOptions[] = {
     {"--assets", "DIR", "as render's", "with --truth: folder of the six-way textures whose sixway.json \"bake\" gives "
                                        "the puff"},
     {"--sort", "adaptive|std|bubble", "adaptive",
-     "how each particle's hits are sorted (adaptive: a sorting network, rank or radix sort by list length)"},
+     "how each particle's hits are sorted (adaptive: a sorting network, rank or radix sort by list length); fast "
+     "path only"},
+    {"--path", "textbook|fast", "fast",
+     "fast: the optimised pass; textbook: the method in plain scalar code (src/textbook/, the reference the fast "
+     "path is tested against; the same statuses and counts, lengths within float rounding; no --sort or --timings)"},
 };
 
 const RegisterCommand registration{
     {"depths",
      "depths SCENE.json -o OUT.csv|- [--shape sphere|icosahedron|icosphere:L] [--kernel NAME] [--cutoff K] "
      "[--threads T] "
-     "[--repeat R] [--timings] [--sort adaptive|std|bubble] [--truth [--assets DIR]]",
+     "[--repeat R] [--timings] [--sort adaptive|std|bubble] [--path textbook|fast] [--truth [--assets DIR]]",
      "optical path length of every particle toward the light, as CSV (-o -: on standard output)", &run_depths,
      kOptions}};
 
