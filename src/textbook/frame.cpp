@@ -4,8 +4,7 @@
 #include <smoketrace/render/pixel_samples.hpp>
 #include <smoketrace/smoke/particle_groups.hpp>
 #include <smoketrace/textbook/compositor.hpp>
-
-#include "optical_depth_interim.hpp"
+#include <smoketrace/textbook/optical_depth.hpp>
 
 #include <tbb/parallel_for.h>
 
