@@ -1,7 +1,8 @@
 #pragma once
 // Contract: one_traversal_sample() is within kFastVsTextbookTolerance of textbook::camera_ray_color() for the same
 // ray (float against double, world against object space: view_compositor.hpp); so is retrace_sample(), except
-// on a ray that meets two billboards at the same float t, where it shows only one (tests/test_textbook_frame.cpp).
+// on a ray that meets two billboards at the same float t, where it shows only one (tests/test_textbook_frame.cpp);
+// both, like every compositor, may order two billboards a few ulps apart in depth otherwise (view_compositor.hpp).
 //
 // The per-ray compositors (view_compositor.hpp): every pixel sample's camera ray traced on its own with
 // trace(). The reference the tiled compositor is held to, and the thesis's re-trace loop. Internal to the
