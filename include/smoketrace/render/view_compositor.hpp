@@ -3,8 +3,8 @@
 // view (textbook/frame.hpp, compositor.hpp), not bit for bit: it shades in float where the textbook shades in
 // double, and its rays meet billboards and stand-ins in world space where textbook::trace works in object space.
 // Exception: two billboards within a few ulps of the same depth on a ray may be composited in either order
-// (t rounds differently in the two spaces), which moves that sample by T·a1·a2·|c1 − c2| (measured: 3.9e-4 at
-// one pixel of two_tubes_above.json at 512², spp 4).
+// (t rounds differently in the two spaces): that sample moves by T·a1·a2·|c1 − c2|, its pixel by that over spp
+// (measured: 3.9e-4 at one pixel of two_tubes_above.json at 512², spp 4).
 //
 // The view pass (thesis 4.3.5): per pixel, the billboards along the camera ray are shaded with six-way
 // lighting and attenuated by their particle's optical depth, composited front to back over the ground
