@@ -5,7 +5,7 @@
 # Prints every violation and exits 1 if there is any; run by ctest as "layers".
 set -euo pipefail
 root="$(cd "${1:-$(dirname "$0")/..}" && pwd)"
-layers=(core geometry accel trace smoke render truth io)
+layers=(core geometry accel trace smoke render textbook truth io)
 rank() { local i; for i in "${!layers[@]}"; do [ "${layers[$i]}" = "$1" ] && { echo "$i"; return; }; done; echo -1; }
 
 bad=0

@@ -10,6 +10,7 @@
 #include <smoketrace/io/sixway_files.hpp>
 #include <smoketrace/truth/ground_truth.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>
+#include <smoketrace/textbook/optical_depth.hpp>
 
 #include <catch2/catch.hpp>
 
@@ -220,6 +221,55 @@ TEST_CASE("cli: depths --kernel gaussian writes the library's sums, with the uni
         // The puff fills about a third of its ball: on the whole the rays see far less smoke (one by one they
         // need not: a kernel's peak exceeds 1, and overlaps add).
         CHECK(sum < 0.6 * uniform_sum);
+    }
+}
+
+TEST_CASE("cli: depths --path textbook writes textbook::optical_depths, with the fast pass's statuses and hits",
+          "[cli][textbook]") {
+    // The lengths bit for bit as the library's textbook path gives them ("%.9g" reads back as the same float);
+    // the fast pass's within float rounding (tests/test_textbook_optical_depth.cpp), here only its rows' words.
+    TempDir dir;
+    const std::string above = std::string(SMOKETRACE_ASSET_DIR) + "/scenes/two_tubes_above.json";
+    const SceneDescription desc = load_scene_file(above);
+    std::optional<GroundQuad> ground;
+    if (desc.ground) ground = GroundQuad{desc.ground->corners};
+    SmokeScene smoke(desc.smoke.particles, desc.smoke.shape, ground, /*billboards=*/false);
+    smoke.update(desc.smoke.particles, desc.camera.position);
+    for (const DensityKernel& kernel : {kUniformKernel, kPoly1Kernel}) {
+        std::string header;
+        const fs::path book_csv = dir.path / "textbook.csv", fast_csv = dir.path / "fast.csv";
+        for (const auto& [out, path] : {std::pair{book_csv, " --path textbook"}, std::pair{fast_csv, " --path fast"}}) {
+            const CliRun r = run_cli("depths " + above + " --kernel " + kernel.name() + path + " -o " + out.string());
+            INFO(kernel.name() << path << ": " << r.err);
+            REQUIRE(r.exit_code == 0);
+        }
+        const std::vector<CsvRow> book = read_depths_csv(book_csv, header), fast = read_depths_csv(fast_csv, header);
+        const textbook::OpticalDepths want =
+            textbook::optical_depths(smoke, desc.smoke.particles, smoketrace::test::all_of(desc.smoke.particles.size()),
+                                     desc.light.direction, desc.render.cutoff, kernel);
+        REQUIRE(book.size() == desc.smoke.particles.size());
+        REQUIRE(fast.size() == book.size());
+        for (std::size_t i = 0; i < book.size(); ++i) {
+            INFO(kernel.name() << " row " << i);
+            CHECK(book[i].status == status_word(want.status[i]));
+            CHECK(book[i].hits == std::to_string(want.hit_counts[i]));
+            CHECK(book[i].status == fast[i].status);
+            CHECK(book[i].hits == fast[i].hits);
+            if (want.status[i] != DepthStatus::ok) continue;
+            const float l = std::strtof(book[i].length.c_str(), nullptr);
+            CHECK(std::bit_cast<std::uint32_t>(l) == std::bit_cast<std::uint32_t>(want.lengths[i]));
+        }
+    }
+    // A value that is no path, and the fast pass's own knobs, are refused before any work.
+    for (const auto& [bad, expect] : {std::pair{" --path slow", "--path: 'slow' is not one of textbook, fast"},
+                                      std::pair{" --path textbook --sort std", "--sort"},
+                                      std::pair{" --path textbook --timings", "--timings"}}) {
+        const fs::path out = dir.path / "refused.csv";
+        const CliRun r = run_cli("depths " + above + bad + " -o " + out.string());
+        INFO(bad << ": " << r.err);
+        CHECK(r.exit_code == 2);
+        CHECK_THAT(r.err, Catch::Contains(expect));
+        CHECK_FALSE(fs::exists(out));
     }
 }
 

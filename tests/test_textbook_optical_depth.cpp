@@ -3,7 +3,9 @@
 // on adversarial ones (nested and overlapping particles, the ground under and through particles, cutoffs at
 // exactly K and K + 1 crossings, every stand-in shape and density kernel): the same statuses and hit counts,
 // and lengths within the tolerances below. Also eq. 3.1 itself (length_in_smoke) on hand-made crossings.
+#include <smoketrace/core/prng.hpp>
 #include <smoketrace/io/scene_file.hpp>
+#include <smoketrace/smoke/hit_resolver.hpp>
 #include <smoketrace/smoke/optical_path_lengths.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>
 #include <smoketrace/textbook/optical_depth.hpp>
@@ -34,6 +36,9 @@ namespace {
 //    summed in another order: one float ulp, 2^-23·l. The crossings' t do not enter.
 constexpr double kFloatUlp = 0x1p-23;
 double uniform_tolerance(double l, std::uint32_t n, double D) { return kFloatUlp * (l + double(n) * D); }
+// Two recursive sums in double of the same n − 1 terms >= 0 (the gaps between n sorted crossings), in any two
+// orders: each within (n − 1)·2^-53 of the exact sum l.
+double summation_order_tolerance(double l, std::size_t n) { return 2.0 * double(n > 0 ? n - 1 : 0) * 0x1p-53 * l; }
 
 // The farthest any light ray of these particles can reach a surface: the particles' bounding box diagonal.
 double reach_of(std::span<const Particle> ps) {
@@ -167,5 +172,41 @@ TEST_CASE("textbook optical depth: nested, overlapping and grounded particles, c
         CHECK(at_10.status[0] == DepthStatus::cutoff);
         CHECK(at_10.hit_counts[0] == 11);
         CHECK(at_11.status[c.particles.size() - 2] == DepthStatus::occluded);
+    }
+}
+
+TEST_CASE("textbook optical depth: the resolver's walk is eq. 3.1 as length_in_smoke writes it",
+          "[textbook][optical-depth]") {
+    // Random lists of particles along a ray (some around its origin: an exit only), their crossings shuffled,
+    // many t shared (multiples of 1/8). Each is sorted by every HitSort and walked by the fast resolver, and by
+    // std::sort and length_in_smoke. Both sum the same gaps, each exact in double (two floats of similar size):
+    // summation_order_tolerance(); the float the resolver hands out, one ulp of l more.
+    Pcg32 rng(31);
+    for (int list = 0; list < 2000; ++list) {
+        std::vector<SurfaceHit> hits;
+        const int particles = 1 + int(rng.below(150));
+        const bool ties = list % 3 == 0;
+        for (int p = 0; p < particles; ++p) {
+            float a = rng.uniform(-2.0f, 40.0f), b = a + rng.uniform(0.01f, 3.0f);
+            if (ties) a = std::round(a * 8.0f) / 8.0f, b = std::max(a, 0.0f) + 0.125f * float(1 + rng.below(20));
+            if (a > 0.0f) hits.push_back({a, +1});
+            hits.push_back({b, -1});
+        }
+        for (std::size_t i = hits.size(); i > 1; --i) std::swap(hits[i - 1], hits[rng.below(std::uint32_t(i))]);
+        std::vector<textbook::Crossing> crossings;
+        for (const SurfaceHit& h : hits) crossings.push_back({h.t, h.value, 0});
+        std::sort(crossings.begin(), crossings.end(),
+                  [](const textbook::Crossing& x, const textbook::Crossing& y) { return x.t < y.t; });
+        const double want = textbook::length_in_smoke(crossings);
+        CAPTURE(list, hits.size());
+        for (const HitSort sort : kSorts) {
+            std::vector<SurfaceHit> sorted = hits, scratch(hits.size());
+            sort_hits_by_t(sorted, scratch, sort);
+            CHECK(std::abs(optical_path_length(sorted) - want) <= summation_order_tolerance(want, hits.size()));
+            std::vector<SurfaceHit> again = hits;
+            ListResolver resolver;
+            CHECK(std::abs(double(resolver(again, sort)) - want) <=
+                  kFloatUlp * want + summation_order_tolerance(want, hits.size()));
+        }
     }
 }

@@ -14,7 +14,11 @@
 #include <smoketrace/render/camera.hpp>
 #include <smoketrace/smoke/optical_depth_pass.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>
+#include <smoketrace/accel/blas_wide_traversal.hpp>
+#include <smoketrace/accel/bvh_traversal.hpp>
+#include <smoketrace/accel/wide_bvh_traversal.hpp>
 #include <smoketrace/textbook/trace.hpp>
+#include <smoketrace/trace/blas_traversal.hpp>
 #include <smoketrace/trace/trace.hpp>
 #include <smoketrace/trace/trace_bundle.hpp>
 #include <smoketrace/trace/trace_tile.hpp>
@@ -454,5 +458,101 @@ TEST_CASE("textbook trace: a ray through a shared vertex or edge of a closed mes
                 ++rays;
             }
         CHECK(rays == 6 * mesh.triangles.size());
+    }
+}
+
+TEST_CASE("textbook trace: the fast walks reach the leaves textbook::walk_bvh reaches", "[textbook][trace]") {
+    // traverse_bvh(): the same leaves in the same order with the same counts, also when a leaf lowers tmax;
+    // the wide walks (the TLAS's and a mesh BLAS's): the same leaves, as sets, while tmax stays.
+    Pcg32 rng(5);
+    const AccelScene scene = adversarial_scene(rng, InstancePaths::object_space_only);
+    const TriangleMesh mesh = make_icosphere(3, 2.0f);
+    const MeshBlas blas(mesh);
+    using Leaf = std::pair<std::uint32_t, std::uint32_t>;
+    for (int k = 0; k < 2000; ++k) {
+        CAPTURE(k);
+        const bool in_mesh = k % 2 == 1;
+        const glm::vec3 from(rng.uniform(-25, 25), rng.uniform(-25, 25), rng.uniform(-25, 25));
+        const glm::vec3 to = in_mesh ? 2.2f * test::random_unit(rng) : glm::vec3(test::random_unit(rng)) * 10.0f;
+        const Ray ray{from, 0.0f, to - from, kInf};
+        const Bvh& bvh = in_mesh ? blas.bvh() : scene.tlas();
+        const std::uint8_t mask = std::uint8_t(rng.below(256));
+        auto admit = [&](std::uint32_t node) { return in_mesh || (scene.tlas_node_masks()[node] & mask) != 0; };
+        for (const bool shrink : {false, true}) {
+            // Every third leaf lowers tmax, as a commit there would.
+            std::vector<Leaf> book, fast;
+            float tmax_book = kInf, tmax_fast = kInf;
+            auto leaf_of = [&](std::vector<Leaf>& seen, float& tmax) {
+                return [&, shrink](std::uint32_t first, std::uint32_t count) {
+                    seen.push_back({first, count});
+                    if (shrink && seen.size() % 3 == 0) tmax = std::min(tmax, 40.0f - float(seen.size()));
+                    return false;
+                };
+            };
+            std::uint32_t nodes = 0, boxes = 0;
+            textbook::walk_bvh(bvh, ray, tmax_book, admit, leaf_of(book, tmax_book), nodes, boxes);
+            TraversalStats stats;
+            traverse_bvh(bvh, BoxRay(ray), tmax_fast, leaf_of(fast, tmax_fast), stats, admit);
+            CHECK(fast == book);
+            CHECK(stats.nodes_visited == nodes);
+            CHECK(stats.boxes_tested == boxes);
+            if (shrink) continue;
+            std::vector<Leaf> wide;
+            auto collect = [&](std::uint32_t first, std::uint32_t count) {
+                wide.push_back({first, count});
+                return false;
+            };
+            TraversalStats wide_stats;
+            if (in_mesh) {
+                traverse_blas_wide<BlasWalkOrder::any_order>(blas.wide(), BoxRay(ray), tmax_fast, collect, wide_stats);
+                for (Leaf& l : book) l.first = blas.leaf_block(l.first);  // a wide leaf names its first block
+            } else {
+                traverse_wide_bvh(scene.wide_tlas(), BoxRay(ray), tmax_fast, mask, collect, wide_stats);
+            }
+            std::sort(book.begin(), book.end());
+            std::sort(wide.begin(), wide.end());
+            CHECK(wide == book);
+        }
+    }
+}
+
+TEST_CASE("textbook trace: a BLAS's own queries are the textbook's for one instance under the identity",
+          "[textbook][trace]") {
+    const TriangleMesh mesh = make_icosphere(2, 1.5f);
+    const BottomLevel meshes = BottomLevel::from_mesh(mesh, false);
+    const BottomLevel spheres = BottomLevel::from_spheres(sphere_cluster(), false);
+    Pcg32 rng(3);
+    for (const BottomLevel* b : {&meshes, &spheres}) {
+        AccelScene scene(InstancePaths::object_space_only);
+        scene.add_instance(Instance{scene.add_bottom_level(*b), AffineTransform{}, 0xFF, 0, 0});
+        scene.commit();
+        for (int k = 0; k < 1000; ++k) {
+            CAPTURE(k);
+            const glm::vec3 from = 8.0f * test::random_unit(rng);
+            const Ray ray{from, 0.0f, 2.0f * test::random_unit(rng) - from, kInf};
+            const Seen book = textbook_seen(scene, ray, ray_flag_none, 0xFF, Policy::ignore);
+            const Seen closest = textbook_seen(scene, ray, ray_flag_none, 0xFF, Policy::accept);
+            std::vector<test::HitKey> seen;
+            BlasHit best, none;
+            BlasCounters counters;
+            auto ignore = [&](const BlasHit& h) {
+                seen.push_back({0u, h.primitive, h.front_face ? HitKind::front_face : HitKind::back_face,
+                                std::bit_cast<std::uint32_t>(h.t)});
+                return AnyHitDecision::ignore;
+            };
+            const bool triangles = b->kind == GeometryKind::triangles;
+            const bool found = triangles ? closest_hit(b->mesh, ray, best, counters)
+                                         : closest_hit(b->spheres, ray, best, counters);
+            if (triangles) any_hit_traversal(b->mesh, ray, ignore, none, counters);
+            else any_hit_traversal(b->spheres, ray, ignore, none, counters);
+            std::sort(seen.begin(), seen.end());
+            CHECK(seen == bound_candidates(book));
+            REQUIRE(found == closest.result.hit);
+            if (!found) continue;
+            CHECK(same_bits(best.t, closest.result.committed.t));
+            CHECK(best.primitive == closest.result.committed.primitive_index);
+            CHECK(same_bits(best.barycentrics.x, closest.result.committed.barycentrics.x));
+            CHECK(same_bits(best.barycentrics.y, closest.result.committed.barycentrics.y));
+        }
     }
 }

@@ -1,4 +1,6 @@
 #pragma once
+// Contract: the leaves textbook::walk_bvh reaches in the binary tree this one collapses, while tmax stays (each box
+// lies in its parent's, and the slab test is monotone in the planes), in its own order and counts.
 // The walks of a mesh BLAS's wide tree (blas_wide_bvh.hpp), for blas_traversal.hpp's queries and trace()'s
 // object-space instance path (ray_search.hpp). Two orders:
 //

@@ -1,4 +1,6 @@
 #pragma once
+// Contract: lane by lane traverse_wide_bvh() (wide_bvh_traversal.hpp), so each lane reaches the leaves
+// textbook::walk_bvh would; tests/test_textbook_trace.cpp, through trace_bundle().
 // The walk of a 4-wide BVH (wide_bvh.hpp) for a ray bundle (ray_bundle.hpp): the top level's walk in
 // trace_bundle(). A node is visited once for every lane that entered it; each of its children (masks
 // first, as in wide_bvh_traversal.hpp) is box-tested for those lanes at once, and a child is entered

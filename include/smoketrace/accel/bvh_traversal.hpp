@@ -1,4 +1,6 @@
 #pragma once
+// Contract: the nodes, their order and the counts of textbook::walk_bvh (textbook/trace.hpp), with the same box
+// test; the ChildPairTest of AVX2 gives the scalar test's answers.
 // The one BVH traversal loop, shared by bottom-level trees (triangles, spheres) and the top level
 // (instances). Front to back: of two children the nearer (by box entry distance) is visited first and
 // the other is pushed with its entry distance, so that it is skipped when it is popped after a closer

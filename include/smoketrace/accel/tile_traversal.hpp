@@ -1,4 +1,6 @@
 #pragma once
+// Contract: for each of the tile's rays, at least the leaves textbook::walk_bvh reaches (a frustum and a reach
+// stand in for each ray's box test); trace_tile() then tests each ray on its own.
 // The walk of a ray tile (geometry/ray_tile.hpp) through a BVH: once for all the tile's rays, a node entered
 // unless the tile's frustum excludes its box, or its box lies farther from the tile's origin than any ray
 // of the tile reaches. trace_tile() walks the top level with it to gather the instances the tile's rays can

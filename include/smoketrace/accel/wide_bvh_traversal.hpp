@@ -1,4 +1,6 @@
 #pragma once
+// Contract: the leaves textbook::walk_bvh reaches in the binary tree this one collapses, while tmax stays (each box
+// lies in its parent's, and the slab test is monotone in the planes), in its own order and counts.
 // The traversal loop of the 4-wide BVH (wide_bvh.hpp): the top level's walk for rays that collect every
 // hit (TlasWalk::all_hits, trace.hpp). Each child's mask is tested before its box (DXR's instance
 // inclusion, trace.hpp rule 1), so a subtree no visible instance lives in is never entered. Then the

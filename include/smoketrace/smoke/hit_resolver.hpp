@@ -1,4 +1,7 @@
 #pragma once
+// Contract: optical_path_length() is textbook::length_in_smoke (eq. 3.1, textbook/optical_depth.hpp) to within
+// 2(n − 1)·2^-53 of the length in double (eight running sums, not one), one float ulp once rounded; every HitSort
+// gives the same bits. tests/test_textbook_optical_depth.cpp.
 // The hit resolver: thesis 4.3.3 "compute pass". Turns each particle's optical-depth ray hits (collected in
 // any order by the any-hit callback, thesis 4.3.2) into the optical path length through smoke toward the
 // light (thesis 3.1, eq. 3.1).

@@ -1,4 +1,8 @@
 #pragma once
+// Contract: textbook::optical_depths's statuses and hit counts (textbook/optical_depth.hpp); lengths within one
+// float ulp (the resolver's eight running double sums against one, hit_resolver.hpp; a smooth kernel's shares
+// summed in another order), plus one ulp of the farthest crossing per crossing where a particle is tested as a
+// world sphere (its t rounds apart from the textbook's object-space root). tests/test_textbook_optical_depth.cpp.
 // The optical-depth pass (thesis 4.3.2): for each particle, a ray from its centre toward the light
 // collects the particle surfaces it crosses, through the trace API and its any-hit callback. The rays all
 // go the same way, so they are traced in bundles of thirty-two neighbours (trace_bundle(),

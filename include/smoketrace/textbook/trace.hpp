@@ -11,27 +11,21 @@
 #include <smoketrace/geometry/ray_sphere.hpp>
 #include <smoketrace/geometry/ray_triangle.hpp>
 
-#include <glm/vec3.hpp>
-
 #include <cstdint>
 #include <type_traits>
 #include <utility>
 
 namespace smoketrace::textbook {
 
-// Calls leaf(first, count) for every leaf of `bvh` whose box the ray enters before tmax, the nearer child
-// first. `tmax` is re-read at every step: a commit made in a leaf narrows the rest of the walk. admit(node)
-// may refuse a node before its box is tested (the TLAS's instance masks, rule 1). leaf returns true to end
-// the walk. Counts the nodes entered and the boxes tested.
+// Calls leaf(first, count) for every leaf of `bvh` whose box the ray enters before tmax (re-read at every step: a
+// commit in a leaf narrows the rest of the walk), nearer child first; leaf returns true to end the walk.
+// admit(node) may refuse a node before its box is tested (rule 1). Counts the nodes entered and boxes tested.
 template <class Admit, class Leaf>
 bool walk_bvh(const Bvh& bvh, const Ray& ray, const float& tmax, Admit&& admit, Leaf&& leaf, std::uint32_t& nodes,
               std::uint32_t& boxes) {
     if (bvh.nodes.empty() || !admit(0u)) return false;
     const BoxRay box_ray(ray);
-    struct Entry {
-        std::uint32_t node;
-        float t;  // where the ray enters the node's box
-    };
+    struct Entry { std::uint32_t node; float t; };  // t: where the ray enters the node's box
     Entry stack[kMaxBvhDepth + 1];
     int size = 0;
     float t = 0.0f;
@@ -39,15 +33,12 @@ bool walk_bvh(const Bvh& bvh, const Ray& ray, const float& tmax, Admit&& admit, 
     if (intersect(bvh.nodes[0].bounds, box_ray, tmax, t)) stack[size++] = {0, t};
     while (size > 0) {
         const Entry e = stack[--size];
-        // A box entered beyond the nearest commit since it was pushed holds no hit the ray can still take
-        // (the far widening of the slab test, aabb.hpp, applies here too).
+        // A box entered beyond a commit made since it was pushed holds nothing the ray can still take.
         if (!(e.t <= tmax * kSlabFarScale)) continue;
         ++nodes;
         const BvhNode& n = bvh.nodes[e.node];
-        if (n.is_leaf()) {
-            if (leaf(n.first, n.count)) return true;
-            continue;
-        }
+        if (n.is_leaf() && leaf(n.first, n.count)) return true;
+        if (n.is_leaf()) continue;
         Entry met[2];
         int count = 0;
         for (std::uint32_t child = n.first; child < n.first + 2; ++child) {
@@ -62,41 +53,36 @@ bool walk_bvh(const Bvh& bvh, const Ray& ray, const float& tmax, Admit&& admit, 
 }
 
 // Rules 1-3: whether the ray searches instance `inst` at all, and if so whether its primitives are opaque.
-bool admits(const Instance& inst, const BottomLevel& blas, std::uint32_t flags, std::uint8_t inclusion_mask,
-            bool& opaque);
+inline bool admits(const Instance& inst, const BottomLevel& blas, std::uint32_t flags, std::uint8_t inclusion_mask,
+                   bool& opaque) {
+    if ((inst.mask & inclusion_mask) == 0) return false;  // rule 1
+    // Rule 2: the geometry's opacity, overridden by the instance's FORCE_OPAQUE, then its FORCE_NON_OPAQUE,
+    // then the ray's FORCE_OPAQUE, then the ray's FORCE_NON_OPAQUE.
+    opaque = blas.opaque;
+    if (inst.flags & instance_flag_force_opaque) opaque = true;
+    if (inst.flags & instance_flag_force_non_opaque) opaque = false;
+    if (flags & ray_flag_force_opaque) opaque = true;
+    if (flags & ray_flag_force_non_opaque) opaque = false;
+    return !(opaque ? (flags & ray_flag_cull_opaque) : (flags & ray_flag_cull_non_opaque));  // rule 3
+}
 
-// An instance's view of the ray: the ray in object space (t is kept: the direction is not normalised) and what
-// rule 4 needs to know of the instance.
-struct ObjectRay {
-    glm::dvec3 origin, direction;  // in double: what the sphere test takes
-    Ray ray;                       // rounded to float: what the box and the triangle tests take
-    TriangleRay triangle_ray;      // the watertight test's set-up for `ray`, shared by all its triangles
-    bool cull_back = false, cull_front = false;  // rule 4, for this instance's triangles
-    bool front_clockwise = false;                // TRIANGLE_FRONT_CLOCKWISE
-};
-ObjectRay object_ray(const Instance& inst, const BottomLevel& blas, const Ray& world_ray, std::uint32_t flags);
-
-// The state of one ray's search: rules 5-8 and the cutoff, applied to every candidate that passed rules 1-4.
+// One ray's search: rules 4-8 and the cutoff, for the candidates of the instances that rules 1-3 admit.
 template <class AnyHit>
 struct Search {
     AnyHit& any_hit;
     std::uint32_t flags;
     std::uint32_t max_any_hit;  // TraceLimits::max_any_hit_invocations (0: no cutoff)
     float tmax;                 // the ray's, lowered by each commit
-    bool ended = false;
     TraceResult result;
 
-    Search(AnyHit& callback, std::uint32_t ray_flags, const Ray& ray, const TraceLimits& limits)
-        : any_hit(callback), flags(ray_flags), max_any_hit(limits.max_any_hit_invocations), tmax(ray.tmax) {}
-
-    // Returns true when the search has ended.
+    // Rules 5-8 and the cutoff for one candidate. Returns true when the search has ended.
     bool report(const TraceHit& candidate, bool opaque) {
         AnyHitDecision decision = AnyHitDecision::accept;  // rule 5: an opaque hit is committed at once
         if (!opaque) {
             // The cutoff: the (K+1)-th non-opaque candidate ends the search without an any-hit call.
             if (max_any_hit != 0 && result.counters.any_hit_invocations >= max_any_hit) {
                 result.cut_off = true;
-                return ended = true;
+                return true;
             }
             ++result.counters.any_hit_invocations;
             decision = any_hit(candidate);  // rule 6
@@ -106,48 +92,55 @@ struct Search {
         result.hit = true;
         if (!(flags & ray_flag_skip_closest_hit_shader)) result.committed = candidate;  // rule 8
         tmax = candidate.t;
-        ended = decision == AnyHitDecision::accept_and_end || (flags & ray_flag_accept_first_hit_and_end_search) != 0;
-        return ended;  // rule 7 (and AcceptHitAndEndSearch)
+        // AcceptHitAndEndSearch(), or rule 7.
+        return decision == AnyHitDecision::accept_and_end || (flags & ray_flag_accept_first_hit_and_end_search);
     }
 
-    // Instance `index`, admitted with final opacity `opaque`: its BLAS walked in object space. Rule 9 holds by
-    // construction: each primitive lies in one BLAS leaf, and each instance in one TLAS leaf.
-    bool visit(std::uint32_t index, const Instance& inst, const BottomLevel& blas, bool opaque, const Ray& world_ray) {
-        const ObjectRay o = object_ray(inst, blas, world_ray, flags);
+    // Instance `index`, admitted with opacity `opaque`, in its object space: x = L⁻¹·(x − translation), the
+    // translation subtracted first in double (a small particle far from the origin keeps its precision), t kept.
+    // Rule 9 holds as each primitive lies in one BLAS leaf, each instance in one TLAS leaf. True: the search ended.
+    bool visit(std::uint32_t index, const Instance& inst, const BottomLevel& blas, bool opaque, const Ray& world) {
+        const glm::dmat3 to_object = inst.object_to_world.inverse().linear;
+        const glm::dvec3 o = to_object * (glm::dvec3(world.origin) - inst.object_to_world.translation);
+        const glm::dvec3 d = to_object * glm::dvec3(world.direction);
+        const Ray ray{glm::vec3(o), world.tmin, glm::vec3(d), world.tmax};  // spheres take o and d unrounded
+        const TriangleRay triangle_ray(ray);  // the watertight test's set-up, shared by all the triangles
+        // Rule 4: facing culls apply to triangles, not in an instance flagged TRIANGLE_CULL_DISABLE; the facing
+        // is the object-space one (a mirroring transform does not flip it).
+        const bool cull = !(inst.flags & instance_flag_triangle_cull_disable);
+        const bool cull_front = cull && (flags & ray_flag_cull_front_facing_triangles);
+        const bool cull_back = cull && (flags & ray_flag_cull_back_facing_triangles);
+        const bool front_clockwise = inst.flags & instance_flag_triangle_front_clockwise;
         ++result.counters.instances_entered;
-        TraceHit hit;
-        hit.instance_index = index;
-        hit.instance_id = inst.user_id;
-        hit.geometry = blas.kind;
+        TraceHit hit{.instance_index = index, .instance_id = inst.user_id, .geometry = blas.kind};
         auto leaf = [&](std::uint32_t first, std::uint32_t count) {
             for (std::uint32_t k = first; k < first + count; ++k) {
                 ++result.counters.primitives_tested;
                 if (blas.kind == GeometryKind::triangles) {
                     const MeshBlas::Triangle& tri = blas.mesh.leaf_triangles()[k];
                     TriangleHit th;
-                    if (!intersect_triangle(o.triangle_ray, tri.v0, tri.v1, tri.v2, tmax, th)) continue;
-                    const bool front = th.front_face != o.front_clockwise;
-                    if (front ? o.cull_front : o.cull_back) continue;  // rule 4
+                    if (!intersect_triangle(triangle_ray, tri.v0, tri.v1, tri.v2, tmax, th)) continue;
+                    const bool front = th.front_face != front_clockwise;
+                    if (front ? cull_front : cull_back) continue;  // rule 4
                     hit.t = th.t;
                     hit.barycentrics = th.barycentrics;
                     hit.primitive_index = blas.mesh.primitive_id(k);
                     hit.kind = front ? HitKind::front_face : HitKind::back_face;
                     if (report(hit, opaque)) return true;
-                } else {
-                    // A sphere is crossed twice, entering (front face) and leaving (back face): two reports,
-                    // each only if it lies in [tmin, tmax] when its turn comes.
-                    const Sphere& s = blas.spheres.leaf_spheres()[k];
-                    SphereRoots roots;
-                    if (!sphere_roots(o.origin, o.direction, glm::dvec3(s.center), double(s.radius), roots)) continue;
-                    for (int side = 0; side < 2; ++side) {
-                        const float t_hit = static_cast<float>(side == 0 ? roots.t_enter : roots.t_exit);
-                        if (!(t_hit >= o.ray.tmin && t_hit <= tmax)) continue;
-                        hit.t = t_hit;
-                        hit.object_point = glm::vec3(o.origin + double(t_hit) * o.direction);
-                        hit.primitive_index = blas.spheres.primitive_id(k);
-                        hit.kind = side == 0 ? HitKind::front_face : HitKind::back_face;
-                        if (report(hit, opaque)) return true;
-                    }
+                    continue;
+                }
+                // A sphere is crossed twice, entering (front face) and leaving (back face): two reports, each
+                // only if it lies in [tmin, tmax] when its turn comes.
+                const Sphere& s = blas.spheres.leaf_spheres()[k];
+                SphereRoots roots;
+                if (!sphere_roots(o, d, glm::dvec3(s.center), double(s.radius), roots)) continue;
+                for (int side = 0; side < 2; ++side) {
+                    hit.t = static_cast<float>(side == 0 ? roots.t_enter : roots.t_exit);
+                    if (!(hit.t >= ray.tmin && hit.t <= tmax)) continue;
+                    hit.object_point = glm::vec3(o + double(hit.t) * d);
+                    hit.primitive_index = blas.spheres.primitive_id(k);
+                    hit.kind = side == 0 ? HitKind::front_face : HitKind::back_face;
+                    if (report(hit, opaque)) return true;
                 }
             }
             return false;
@@ -155,11 +148,11 @@ struct Search {
         const Bvh& bvh = blas.kind == GeometryKind::triangles ? blas.mesh.bvh() : blas.spheres.bvh();
         // A BLAS of one leaf (a particle's sphere, a billboard's quad) is tested without its box: the TLAS
         // leaf's box around the instance has just been entered.
-        if (bvh.nodes[0].is_leaf()) {
+        if (!bvh.empty() && bvh.nodes[0].is_leaf()) {
             ++result.counters.blas_nodes;
             return leaf(bvh.nodes[0].first, bvh.nodes[0].count);
         }
-        return walk_bvh(bvh, o.ray, tmax, [](std::uint32_t) { return true; }, leaf, result.counters.blas_nodes,
+        return walk_bvh(bvh, ray, tmax, [](std::uint32_t) { return true; }, leaf, result.counters.blas_nodes,
                         result.counters.boxes_tested);
     }
 };
@@ -169,7 +162,7 @@ struct Search {
 template <class AnyHit = AcceptAll>
 TraceResult trace(const AccelScene& scene, const Ray& ray, std::uint32_t flags, std::uint8_t inclusion_mask,
                   AnyHit&& any_hit = {}, const TraceLimits& limits = {}) {
-    Search<std::remove_reference_t<AnyHit>> search(any_hit, flags, ray, limits);
+    Search<std::remove_reference_t<AnyHit>> search{any_hit, flags, limits.max_any_hit_invocations, ray.tmax, {}};
     const Bvh& tlas = scene.tlas();
     // Rule 1 for whole subtrees: each TLAS node keeps the OR of the instance masks below it.
     auto admit = [&](std::uint32_t node) { return (scene.tlas_node_masks()[node] & inclusion_mask) != 0; };
@@ -179,8 +172,8 @@ TraceResult trace(const AccelScene& scene, const Ray& ray, std::uint32_t flags, 
             const Instance inst = scene.instance(index);
             const BottomLevel& blas = scene.bottom_level(inst.blas);
             bool opaque = false;
-            if (!admits(inst, blas, flags, inclusion_mask, opaque)) continue;
-            if (search.visit(index, inst, blas, opaque, ray)) return true;
+            if (admits(inst, blas, flags, inclusion_mask, opaque) && search.visit(index, inst, blas, opaque, ray))
+                return true;
         }
         return false;
     };

@@ -1,4 +1,5 @@
 #pragma once
+// Contract: closest_hit()'s hits (below), and so textbook::trace's for one instance of the BLAS under the identity.
 // Closest hit of a tile of camera rays (geometry/ray_tile.hpp) against a mesh BLAS: the rays traced together,
 // as Embree traces a packet. Rays from one eye through neighbouring pixels meet the same nodes and the same
 // triangles, so the tile walks the wide tree once (accel/tile_traversal.hpp: a node is entered unless the

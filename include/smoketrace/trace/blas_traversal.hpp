@@ -1,4 +1,6 @@
 #pragma once
+// Contract: the candidates and the closest hit of textbook::trace for one instance of the BLAS under the
+// identity, bit for bit (its leaf tests are these kernels); tests/test_textbook_trace.cpp.
 // Ray queries against one bottom-level structure (a MeshBlas or a SphereBlas), in its own space:
 // closest hit, and any-hit traversal with a callback that is a template parameter (inlined at the
 // call site: no std::function, no virtual call, no allocation).

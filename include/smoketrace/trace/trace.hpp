@@ -1,4 +1,8 @@
 #pragma once
+// Contract: textbook::trace's candidates, commit and counters, bit for bit, under nearest_first on a scene without
+// the world-space paths (in a mesh BLAS of several leaves: the same candidates in its own order, its own node
+// counts); all_hits: the same candidates before the commit; the world-space paths: t within float rounding.
+// tests/test_textbook_trace.cpp.
 // trace(): DirectX Raytracing's TraceRay() on the CPU, over a two-level AccelScene. Every ray of smoketrace
 // (optical-depth, view and shadow rays) goes through this function or through trace_bundle()
 // (trace_bundle.hpp), which traces rays that share a direction together and gives each what this

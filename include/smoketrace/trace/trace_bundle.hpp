@@ -1,4 +1,6 @@
 #pragma once
+// Contract: each ray's candidates (as a set, bit for bit) and commit are textbook::trace's, as trace()'s are
+// (below); tests/test_textbook_trace.cpp holds the optical-depth pass's bundles there.
 // trace_bundle(): trace() (trace.hpp) for the rays of a bundle, up to kBundleWidth rays sharing one
 // direction (ray_bundle.hpp), traced together. What each ray sees is exactly what trace() would show it:
 //

@@ -1,4 +1,6 @@
 #pragma once
+// Contract: each ray's candidates (as a set, bit for bit) and commit are textbook::trace's, as trace()'s are
+// (below); its counters are its own. tests/test_textbook_trace.cpp holds camera tiles there.
 // trace_tile(): trace() (trace.hpp) for the rays of a tile, up to kTileRays camera rays from one eye through a
 // grid of image-plane points (geometry/ray_tile.hpp), traced together. What each ray sees is exactly what
 // trace() would show it:
