@@ -264,6 +264,15 @@ TEST_CASE("stable_ranks: each instruction-set kernel gives the scalar ranks", "[
 }
 
 #if defined(SMOKETRACE_SIMD_AVX512)
+// bitonic_sort() of 8R keys in memory (64-byte aligned), in place.
+template <unsigned R>
+void bitonic_sort_keys(std::uint64_t* keys) {
+    __m512i v[R];
+    for (unsigned r = 0; r < R; ++r) v[r] = _mm512_load_si512(keys + kNetworkSortLanes * r);
+    bitonic_sort<R>(v);
+    for (unsigned r = 0; r < R; ++r) _mm512_store_si512(keys + kNetworkSortLanes * r, v[r]);
+}
+
 // The network on its own, for each register count, against std::sort: random keys, few distinct keys,
 // all equal, and the extremes (UINT64_MAX is also the resolver's padding).
 template <unsigned R>

@@ -72,6 +72,7 @@ public:
     // for walks of the binary tree, whose leaf callback is given the range).
     [[nodiscard]] std::uint32_t leaf_block(std::uint32_t first) const;
     [[nodiscard]] std::uint32_t primitive_id(std::uint32_t k) const { return bvh_.prim_indices[k]; }
+    // The triangles given, and those of them left out of the tree as degenerate (zero area: no ray hits them).
     [[nodiscard]] std::size_t input_triangle_count() const { return input_count_; }
     [[nodiscard]] std::size_t degenerate_count() const { return input_count_ - triangles_.size(); }
 
