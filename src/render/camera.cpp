@@ -24,8 +24,8 @@ Camera::Camera(const glm::vec3& position, const glm::vec3& look_at, const glm::v
 }
 
 Ray Camera::ray_through(float image_x, float image_y, float tmin) const {
-    // 2·x/width − 1, in this order: ray() has always computed its pixel centres so, and any other order
-    // would move the default images by a rounding step.
+    // 2·x/width − 1, in this order: the shipped images and the tests' hashes are made of these roundings,
+    // and another order moves the pixel centres by a rounding step.
     const float sx = (2.0f * image_x / float(width_) - 1.0f) * half_width_;
     const float sy = (1.0f - 2.0f * image_y / float(height_)) * half_height_;
     return Ray{position_, tmin, glm::normalize(forward_ + sx * right_ + sy * up_), std::numeric_limits<float>::infinity()};

@@ -244,7 +244,7 @@ private:
     std::vector<MeshBlas::Triangle> world_triangles_;  // in instance order; slots fixed when added
     std::vector<Aabb, UnwrittenAllocator<Aabb>> world_boxes_;
     // Each instance's mask again, one byte apiece: the refit sweep reads it at random (TLAS leaf order),
-    // and from the 48-byte stored instances that was a cache miss per leaf.
+    // and from the 48-byte stored instances that would be a cache miss per leaf.
     std::vector<std::uint8_t, UnwrittenAllocator<std::uint8_t>> instance_masks_;
     Bvh tlas_;
     std::vector<std::uint8_t> node_masks_;  // OR of the instance masks below each TLAS node
