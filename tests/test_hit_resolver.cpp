@@ -12,6 +12,7 @@
 #include <smoketrace/core/stable_ranks_avx512.hpp>
 #include <smoketrace/smoke/hit_resolver.hpp>
 #include <smoketrace/smoke/hit_resolver_avx512.hpp>
+#include <smoketrace/smoke/hit_walk.hpp>
 
 #include <catch2/catch.hpp>
 #include <tbb/task_arena.h>
@@ -263,6 +264,15 @@ TEST_CASE("stable_ranks: each instruction-set kernel gives the scalar ranks", "[
 }
 
 #if defined(SMOKETRACE_SIMD_AVX512)
+// bitonic_sort() of 8R keys in memory (64-byte aligned), in place.
+template <unsigned R>
+void bitonic_sort_keys(std::uint64_t* keys) {
+    __m512i v[R];
+    for (unsigned r = 0; r < R; ++r) v[r] = _mm512_load_si512(keys + kNetworkSortLanes * r);
+    bitonic_sort<R>(v);
+    for (unsigned r = 0; r < R; ++r) _mm512_store_si512(keys + kNetworkSortLanes * r, v[r]);
+}
+
 // The network on its own, for each register count, against std::sort: random keys, few distinct keys,
 // all equal, and the extremes (UINT64_MAX is also the resolver's padding).
 template <unsigned R>
@@ -448,8 +458,8 @@ TEST_CASE("optical_path_length does not depend on the order of equal-t hits", "[
     }
 }
 
-// With AVX-512, optical_path_length() runs eight hits per instruction (optical_path_length_avx512); it
-// must give the scalar definition's bits (elsewhere it is the scalar definition). Lists of every length
+// With AVX-512, optical_path_length() walks on Avx512WalkLanes, eight hits per instruction; it must give
+// the bits of the same walk on ScalarWalkLanes (elsewhere it is that walk). Lists of every length
 // up to 3 registers and beyond, with ties, origins inside smoke and t spread over many binades, so that
 // the sums round.
 TEST_CASE("optical_path_length gives the bits of the scalar walk", "[resolver]") {
@@ -462,10 +472,12 @@ TEST_CASE("optical_path_length gives the bits of the scalar walk", "[resolver]")
         }
         std::sort(hits.begin(), hits.end(), [](const SurfaceHit& a, const SurfaceHit& b) { return a.t < b.t; });
         INFO("round " << round << ", " << hits.size() << " hits");
-        const double scalar = detail::optical_path_length_scalar(hits);
+        const double scalar =
+            detail::walk_sorted_hits<detail::ScalarWalkLanes>(detail::ScalarWalkLanes::SortedHits{hits});
         CHECK(std::bit_cast<std::uint64_t>(optical_path_length(hits)) == std::bit_cast<std::uint64_t>(scalar));
 #if defined(SMOKETRACE_SIMD_AVX512)
-        const double avx512 = detail::optical_path_length_avx512(hits);
+        const double avx512 =
+            detail::walk_sorted_hits<detail::Avx512WalkLanes>(detail::Avx512WalkLanes::SortedHits{hits});
         CHECK(std::bit_cast<std::uint64_t>(avx512) == std::bit_cast<std::uint64_t>(scalar));
 #endif
     }

@@ -69,9 +69,9 @@ int run_depths(const Args& args) {
     const auto& particles = desc.smoke.particles;
     std::optional<GroundQuad> ground;
     if (desc.ground) ground = GroundQuad{desc.ground->corners};
-    const RenderOptions options = overrides.render_options(desc);
+    const DepthOptions options = overrides.depth_options(desc);
     OpticalDepthSettings settings;
-    settings.cutoff = options.render.cutoff;
+    settings.cutoff = options.cutoff;
     settings.progress = work;
     settings.kernel = options.kernel;
     const std::vector<std::uint32_t> all = particle_group(particles.size(), 1, 0);

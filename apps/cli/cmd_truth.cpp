@@ -8,7 +8,7 @@
 #include "scene_overrides.hpp"
 #include "thread_limit.hpp"
 
-#include <smoketrace/render/pixel_samples.hpp>
+#include <smoketrace/render/frame_renderer.hpp>
 #include <smoketrace/io/image_files.hpp>
 #include <smoketrace/io/output_path.hpp>
 #include <smoketrace/io/scene_file.hpp>

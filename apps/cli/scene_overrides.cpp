@@ -2,7 +2,7 @@
 
 #include <smoketrace/core/image.hpp>
 #include <smoketrace/io/scene_file.hpp>
-#include <smoketrace/render/pixel_samples.hpp>
+#include <smoketrace/render/frame_renderer.hpp>
 
 #include <charconv>
 
@@ -109,6 +109,14 @@ RenderOptions SceneOverrides::render_options(const SceneDescription& scene) cons
     if (kernel) options.kernel = parse_kernel(*kernel);
     if (compositing) options.render.compositing = *compositing == "over" ? Compositing::over : Compositing::thesis;
     if (spp) options.render.spp = std::uint32_t(*spp);
+    return options;
+}
+
+DepthOptions SceneOverrides::depth_options(const SceneDescription& scene) const {
+    DepthOptions options{scene.smoke.shape, scene.smoke.kernel, scene.render.cutoff};
+    if (cutoff) options.cutoff = std::uint32_t(*cutoff);
+    if (shape) options.shape = parse_shape(*shape);
+    if (kernel) options.kernel = parse_kernel(*kernel);
     return options;
 }
 

@@ -6,7 +6,6 @@
 #include "arguments.hpp"
 #include "command.hpp"
 
-#include <smoketrace/render/frame_renderer.hpp>
 #include <smoketrace/smoke/scene_description.hpp>
 
 #include <cstdint>
@@ -14,7 +13,19 @@
 #include <string>
 #include <utility>
 
+namespace smoketrace {
+struct RenderOptions;  // render/frame_renderer.hpp: only the frame commands, which include it, build one
+}
+
 namespace smoketrace::cli {
+
+// What the optical-depth pass alone takes from a scene (depths, explain --particle): the stand-ins, their
+// density kernel and the cutoff. Plain scene data: `depths` needs nothing of render/ to build it.
+struct DepthOptions {
+    StandInShape shape{};
+    DensityKernel kernel{};
+    std::uint32_t cutoff = 0;  // 0 = none
+};
 
 // Which overrides a command reads: the optical-depth pass alone (depths, explain --particle) depends only on
 // the stand-ins, their density kernel and the cutoff; a frame (render, explain --pixel) on all of them.
@@ -40,6 +51,8 @@ struct SceneOverrides {
     // The scene file's settings with these overrides applied, checked against the scene: a size its camera's
     // field of view cannot resolve, more frames than its motion stays in range for. Throws CliError.
     [[nodiscard]] RenderOptions render_options(const SceneDescription& scene) const;
+    // The scene file's shape, kernel and cutoff with --shape, --kernel and --cutoff applied: render_options()'s.
+    [[nodiscard]] DepthOptions depth_options(const SceneDescription& scene) const;
     // The frames a run writes, [first, end): all `options.render.frames` of them, or --frames A:B of the
     // sequence (CliError when B is beyond it).
     [[nodiscard]] std::pair<std::uint32_t, std::uint32_t> frame_range(const RenderOptions& options) const;

@@ -118,7 +118,7 @@ void check_png_structure(const fs::path& path, const std::vector<std::uint8_t>& 
 // filtered rows), IEND. Each row is Paeth-filtered (filter type 4: every byte minus the prediction from
 // its left, upper and upper-left neighbours), which on rendered smoke and sky leaves long runs of small
 // values; zlib's run-length strategy compresses those well and several times faster than its default
-// strategy (bench section "output"; docs/performance-log.md, "Writing the frames").
+// strategy (bench section "output").
 
 // Paeth's predictor (PNG specification, 9.4): the neighbour closest to left + up − upper-left.
 std::uint8_t paeth(int left, int up, int upper_left) {
@@ -171,8 +171,8 @@ void check_finite(const fs::path& path, const ImageRgba& image) {
 }  // namespace
 
 // The writer's working memory (see PngWriter): reused from one image to the next, grown when an image
-// needs more. The filter and deflate buffers are left uninitialised (plain new[]): zeroing them was a third
-// of the encoding time.
+// needs more. The filter and deflate buffers are left uninitialised (plain new[]): every byte is written
+// before it is read, and zeroing them would cost a third of the encoding time.
 struct PngWriter::Buffers {
     struct Bytes {
         std::unique_ptr<std::uint8_t[]> data;

@@ -9,8 +9,6 @@
 
 #include <smoketrace/io/json_text_file.hpp>
 #include <smoketrace/io/ply_points.hpp>
-#include <smoketrace/render/camera.hpp>
-#include <smoketrace/render/pixel_samples.hpp>
 #include <smoketrace/core/memory_budget.hpp>
 #include <smoketrace/core/shown_text.hpp>
 
@@ -1175,11 +1173,11 @@ void face_ground_to_camera(SceneDescription& scene) {
     g.normal = -g.normal;
 }
 
-// The renderer's camera (camera.hpp) redoes these checks in float: it must agree, or a scene that reads
-// fine would fail at render time with a message that names no file.
+// The renderer's camera makes these checks (validate_camera) on the floats read: they must pass here, or a
+// scene that reads fine would fail at render time with a message that names no file.
 void check_renderer_accepts(const Reader& r, const CameraDescription& c, const std::string& path) {
     try {
-        (void)Camera(c.position, c.look_at, c.up, c.fov_deg, int(c.width), int(c.height));
+        validate_camera(c.position, c.look_at, c.up, c.fov_deg, int(c.width), int(c.height));
     } catch (const std::invalid_argument& e) {
         r.fail(path, std::string("the camera is unusable: ") + e.what());
     }

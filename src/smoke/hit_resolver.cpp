@@ -1,17 +1,11 @@
 // The hit resolver (thesis 4.3.3): sort each particle's hits by t, then eq. 3.1 and the in-smoke walk.
-//
-// Batched vs per-particle sorting (the design question of the resolver). Two ways to get every list sorted:
-//   (a) one segmented radix sort over all particles' hits, keyed by (particle, t): LSD passes over t, then
-//       over the particle index (4 passes of 9-10 bits), each streaming the whole buffer (~0.7 MB at 750
-//       particles x 120 hits) with a 512-1024-way scatter, then one walk per particle;
-//   (b) one small sort per particle (a sorting network up to 128 hits with AVX-512, a rank sort below
-//       kRadixSortMinItems, radix above), each list staying in L1 (or registers) until the walk that follows.
-// (b) is the faster at every list length the bench tries (section "resolver", table "segmented vs
-// per-particle"), and it parallelises over particles with no shared histogram, so HitSort::adaptive is (b).
+// Each list is sorted on its own (HitSort::adaptive), not all lists in one segmented sort: a short list stays in
+// L1 or registers until its walk, and the lists sort in parallel with no shared histogram (docs/fast-paths.md).
 #include <smoketrace/smoke/hit_resolver.hpp>
 #include <smoketrace/core/radix_sort.hpp>
 #include <smoketrace/core/simd/isa.hpp>
 #include <smoketrace/smoke/hit_resolver_avx512.hpp>
+#include <smoketrace/smoke/hit_walk.hpp>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -60,47 +54,7 @@ void sort_hits_by_t(std::span<SurfaceHit> hits, std::span<SurfaceHit> scratch, H
     }
 }
 
-// The walk, as a sum over the gaps between consecutive hits: the gap (t_i, t_{i+1}) is in smoke when the
-// counter after hit i is > 0, and the in-smoke gaps add up to the in-smoke stretches. Inside a group of
-// equal-t hits the gaps are 0, so whichever order a sort leaves a tie in, only the counter after the
-// whole group weighs a nonzero gap: any sort that orders t gives bit-identical lengths. The stretch open
-// at the origin (counter_start > 0) adds the gap (0, t_0).
-//
-// The sum is in double: a gap t_{i+1} - t_i between two floats is exact in double (unless their
-// magnitudes differ by more than 2^29), so the only rounding is in the additions, far below the float the
-// caller stores (a float accumulator would lose ~2^-24 per gap). The gaps are summed in kWalkLanes
-// running sums, gap i into sum i mod kWalkLanes, then added pairwise: the order of the AVX-512 walk
-// (hit_resolver_avx512.hpp), which the scalar one repeats so that both give the same bits.
-namespace {
-
-using detail::kWalkLanes;
-
-// (s0 + s4, s1 + s5, s2 + s6, s3 + s7), then (those 0 + 2, 1 + 3), then the two: pairwise, in the order
-// of the AVX-512 reduction.
-double sum_lanes(const double (&s)[kWalkLanes]) {
-    const double q0 = s[0] + s[4], q1 = s[1] + s[5], q2 = s[2] + s[6], q3 = s[3] + s[7];
-    return (q0 + q2) + (q1 + q3);
-}
-
-}  // namespace
-
 namespace detail {
-double optical_path_length_scalar(std::span<const SurfaceHit> sorted_hits) {
-    const std::size_t n = sorted_hits.size();
-    if (n == 0) return 0.0;
-    std::int64_t counter = 0;  // eq. 3.1: counter_start = -sum of hit values = particles covering the origin
-    for (const SurfaceHit& hit : sorted_hits) counter -= hit.value;
-    double sums[kWalkLanes] = {};
-    if (counter > 0) sums[0] = static_cast<double>(sorted_hits[0].t);  // in smoke from the origin
-    for (std::size_t i = 0; i + 1 < n; ++i) {
-        counter += sorted_hits[i].value;
-        const double gap = static_cast<double>(sorted_hits[i + 1].t) - static_cast<double>(sorted_hits[i].t);
-        sums[i % kWalkLanes] += counter > 0 ? gap : 0.0;  // + 0.0 leaves a sum >= +0 unchanged
-    }
-    // After the last hit the counter is counter_start + sum = 0: the last gap is closed.
-    return sum_lanes(sums);
-}
-
 void network_sort_hits_scalar(std::span<SurfaceHit> hits) {
     auto key = [](const SurfaceHit& h) {
         return std::uint64_t{float_sort_key(h.t)} << 32 | std::bit_cast<std::uint32_t>(h.value);
@@ -113,11 +67,8 @@ double optical_path_length(std::span<const SurfaceHit> sorted_hits) {
     assert(std::is_sorted(sorted_hits.begin(), sorted_hits.end(),
                           [](const SurfaceHit& a, const SurfaceHit& b) { return a.t < b.t; }));
     assert(sorted_hits.empty() || sorted_hits.front().t >= 0.0f);  // hits lie ahead of the origin (TMin > 0)
-#if defined(SMOKETRACE_SIMD_AVX512)
-    return detail::optical_path_length_avx512(sorted_hits);
-#else
-    return detail::optical_path_length_scalar(sorted_hits);
-#endif
+    using L = detail::FastWalkLanes;
+    return detail::walk_sorted_hits<L>(L::SortedHits{sorted_hits});
 }
 
 void resolve_optical_path_lengths(HitLists& lists, std::span<const DepthStatus> status, std::span<float> lengths,

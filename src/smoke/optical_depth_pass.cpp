@@ -123,7 +123,7 @@ void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> 
     for (std::size_t i = 0; i < n; ++i) origins_[i] = particles[which[i]].center;
     bundle_order(origins_, dir, ray_order_, order_scratch_);
     // The rays' starts in trace order, gathered in one sweep of independent loads: filled into each bundle
-    // from the order of `which`, every start was a cache miss that the bundle waited for (at 10^7 particles).
+    // from the order of `which`, every start would be a cache miss that the bundle waits for (at 10^7 particles).
     starts_.resize(n);
     const std::size_t chunk_count = (n + kParticlesPerChunk - 1) / kParticlesPerChunk;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const tbb::blocked_range<std::size_t>& r) {

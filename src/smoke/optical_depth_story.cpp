@@ -1,5 +1,7 @@
 // One particle's optical-depth ray told step by step, see optical_depth_story.hpp.
 #include <smoketrace/smoke/optical_depth_story.hpp>
+#include <smoketrace/smoke/hit_resolver_avx512.hpp>
+#include <smoketrace/smoke/hit_walk.hpp>
 #include <smoketrace/trace/trace.hpp>
 
 #include <glm/geometric.hpp>
@@ -67,9 +69,10 @@ OpticalDepthStory explain_optical_depth(const SmokeScene& smoke, std::span<const
         }
         story.length = float(sum);
     } else if (story.outcome.status == DepthStatus::ok) {
-        // The resolver's sort and walk, as OpticalDepthPass::resolve() runs them on the pass's stored hits.
-        ListResolver resolve;
-        story.length = resolve(stored, sort);
+        // The resolver's sort, then its walk (hit_walk.hpp) on the lanes the resolver uses, told step by step:
+        // the bits OpticalDepthPass::resolve() gives the pass's stored hits.
+        std::vector<SurfaceHit> scratch(stored.size());
+        sort_hits_by_t(stored, scratch, sort);
         // Who each sorted hit came from: the first unclaimed candidate with the same t and value (equal
         // twins are interchangeable, their order within a tie changes nothing).
         std::vector<bool> claimed(story.seen.size(), false);
@@ -84,23 +87,30 @@ OpticalDepthStory explain_optical_depth(const SmokeScene& smoke, std::span<const
                 break;
             }
         }
-        // Eq. 3.1: the counter starts at −Σ values (the particles covering the origin); the ray is in smoke
-        // while it is > 0.
-        for (const SurfaceHit& h : stored) story.counter_start -= h.value;
-        std::int64_t counter = story.counter_start;
-        bool in_smoke = counter > 0;
-        float opened = 0.0f;  // the origin: a stretch open there starts at t = 0, as the walk's first gap does
-        for (const StoryHit& h : story.sorted) {
-            counter += h.value;
-            story.counter_after.push_back(counter);
-            if (!in_smoke && counter > 0) {
-                in_smoke = true;
-                opened = h.t;
-            } else if (in_smoke && counter <= 0) {
-                in_smoke = false;
-                if (h.t > opened) story.stretches.push_back({opened, h.t});
+        // The in-smoke gaps the walk adds, merged into stretches; a stretch open at the origin starts at t = 0.
+        struct TellSteps {
+            OpticalDepthStory& story;
+            std::span<const SurfaceHit> hits;
+            bool open = false;
+            float opened = 0.0f;
+            void start(std::int64_t counter_start) {
+                story.counter_start = counter_start;
+                open = counter_start > 0;
             }
-        }
+            void block(std::size_t first, const detail::ScalarWalkLanes::Ints& after, std::uint32_t in_smoke) {
+                for (std::size_t i = 0; i < detail::kWalkLanes && first + i < hits.size(); ++i) {
+                    const float t = hits[first + i].t;
+                    story.counter_after.push_back(after[i]);
+                    const bool gap_in_smoke = (in_smoke >> i & 1u) != 0;
+                    if (gap_in_smoke && !open) opened = t;
+                    if (!gap_in_smoke && open && t > opened) story.stretches.push_back({opened, t});
+                    open = gap_in_smoke;
+                }
+            }
+        };
+        using L = detail::FastWalkLanes;
+        story.length = static_cast<float>(
+            detail::walk_sorted_hits<L>(L::SortedHits{stored}, TellSteps{story, stored}));
     }
     story.optical_depth = story.length * sigma_t;
     story.transmittance = sigma_t == 0.0f ? 1.0f : std::exp(-story.length * sigma_t);

@@ -188,6 +188,9 @@ public:
     [[nodiscard]] const MeshBlas::Triangle* world_triangles() const { return world_triangles_.data(); }
     [[nodiscard]] bool committed() const { return !structure_dirty_ && !transforms_dirty_; }
 
+    // The rebuild policy's inputs, for callers that report or tune it (the bench's tables, the tests): the
+    // TLAS's SAH cost as last refit or built and right after the last build, and the ratio of the two past
+    // which commit() rebuilds rather than refits.
     [[nodiscard]] double tlas_sah_cost() const { return sah_current_; }
     [[nodiscard]] double tlas_sah_cost_at_build() const { return sah_at_build_; }
     void set_rebuild_ratio(double r) { rebuild_ratio_ = r; }
@@ -241,7 +244,7 @@ private:
     std::vector<MeshBlas::Triangle> world_triangles_;  // in instance order; slots fixed when added
     std::vector<Aabb, UnwrittenAllocator<Aabb>> world_boxes_;
     // Each instance's mask again, one byte apiece: the refit sweep reads it at random (TLAS leaf order),
-    // and from the 48-byte stored instances that was a cache miss per leaf.
+    // and from the 48-byte stored instances that would be a cache miss per leaf.
     std::vector<std::uint8_t, UnwrittenAllocator<std::uint8_t>> instance_masks_;
     Bvh tlas_;
     std::vector<std::uint8_t> node_masks_;  // OR of the instance masks below each TLAS node

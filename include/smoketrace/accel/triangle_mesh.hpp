@@ -29,8 +29,7 @@ struct TriangleMesh {
 // since the block test (ray_triangle_block.hpp) shears and rejects eight triangles for about the
 // instructions of one scalar test, and leaves of up to three blocks (a 20-triangle icosahedron stand-in
 // becomes one leaf, no traversal). Two-triangle billboards never reach it: they take trace()'s
-// world-triangles path (accel_scene.hpp). What these settings gained: docs/performance-log.md, "Block triangle
-// test and its build settings".
+// world-triangles path (accel_scene.hpp).
 inline constexpr BvhBuildSettings kMeshBuildSettings{SahCosts{1.0f, 1.0f / 8.0f}, 24};
 
 // Children per node of a mesh BLAS's wide tree (blas_wide_bvh.hpp), the one its rays walk.
@@ -72,6 +71,7 @@ public:
     // for walks of the binary tree, whose leaf callback is given the range).
     [[nodiscard]] std::uint32_t leaf_block(std::uint32_t first) const;
     [[nodiscard]] std::uint32_t primitive_id(std::uint32_t k) const { return bvh_.prim_indices[k]; }
+    // The triangles given, and those of them left out of the tree as degenerate (zero area: no ray hits them).
     [[nodiscard]] std::size_t input_triangle_count() const { return input_count_; }
     [[nodiscard]] std::size_t degenerate_count() const { return input_count_ - triangles_.size(); }
 

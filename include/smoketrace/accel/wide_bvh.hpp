@@ -2,10 +2,10 @@
 // A 4-wide BVH collapsed from a binary one: each node holds the boxes of up to four children side by side
 // (structure of arrays), so that one SSE pass tests all four against a ray. The top level keeps one
 // for the rays that collect every hit (trace.hpp, TlasWalk::all_hits): a light ray rising through the
-// smoke walks a deep TLAS, and in the binary tree every second step was a poorly predicted branch on
+// smoke walks a deep TLAS, and in a binary tree every second step is a poorly predicted branch on
 // which child comes first; four children per node halve the steps.
 //
-// The binary tree stays the master copy. It is built and refit as before (its SAH cost drives the
+// The binary tree stays the master copy. It is built and refit as a binary tree (its SAH cost drives the
 // rebuild policy, accel_scene.hpp); collapse() derives the wide tree from it after a build, and refit() copies
 // its boxes and masks over after a refit, through the binary node each child slot was made from.
 #include <smoketrace/geometry/aabb.hpp>

@@ -38,8 +38,7 @@ namespace smoketrace {
 // Lists shorter than this are rank-sorted, longer ones radix-sorted: where the two cost the same per item
 // with the AVX-512 rank sort (bench section "resolver", table "sort crossover"); past it the rank sort's
 // O(n^2) compares grow while the radix sort's cost per item keeps falling. Without AVX-512 the rank sort
-// compares fewer keys per instruction, so the crossover moves: re-measure there. Figures:
-// docs/performance-log.md, "Ray bundles, morning".
+// compares fewer keys per instruction, so the crossover moves: re-measure there.
 inline constexpr std::size_t kRadixSortMinItems = 256;
 // rank_sort() keeps the keys of its list on the stack: its longest list (beyond the crossover, so that
 // the benchmark can show where it loses).
@@ -49,8 +48,7 @@ static_assert(kRadixSortMinItems <= kRankSortMaxItems + 1);
 // The radix sort's digit width adapts to the list: the widest digit with at most this many histogram
 // buckets per item (so zeroing and scanning the histograms never outweighs scattering the items), then
 // narrowed as far as the same number of passes allows. Fewer buckets per item means too many passes on
-// short lists, fixed wide digits mean histograms larger than the list (bench "resolver", "sort crossover";
-// docs/performance-log.md, "Radix sort digit width").
+// short lists, fixed wide digits mean histograms larger than the list (bench "resolver", "sort crossover").
 inline constexpr std::size_t kRadixBucketsPerItem = 4;
 inline constexpr unsigned kRadixMinDigitBits = 4;   // below this the passes multiply for nothing
 inline constexpr unsigned kRadixMaxDigitBits = 11;  // 2048 buckets: 3 passes cover any 32-bit key

@@ -101,14 +101,5 @@ template <unsigned R>
     detail::bitonic_stages<R, 2>(v);
 }
 
-// bitonic_sort() of 8R keys in memory (64-byte aligned), in place.
-template <unsigned R>
-inline void bitonic_sort_keys(std::uint64_t* keys) {
-    __m512i v[R];
-    for (unsigned r = 0; r < R; ++r) v[r] = _mm512_load_si512(keys + kNetworkSortLanes * r);
-    bitonic_sort<R>(v);
-    for (unsigned r = 0; r < R; ++r) _mm512_store_si512(keys + kNetworkSortLanes * r, v[r]);
-}
-
 }  // namespace smoketrace
 #endif  // SMOKETRACE_SIMD_AVX512

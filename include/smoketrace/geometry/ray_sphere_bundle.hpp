@@ -57,7 +57,7 @@ inline void sphere_crossings_bundle(const RayBundle& b, unsigned lanes, const fl
     const Doubles zero = Doubles::broadcast(0.0);
     const Doubles infinity = Doubles::broadcast(std::numeric_limits<double>::infinity());
     // The groups of kDoubleLanes lanes with a ray to test, as a bit set walked in one loop: a test per
-    // group whether to skip it was a branch on data, mispredicted often enough to cost more than it saved.
+    // group whether to skip it is a branch on data, mispredicted often enough to cost more than it saves.
     constexpr unsigned kGroupBits = (1u << kDoubleLanes) - 1u;
     unsigned groups = 0;
     for (unsigned g = 0; g < kBundleWidth / kDoubleLanes; ++g)

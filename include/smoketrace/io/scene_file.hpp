@@ -43,8 +43,8 @@ inline constexpr std::uint64_t kMaxSceneFileBytes = std::uint64_t(1) << 32;
 // Scene coordinates (world coordinates, as the file gives them) and radii: far beyond any sensible scene,
 // yet small enough that nothing the pipeline derives in float overflows: squared distances between scene
 // points (camera normalisation, box areas; stored relative to the origin, within 2·10^15) stay below
-// ~10^32, against FLT_MAX ≈ 3.4·10^38. A particle at 10^38 used to end in "Scene: instance 0 has
-// a non-finite or empty world box", with no file or JSON path.
+// ~10^32, against FLT_MAX ≈ 3.4·10^38. Past it a particle would fail deep in the pipeline (a non-finite
+// world box) with no file or JSON path in the message.
 inline constexpr double kMaxSceneCoordinate = 1e15;
 // A default camera (no camera.position) frames the smoke from outside it, so it may stand beyond
 // kMaxSceneCoordinate: with the default view (45°, square image) every scene within the limits puts it
@@ -61,8 +61,8 @@ inline constexpr std::uint32_t kMaxSceneFrames = 1'000'000;
 // on most), and browsers play a frame of 10 ms or less for 100 ms, so more would play slower, not faster.
 inline constexpr std::uint32_t kMaxSceneFps = 60;
 // Colour components: the image clamps at 1, so 10^6 is far beyond any meaningful intensity, and products
-// of three colours summed over layers (c_base·(c_light + c_amb), front-to-back sums) stay finite; light and
-// ambient of 3·10^38 used to render infinite pixels, which the PNG writer then refused.
+// of three colours summed over layers (c_base·(c_light + c_amb), front-to-back sums) stay finite, where light
+// and ambient near FLT_MAX would render infinite pixels that the PNG writer refuses.
 inline constexpr double kMaxSceneColor = 1e6;
 
 // The most particles a scene may hold on this machine: kMaxSceneParticles, or machine_memory_bytes() /

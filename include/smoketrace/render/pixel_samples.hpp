@@ -11,17 +11,14 @@
 // No random jitter: the pattern is a fixed function of n, so an image has no noise and is the same bytes
 // on every run and for any thread count. The price is the same pattern in every pixel, which can alias
 // against detail as fine as the sample spacing; smoke is soft and the scene's edges are straight.
+#include <smoketrace/smoke/scene_description.hpp>
+
 #include <glm/vec2.hpp>
 
 #include <array>
 #include <cstddef>
 
 namespace smoketrace {
-
-// The most samples per pixel (render.spp, --spp). 64 covers an edge in steps of 1/64 of a pixel, already
-// fine for an 8-bit image; each sample costs a full pixel's rays, so the bound also keeps a typo (640) from
-// making a render hundreds of times slower.
-inline constexpr int kMaxSpp = 64;
 
 // Sample i of n (0 <= i < n, 1 <= n <= kMaxSpp) as an offset from the pixel's top-left corner, y down as in
 // the image, in [0, 1)². n = 1 gives (0.5, 0.5) exactly. Throws std::invalid_argument outside those ranges.

@@ -93,18 +93,10 @@ void sort_hits_by_t(std::span<SurfaceHit> hits, std::span<SurfaceHit> scratch, H
 // given one particle's hits sorted by t. The counter starts at -sum(values) (eq. 3.1: the number of
 // particles covering the ray origin); the ray is in smoke while the counter is > 0; gaps between separate
 // clouds are not counted. Hits with equal t act together, so their order within a tie does not matter.
-// With AVX-512 the walk runs eight hits per instruction, without a branch on the hits
-// (hit_resolver_avx512.hpp), and gives the bits of detail::optical_path_length_scalar().
+// The walk is detail::walk_sorted_hits() (hit_walk.hpp), with AVX-512 eight hits per instruction.
 [[nodiscard]] double optical_path_length(std::span<const SurfaceHit> sorted_hits);
 
 namespace detail {
-// The walk's running sums: gap i goes into sum i mod kWalkLanes (hit_resolver.cpp), one per lane of the
-// AVX-512 walk.
-inline constexpr std::size_t kWalkLanes = 8;
-
-// optical_path_length() one hit at a time: the definition the AVX-512 walk is tested against.
-[[nodiscard]] double optical_path_length_scalar(std::span<const SurfaceHit> sorted_hits);
-
 // What HitSort::adaptive's sorting network (hit_resolver_avx512.hpp) does to a list, one comparison at a
 // time: sorts it by the 64-bit key float_sort_key(t) · 2^32 + the value's bits, so ascending t, and
 // hits of equal t by their values' bits as unsigned. The definition the network is tested against.

@@ -1,14 +1,14 @@
 #pragma once
 // The hit resolver's AVX-512 kernels (hit_resolver.cpp): the sorting network for one particle's hits, the
-// walk eight hits at a time, and both at once in registers for a list of packed hits. None maps onto the
-// lanes types (core/simd/lanes.hpp): the network lives on lane shuffles and masked min / max
-// (core/sorting_network_avx512.hpp), the walk on masked loads, a prefix sum across lanes and 64-bit integer
-// lanes. Each gives its scalar definition's bits (hit_resolver.hpp: detail::network_sort_hits_scalar,
-// detail::optical_path_length_scalar; for packed hits, the unpacked list's), which tests/test_hit_resolver.cpp
-// checks.
+// lanes of the walk (hit_walk.hpp) eight hits per register, and both at once in registers for a list of
+// packed hits. Neither maps onto the lanes types (core/simd/lanes.hpp): the network lives on lane shuffles
+// and masked min / max (core/sorting_network_avx512.hpp), the walk on a prefix sum across lanes and 64-bit
+// integer lanes. Each gives its scalar definition's bits (detail::network_sort_hits_scalar, the walk on
+// ScalarWalkLanes; for packed hits, the unpacked list's), which tests/test_hit_resolver.cpp checks.
 #include <smoketrace/core/simd/isa.hpp>
 #include <smoketrace/core/sorting_network_avx512.hpp>
 #include <smoketrace/smoke/hit_resolver.hpp>
+#include <smoketrace/smoke/hit_walk.hpp>
 
 #include <bit>
 #include <cstddef>
@@ -77,50 +77,115 @@ static void network_sort_hits_avx512(std::span<SurfaceHit> hits) {
     return network_sort_hits_avx512<16>(hits);
 }
 
-// One register of eq. 3.1's walk, shared by the walk from memory and the walk of packed hits in registers:
-// lane i holds hit i's value (+1 entering, −1 leaving) and the times t of hit i and hit i + 1. The counter
-// after each lane's hit is `counter` (before the register's first hit) plus an inclusive prefix sum of the
-// values across the lanes (shifted by 1, 2 and 4); lane i adds gap i to its running sum where that counter
-// is > 0 and `gaps` has its bit (a gap exists up to hit n − 2). Returns the counter after the last lane.
-static inline __m512i walk_register_avx512(__m512i values, __m512d t, __m512d t_next, __mmask8 gaps, __m512i counter,
-                                           __m512d& sums) {
-    constexpr __mmask8 kEveryLane = 0xFF;
-    const __m512i zero = _mm512_setzero_si512();
-    __m512i s = values;
-    s = _mm512_add_epi64(s, _mm512_maskz_alignr_epi64(kEveryLane, s, zero, kWalkLanes - 1));
-    s = _mm512_add_epi64(s, _mm512_maskz_alignr_epi64(kEveryLane, s, zero, kWalkLanes - 2));
-    s = _mm512_add_epi64(s, _mm512_maskz_alignr_epi64(kEveryLane, s, zero, kWalkLanes - 4));
-    const __m512i after = _mm512_add_epi64(counter, s);
-    const __mmask8 in_smoke = _mm512_mask_cmpgt_epi64_mask(gaps, after, zero);
-    sums = _mm512_mask_add_pd(sums, in_smoke, sums, _mm512_sub_pd(t_next, t));
-    return _mm512_maskz_permutexvar_epi64(kEveryLane, _mm512_set1_epi64(kWalkLanes - 1), after);
-}
+// walk_sorted_hits()'s lanes (hit_walk.hpp) in one 512-bit register each: the counters of eight hits at once
+// from a prefix sum of their values across the lanes (shifted by 1, 2 and 4), the in-smoke gaps added by
+// masked adds, the sums reduced in ScalarWalkLanes' order. No branch on the hits.
+struct Avx512WalkLanes {
+    using Ints = __m512i;
+    using Doubles = __m512d;
+    using Mask = __mmask8;
+    static constexpr __mmask8 kEveryLane = 0xFF;
 
-// The walk's kWalkLanes sums added as sum_lanes() of hit_resolver.cpp does: the halves, then the quarters,
-// then the two left.
-static inline double sum_lanes_avx512(__m512d sums) {
-    const __m256d q =
-        _mm256_add_pd(_mm512_maskz_extractf64x4_pd(0xF, sums, 0), _mm512_maskz_extractf64x4_pd(0xF, sums, 1));
-    const __m128d p = _mm_add_pd(_mm256_castpd256_pd128(q), _mm256_extractf128_pd(q, 1));
-    return _mm_cvtsd_f64(_mm_add_sd(p, _mm_unpackhi_pd(p, p)));
-}
+    static Mask first_lanes(std::ptrdiff_t count) {  // the first min(count, 8) lanes; none for count <= 0
+        return __mmask8(count >= std::ptrdiff_t(kWalkLanes) ? 0xFFu : count <= 0 ? 0u : (1u << count) - 1u);
+    }
+    static Ints splat(std::int64_t x) { return _mm512_set1_epi64(x); }
+    static Ints add(Ints a, Ints b) { return _mm512_add_epi64(a, b); }
+    static Ints inclusive_prefix_sum(Ints s) {
+        const __m512i zero = _mm512_setzero_si512();
+        s = _mm512_add_epi64(s, _mm512_maskz_alignr_epi64(kEveryLane, s, zero, kWalkLanes - 1));
+        s = _mm512_add_epi64(s, _mm512_maskz_alignr_epi64(kEveryLane, s, zero, kWalkLanes - 2));
+        return _mm512_add_epi64(s, _mm512_maskz_alignr_epi64(kEveryLane, s, zero, kWalkLanes - 4));
+    }
+    static Ints broadcast_last(Ints v) {
+        return _mm512_maskz_permutexvar_epi64(kEveryLane, _mm512_set1_epi64(kWalkLanes - 1), v);
+    }
+    static Mask positive(Ints v, Mask m) { return _mm512_mask_cmpgt_epi64_mask(m, v, _mm512_setzero_si512()); }
+    static Doubles zero() { return _mm512_setzero_pd(); }
+    static Doubles with_first(Doubles s, double x) { return _mm512_mask_mov_pd(s, 1, _mm512_set1_pd(x)); }
+    static Doubles add_gaps(Doubles sums, Mask m, Doubles t, Doubles t_next) {
+        return _mm512_mask_add_pd(sums, m, sums, _mm512_sub_pd(t_next, t));
+    }
+    static std::int64_t sum(Ints v) {
+        const __m256i q = _mm256_add_epi64(_mm512_maskz_extracti64x4_epi64(0xF, v, 0),
+                                           _mm512_maskz_extracti64x4_epi64(0xF, v, 1));
+        const __m128i p = _mm_add_epi64(_mm256_castsi256_si128(q), _mm256_extracti128_si256(q, 1));
+        return _mm_cvtsi128_si64(p) + _mm_extract_epi64(p, 1);
+    }
+    static double sum(Doubles s) {  // the halves, then the quarters, then the two left
+        const __m256d q =
+            _mm256_add_pd(_mm512_maskz_extractf64x4_pd(0xF, s, 0), _mm512_maskz_extractf64x4_pd(0xF, s, 1));
+        const __m128d p = _mm_add_pd(_mm256_castpd256_pd128(q), _mm256_extractf128_pd(q, 1));
+        return _mm_cvtsd_f64(_mm_add_sd(p, _mm_unpackhi_pd(p, p)));
+    }
+    static ScalarWalkLanes::Ints ints(Ints v) {
+        ScalarWalkLanes::Ints r;
+        _mm512_storeu_si512(r.data(), v);
+        return r;
+    }
+    static std::uint32_t bits(Mask m) { return m; }
+    static Doubles t_of_low_halves(Ints h) {  // floats in the low halves, widened to double
+        return _mm512_maskz_cvtps_pd(kEveryLane, _mm256_castsi256_ps(_mm512_maskz_cvtepi64_epi32(kEveryLane, h)));
+    }
+
+    // A sorted list in memory: lane i of block b holds hit 8b + i as loaded (t in the low half, the value
+    // in the high half); masked loads leave lanes past the list 0.
+    struct SortedHits {
+        static constexpr unsigned kMaxBlocks = 0;  // any length
+        std::span<const SurfaceHit> hits;
+        [[nodiscard]] std::size_t size() const { return hits.size(); }
+        [[nodiscard]] double first_t() const { return static_cast<double>(hits[0].t); }
+        [[nodiscard]] __m512i load(std::size_t first) const {
+            return _mm512_maskz_loadu_epi64(first_lanes(std::ptrdiff_t(hits.size()) - std::ptrdiff_t(first)),
+                                            hits.data() + first);
+        }
+        [[nodiscard]] Ints values(std::size_t b) const {
+            return _mm512_maskz_srai_epi64(kEveryLane, load(b * kWalkLanes), 32);
+        }
+        [[nodiscard]] Doubles t(std::size_t b) const { return t_of_low_halves(load(b * kWalkLanes)); }
+        [[nodiscard]] Doubles t_next(std::size_t b) const { return t_of_low_halves(load(b * kWalkLanes + 1)); }
+    };
+};
+
+// R registers of sorted keys (resolve_packed_hits_avx512() below) as walk_sorted_hits()'s hits: the count
+// hits first, then the padding, which the walk sees with value 0.
+template <unsigned R>
+struct SortedKeysAvx512 {
+    using L = Avx512WalkLanes;
+    static constexpr unsigned kMaxBlocks = R;
+    const __m512i* v;
+    std::ptrdiff_t count;
+    [[nodiscard]] std::size_t size() const { return std::size_t(count); }
+    [[nodiscard]] static __m512d t_of(__m512i k) {  // t's bits, as floats widened to double
+        return L::t_of_low_halves(_mm512_maskz_srli_epi64(L::kEveryLane, k, 1));
+    }
+    [[nodiscard]] double first_t() const { return _mm512_cvtsd_f64(t_of(v[0])); }
+    [[nodiscard]] __m512i values(std::size_t b) const {  // +1 entering, −1 leaving
+        const __m512i one = _mm512_set1_epi64(1);
+        return _mm512_maskz_sub_epi64(L::first_lanes(count - std::ptrdiff_t(kWalkLanes * b)), one,
+                                      _mm512_maskz_slli_epi64(L::kEveryLane, _mm512_and_si512(v[b], one), 1));
+    }
+    [[nodiscard]] __m512d t(std::size_t b) const { return t_of(v[b]); }
+    [[nodiscard]] __m512d t_next(std::size_t b) const {  // hit i + 1 in lane i
+        const __m512i after = b + 1 < R ? v[b + 1] : _mm512_set1_epi64(-1);
+        return t_of(_mm512_maskz_alignr_epi64(L::kEveryLane, after, v[b], 1));
+    }
+};
 
 // A list of at most kNetworkSortMaxHits packed hits (hit_resolver.hpp), sorted and walked without leaving the
-// registers: the bits of network_sort_hits_avx512() and optical_path_length_avx512() on the unpacked
-// list. Each key is a hit's packed bits rotated left by one (t above the leaving flag), zero-extended;
-// its next hit comes from the registers (valignq) rather than from a load at one hit's offset, which would
-// straddle two stores of the sort and wait for them, and for every store before them, to reach the cache.
+// registers: the bits of network_sort_hits_avx512() and the walk on the unpacked list. Each key is a hit's
+// packed bits rotated left by one (t above the leaving flag), zero-extended; its next hit comes from the
+// registers (valignq) rather than from a load at one hit's offset, which would straddle two stores of the
+// sort and wait for them, and for every store before them, to reach the cache. Inlined into the dispatcher
+// below: most lists fit one or two registers, and out of line each would pay a call around a short walk.
 template <unsigned R>
-static double resolve_packed_hits_avx512(const PackedSurfaceHit* packed, std::size_t n) {
+[[gnu::always_inline]] static inline double resolve_packed_hits_avx512(const PackedSurfaceHit* packed, std::size_t n) {
     static_assert(kWalkLanes == kNetworkSortLanes, "one register of keys is one register of the walk");
     static_assert(sizeof(PackedSurfaceHit) == sizeof(std::uint32_t));
-    auto lanes_below = [](std::ptrdiff_t count) {  // the first min(count, 8) lanes; none for count <= 0
-        return __mmask8(count >= std::ptrdiff_t(kWalkLanes) ? 0xFFu : count <= 0 ? 0u : (1u << count) - 1u);
-    };
+    using L = Avx512WalkLanes;
     const std::ptrdiff_t count = std::ptrdiff_t(n);
     const unsigned used = unsigned((n + kNetworkSortLanes - 1) / kNetworkSortLanes);
     const __m512i all_ones = _mm512_set1_epi64(-1);  // padding: after every key
-    const __m512i one = _mm512_set1_epi64(1);
     __m512i v[R];
 #pragma GCC unroll 16
     for (unsigned r = 0; r < R; ++r) {
@@ -128,44 +193,14 @@ static double resolve_packed_hits_avx512(const PackedSurfaceHit* packed, std::si
             v[r] = all_ones;
             continue;
         }
-        const __mmask8 lanes = lanes_below(count - std::ptrdiff_t(kNetworkSortLanes * r));
+        const __mmask8 lanes = L::first_lanes(count - std::ptrdiff_t(kNetworkSortLanes * r));
         const __m512i bits = _mm512_maskz_loadu_epi32(__mmask16(lanes), packed + kNetworkSortLanes * r);
         const __m512i keys = _mm512_maskz_rol_epi32(__mmask16(lanes), bits, 1);
         v[r] = _mm512_mask_cvtepu32_epi64(all_ones, lanes, _mm512_maskz_extracti64x4_epi64(0xF, keys, 0));
     }
     bitonic_sort<R>(v);
 
-    // The sorted keys hold the n hits first, then the padding.
-    constexpr __mmask8 kEveryLane = 0xFF;
-    auto values_of = [&](__m512i k) {  // +1 entering, −1 leaving
-        return _mm512_sub_epi64(one, _mm512_maskz_slli_epi64(kEveryLane, _mm512_and_si512(k, one), 1));
-    };
-    auto t_of = [&](__m512i k) {  // t's bits, as floats widened to double
-        const __m512i t_bits = _mm512_maskz_srli_epi64(kEveryLane, k, 1);
-        return _mm512_maskz_cvtps_pd(kEveryLane, _mm256_castsi256_ps(_mm512_maskz_cvtepi64_epi32(kEveryLane, t_bits)));
-    };
-    std::int64_t leaving = 0;  // eq. 3.1: counter_start = −sum of hit values = leaving − entering
-#pragma GCC unroll 16
-    for (unsigned r = 0; r < R; ++r) {
-        if (r >= used) break;
-        const __mmask8 lanes = lanes_below(count - std::ptrdiff_t(kNetworkSortLanes * r));
-        leaving += std::popcount(unsigned(_mm512_mask_test_epi64_mask(lanes, v[r], one)));
-    }
-    const std::int64_t counter_start = 2 * leaving - count;
-
-    __m512d sums = _mm512_setzero_pd();
-    if (counter_start > 0) sums = _mm512_mask_mov_pd(sums, 1, t_of(v[0]));  // in smoke from the origin
-    __m512i counter = _mm512_set1_epi64(counter_start);  // before the register's first hit
-#pragma GCC unroll 16
-    for (unsigned r = 0; r < R; ++r) {
-        if (r >= used) break;
-        const __m512i h = v[r];
-        // Hit i + 1 in lane i.
-        const __m512i next = _mm512_maskz_alignr_epi64(kEveryLane, r + 1 < R ? v[r + 1] : all_ones, h, 1);
-        counter = walk_register_avx512(values_of(h), t_of(h), t_of(next),
-                                       lanes_below(count - std::ptrdiff_t(kNetworkSortLanes * r) - 1), counter, sums);
-    }
-    return sum_lanes_avx512(sums);
+    return walk_sorted_hits<L>(SortedKeysAvx512<R>{v, count});
 }
 
 // resolve_packed_hits_avx512<R> with the smallest network that holds the list (at most kNetworkSortMaxHits).
@@ -179,43 +214,14 @@ static double resolve_packed_hits_avx512(const PackedSurfaceHit* packed, std::si
     return resolve_packed_hits_avx512<16>(hits.data(), hits.size());
 }
 
-// optical_path_length() eight hits at a time: each lane i of a register holds hit 8c + i as loaded (t in
-// the low half, the value in the high half), the counters come from a prefix sum of the values across
-// the lanes, and lane i adds gap 8c + i to its running sum i where its counter is > 0: the kWalkLanes sums
-// of optical_path_length_scalar(), reduced in its order. No branch on the hits.
-[[maybe_unused]] static double optical_path_length_avx512(std::span<const SurfaceHit> sorted_hits) {
-    static_assert(kWalkLanes == 8, "one 512-bit register of hits");
-    constexpr __mmask8 kEveryLane = 0xFF;
-    const std::size_t n = sorted_hits.size();
-    if (n == 0) return 0.0;
-    const SurfaceHit* hits = sorted_hits.data();
-    auto lanes_below = [](std::size_t count) {  // the first min(count, 8) lanes
-        return __mmask8(count >= kWalkLanes ? 0xFFu : (1u << count) - 1u);
-    };
-    const __m512i zero = _mm512_setzero_si512();
-    auto values_of = [&](__m512i h) { return _mm512_maskz_srai_epi64(kEveryLane, h, 32); };
-    auto t_of = [&](__m512i h) {  // the low halves, as floats widened to double
-        return _mm512_maskz_cvtps_pd(kEveryLane, _mm256_castsi256_ps(_mm512_maskz_cvtepi64_epi32(kEveryLane, h)));
-    };
-
-    __m512i total = zero;  // eq. 3.1: counter_start = -sum of hit values
-    for (std::size_t c = 0; c < n; c += kWalkLanes)
-        total = _mm512_add_epi64(total, values_of(_mm512_maskz_loadu_epi64(lanes_below(n - c), hits + c)));
-    alignas(64) std::int64_t lane_totals[kWalkLanes];
-    _mm512_store_si512(lane_totals, total);
-    std::int64_t counter_start = 0;
-    for (const std::int64_t t : lane_totals) counter_start -= t;
-
-    __m512d sums = _mm512_setzero_pd();
-    if (counter_start > 0) sums = _mm512_mask_mov_pd(sums, 1, _mm512_set1_pd(static_cast<double>(hits[0].t)));
-    __m512i counter = _mm512_set1_epi64(counter_start);  // before the register's first hit
-    for (std::size_t c = 0; c < n; c += kWalkLanes) {
-        const __m512i h = _mm512_maskz_loadu_epi64(lanes_below(n - c), hits + c);
-        const __m512i next = _mm512_maskz_loadu_epi64(lanes_below(n - c - 1), hits + c + 1);
-        counter = walk_register_avx512(values_of(h), t_of(h), t_of(next), lanes_below(n - c - 1), counter, sums);
-    }
-    return sum_lanes_avx512(sums);
-}
-
 }  // namespace smoketrace::detail
 #endif  // SMOKETRACE_SIMD_AVX512
+
+namespace smoketrace::detail {
+// The lanes the resolver walks with, and explain's story with it.
+#if defined(SMOKETRACE_SIMD_AVX512)
+using FastWalkLanes = Avx512WalkLanes;
+#else
+using FastWalkLanes = ScalarWalkLanes;
+#endif
+}  // namespace smoketrace::detail

@@ -158,9 +158,9 @@ private:
         // The hits of this thread's ok rays, packed (PackedSurfaceHit: 18 per ray at 10^6 particles without a
         // cutoff, most of the pass's memory), ray after ray, in blocks of fixed capacity (a ray with more
         // hits than a block gets a block of its own size): a ray's hits stay contiguous and never move, and
-        // the memory is what the hits need, where one growing vector held up to twice that and copied it
-        // at every doubling. The blocks are kept, emptied, for the next trace().
-        // Grown unwritten (UnwrittenAllocator): keep() writes each hit, where zeroing it first was a second
+        // the memory is what the hits need, where one growing vector would hold up to twice that and copy
+        // it at every doubling. The blocks are kept, emptied, for the next trace().
+        // Grown unwritten (UnwrittenAllocator): keep() writes each hit, so zeroing it first would be a second
         // pass over the pass's largest memory.
         std::vector<std::vector<PackedSurfaceHit, UnwrittenAllocator<PackedSurfaceHit>>> blocks;
         std::size_t block = 0;  // the block being filled
@@ -182,8 +182,8 @@ private:
     // needs TBB. Reached once per task (its local()), never per ray; moving the pass keeps it where it is.
     struct ThreadScratch;
     std::unique_ptr<ThreadScratch> scratch_;
-    // The arrays per ray below grow unwritten: trace() writes every element (at 10^7 particles their
-    // zeroing was a serial pass over fresh pages).
+    // The arrays per ray below grow unwritten: trace() writes every element (at 10^7 particles zeroing
+    // them would be a serial pass over fresh pages).
     std::vector<glm::vec3, UnwrittenAllocator<glm::vec3>> origins_;  // the rays' origins, in the order of `which`
     std::vector<std::uint32_t> ray_order_;  // bundle_order() of origins_
     BundleOrderScratch order_scratch_;

@@ -2,10 +2,10 @@
 // One particle's optical-depth ray told step by step, for people learning the method (smoketrace explain
 // --particle, docs/explain.md): the ray of the optical-depth pass (4.3.2) traced once more with trace() and
 // an any-hit callback that stores what the pass's callback stores and also records who it came from, then
-// the pass's own outcome (optical_depth_outcome) and the resolver's own sort and walk (ListResolver, eq.
-// 3.1). Nothing of the method is done a second time: l is the resolver's, bit for bit what the pass gives
-// the same particle (tests/test_explain.cpp). The counter after each hit and the in-smoke stretches are
-// the walk written out for reading; the length that counts is `length`.
+// the pass's own outcome (optical_depth_outcome), the resolver's own sort (sort_hits_by_t) and its own walk
+// (detail::walk_sorted_hits, eq. 3.1, hit_walk.hpp), which reports each step to the story. Nothing of the
+// method is done a second time: l is the resolver's, bit for bit what the pass gives the same particle
+// (tests/test_explain.cpp); the counter after each hit and the in-smoke stretches are the walk's steps.
 //
 // Under a smooth density kernel (settings.kernel, density_kernel.hpp) the pass sorts nothing: each exit adds
 // its particle's closed-form share, in the order the walk met them, and the story records each candidate's

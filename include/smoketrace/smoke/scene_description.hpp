@@ -55,6 +55,18 @@ struct CameraDescription {
     std::uint32_t height = 512;
 };
 
+// Throws std::invalid_argument ("camera: …") unless a pinhole camera can be set up from these: an image of at
+// least 1x1, fov_deg in (0, 180), look_at apart from position, and up at least 1e-6 (as a sine) off the view
+// direction, in double. The checks of render's Camera, which calls this: the scene reader calls it too, so
+// that a scene that reads fine also renders.
+void validate_camera(const glm::vec3& position, const glm::vec3& look_at, const glm::vec3& up, float fov_deg,
+                     int width, int height);
+
+// The most samples per pixel (render.spp, --spp). 64 covers an edge in steps of 1/64 of a pixel, already
+// fine for an 8-bit image; each sample costs a full pixel's rays, so the bound also keeps a typo (640) from
+// making a render hundreds of times slower.
+inline constexpr int kMaxSpp = 64;
+
 enum class RenderMode : std::uint8_t { basic, simple_shadow, full };
 enum class Compositing : std::uint8_t { over, thesis };
 
@@ -66,7 +78,7 @@ struct RenderSettings {
     float softness = 0.3f;
     float transmittance_threshold = 1.0f / 255.0f;
     Compositing compositing = Compositing::over;
-    std::uint32_t spp = 1;  // samples per pixel, 1…kMaxSpp (pixel_samples.hpp); 1 = the pixel's centre
+    std::uint32_t spp = 1;  // samples per pixel, 1…kMaxSpp (render/pixel_samples.hpp); 1 = the pixel's centre
     std::uint32_t fps = 24;  // frames per second of an animated PNG of the sequence (the film rate)
 };
 

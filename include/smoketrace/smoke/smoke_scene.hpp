@@ -48,7 +48,6 @@ public:
 
     // Instance layout: stand-ins are instances [0, n), billboards [n, 2n), the ground last. An
     // instance's user id is its particle index (the ground's is kGroundUserId).
-    [[nodiscard]] bool is_stand_in(std::uint32_t instance) const { return instance < count_; }
     [[nodiscard]] bool is_billboard(std::uint32_t instance) const {
         return billboards_ && instance >= count_ && instance < 2 * count_;
     }

@@ -115,7 +115,7 @@ public:
     // when the sphere was tested. An exit is checked again against tmax, which its entry may have lowered
     // by a commit (the ray's only change between the test and the exit). Returns true when the search has
     // ended. Two passes over the lanes, rather than both sides lane by lane, leave no branch on which
-    // sides a lane crosses: as data that branch was the pass's most mispredicted after the walk's.
+    // sides a lane crosses: a branch on that data mispredicts more than any in the pass but the walk's.
     [[gnu::always_inline]] bool report_sphere_entry(std::uint32_t index, const InstanceRecord& inst, bool opaque,
                                                     float t_enter) {
         return report_sphere_side(index, inst, opaque, t_enter, 0);

@@ -58,7 +58,7 @@ namespace smoketrace {
 // way; what differs is the order any-hit sees candidates in, the counters and the speed. A template
 // argument, not a field of TraceLimits: a call site then holds one traversal loop, with the instance
 // visit and the sphere test inlined into it; behind a run-time choice of two loops the compiler inlines
-// neither (docs/performance-log.md, "The TLAS walk as a template argument").
+// neither.
 enum class TlasWalk : std::uint8_t {
     // The binary TLAS, strictly near to far: the nearer child first at every node. For rays that stop
     // early or shrink tmax (closest hit, shadow rays, the compositor's layers with early termination).

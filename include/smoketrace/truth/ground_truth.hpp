@@ -45,7 +45,7 @@ struct TruthSettings {
     float step_voxels = 2.0f;
     // The light volume's node spacing, in voxels of the smallest puff. Exact light rays mop up where its
     // interpolation is not good enough, so this trades the volume's build against the rays taken; 2 voxels
-    // was the fastest at 256² on the shipped scenes (docs/ground-truth.md).
+    // is the fastest at 256² on the shipped scenes (docs/ground-truth.md).
     float light_spacing_voxels = 2.0f;
     // The ladder's own light volumes (render_ladder(): one per puff, its density alone): their node spacing in
     // voxels of the puff.
