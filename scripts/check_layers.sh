@@ -15,9 +15,10 @@ rank() { local i; for i in "${!layers[@]}"; do [ "${layers[$i]}" = "$1" ] && { e
 textbook_allowed=(core/image.hpp core/prng.hpp
   geometry/aabb.hpp geometry/ray.hpp geometry/ray_sphere.hpp geometry/ray_triangle.hpp
   accel/accel_scene.hpp accel/bvh.hpp accel/instance.hpp accel/sphere_set.hpp accel/triangle_mesh.hpp
+  accel/trace_types.hpp accel/any_hit.hpp
   smoke/particle_system.hpp smoke/scene_description.hpp smoke/density_kernel.hpp smoke/stand_in_shapes.hpp
-  smoke/smoke_scene.hpp smoke/particle_groups.hpp smoke/optical_path_lengths.hpp
-  render/camera.hpp render/sixway_texture.hpp)
+  smoke/smoke_scene.hpp smoke/particle_groups.hpp smoke/light_ray.hpp
+  render/camera.hpp render/pixel_samples.hpp render/sixway_texture.hpp)
 # What io may include of render/: the six-way texture data it reads and writes.
 io_render_allowed=(render/sixway_texture.hpp render/sixway_baker.hpp)
 listed() { local want="$1" x; shift; for x in "$@"; do [ "$x" = "$want" ] && return 0; done; return 1; }

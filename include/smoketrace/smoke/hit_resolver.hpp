@@ -5,6 +5,8 @@
 // The hit resolver: thesis 4.3.3 "compute pass". Turns each particle's optical-depth ray hits (collected in
 // any order by the any-hit callback, thesis 4.3.2) into the optical path length through smoke toward the
 // light (thesis 3.1, eq. 3.1).
+#include <smoketrace/smoke/light_ray.hpp>
+
 #include <array>
 #include <bit>
 #include <cstddef>
@@ -38,14 +40,6 @@ inline constexpr std::uint32_t kPackedLeavingBit = 0x80000000u;
 [[nodiscard]] inline SurfaceHit unpack_surface_hit(PackedSurfaceHit p) {
     return SurfaceHit{std::bit_cast<float>(p.bits & ~kPackedLeavingBit), (p.bits & kPackedLeavingBit) != 0 ? -1 : +1};
 }
-
-// What the optical-depth ray of a particle found: hits to resolve (ok), something opaque between the
-// particle and the light (occluded), or more hits than the cutoff allows (cutoff, thesis 4.4.3).
-enum class DepthStatus : std::uint8_t { ok, occluded, cutoff };
-
-// The optical path length of a particle that is occluded or over the cutoff: "fully dark" (thesis 4.3.3
-// stores "a very high value"). +infinity makes exp(-l * sigma_t) exactly 0 for any sigma_t > 0.
-inline constexpr float kFullyDarkPathLength = std::numeric_limits<float>::infinity();
 
 // Every particle's hits in one flat buffer: particle i owns hits[offsets[i], offsets[i+1]).
 // Variable-length lists: the cutoff is a quality knob, not a memory layout (method.md, thesis 6.1).

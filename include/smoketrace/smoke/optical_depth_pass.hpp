@@ -39,6 +39,7 @@
 #include <smoketrace/core/work_progress.hpp>
 #include <smoketrace/smoke/density_kernel.hpp>
 #include <smoketrace/smoke/hit_resolver.hpp>
+#include <smoketrace/smoke/light_ray.hpp>
 #include <smoketrace/smoke/kernel_bundle_sums.hpp>
 #include <smoketrace/geometry/ray_bundle.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>
@@ -52,20 +53,6 @@
 #include <vector>
 
 namespace smoketrace {
-
-// TMin of an optical-depth ray, relative to its particle's radius r. The ray starts at the centre, inside its
-// own stand-in. tmin > 0 so that a surface the centre lies on (the ground under a particle resting on it,
-// another stand-in through the centre) is not crossed at t = 0. And tmin may be any fraction of r below
-// the own exit (>= the inradius, 0.79·r for the icosahedron) without changing l: the ray is in smoke over
-// [0, own exit) whatever it meets there, so a surface in [0, tmin) changes only the hit count, and a ground
-// within tmin of the centre does not occlude. The thesis's absolute 1e-7 dropped the own exit of every
-// particle smaller than that (l = 0, no hits); a fraction of r behaves the same at every scale.
-// 2^-22: a power of two, so scaling a scene by 2^k scales every tmin exactly; near the thesis's 1e-7 at the
-// default particle radius 0.35 (8.3e-8); and > 0 even for kMinParticleRadius (2^-126 · 2^-22 = 2^-148).
-inline constexpr float kOpticalDepthTminPerRadius = 0x1.0p-22f;
-[[nodiscard]] constexpr float optical_depth_tmin(float radius) { return kOpticalDepthTminPerRadius * radius; }
-// TMax of the thesis's optical-depth rays: effectively unbounded, yet finite.
-inline constexpr float kOpticalDepthTmax = 1e38f;
 
 // Hits per block of a thread's kept hits (OpticalDepthPass): 1 MiB of packed hits, so that the slack of a
 // thread's last block is small next to the hits of a large pass, and a block holds tens of thousands of rays.

@@ -5,7 +5,7 @@
 // path length l, or, for a smooth density kernel, the particles met are integrated in closed form and summed.
 // ../shared/docs/method.md, 3.1 and 4.3.
 #include <smoketrace/smoke/density_kernel.hpp>
-#include <smoketrace/smoke/optical_path_lengths.hpp>  // also DepthStatus, optical_depth_tmin() and the like
+#include <smoketrace/smoke/light_ray.hpp>
 #include <smoketrace/smoke/particle_system.hpp>
 #include <smoketrace/smoke/smoke_scene.hpp>
 
@@ -23,7 +23,7 @@ struct Crossing { float t = 0.0f; int step = 0; std::uint32_t particle = 0; };
 // particle, given every crossing of the ray sorted by t. In double.
 [[nodiscard]] double length_in_smoke(std::span<const Crossing> sorted);
 
-// For particle which[k], [k]: its status (optical_depth_pass.hpp: ok; occluded, the opaque ground on the ray,
+// For particle which[k], [k]: its status (light_ray.hpp: ok; occluded, the opaque ground on the ray,
 // with the crossings in front of it counted; cutoff, more than K crossings, counted K + 1), its crossings and l
 // (kFullyDarkPathLength unless ok): the arrays OpticalPathLengths gives, for the same CSV.
 struct OpticalDepths {
