@@ -187,7 +187,8 @@ TEST_CASE("textbook optical depth: the resolver's walk is eq. 3.1 as length_in_s
         const int particles = 1 + int(rng.below(150));
         const bool ties = list % 3 == 0;
         for (int p = 0; p < particles; ++p) {
-            float a = rng.uniform(-2.0f, 40.0f), b = a + rng.uniform(0.01f, 3.0f);
+            // Every exit ahead of the origin (the resolver's precondition: hits at t >= 0).
+            float a = rng.uniform(-2.0f, 40.0f), b = std::max(a, 0.0f) + rng.uniform(0.01f, 3.0f);
             if (ties) a = std::round(a * 8.0f) / 8.0f, b = std::max(a, 0.0f) + 0.125f * float(1 + rng.below(20));
             if (a > 0.0f) hits.push_back({a, +1});
             hits.push_back({b, -1});
