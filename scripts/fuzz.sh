@@ -21,7 +21,7 @@ command -v "$cxx" >/dev/null || { echo "fuzz: $cxx not found (Debian: apt-get in
 
 cmake -S "$root" -B "$build" -DCMAKE_CXX_COMPILER="$cxx" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1" -DSMOKETRACE_FUZZ=ON -DSMOKETRACE_SANITIZE=address,undefined \
-  -DSMOKETRACE_NATIVE=OFF -DSMOKETRACE_TESTS=OFF -DSMOKETRACE_BENCH=OFF >/dev/null
+  -DSMOKETRACE_NATIVE=OFF -DSMOKETRACE_DISPATCH=OFF -DSMOKETRACE_TESTS=OFF -DSMOKETRACE_BENCH=OFF >/dev/null
 cmake --build "$build" --parallel "$jobs" --target fuzz_scene_file fuzz_ply_points fuzz_png_texture
 
 mkdir -p "$build/artifacts"

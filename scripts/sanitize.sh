@@ -4,7 +4,9 @@
 #     comparisons) in build-asan/;
 #  2. ThreadSanitizer over the tests of the parallel passes (optical-depth pass, resolver, view compositor,
 #     BVH and TLAS builds, six-way bake, the ground truth, the stress suite) in build-tsan/.
-# Both trees: no -march=native, no benchmark, -O1 -g1 with assertions on (-g1: the line tables a report's stack
+# Both trees: one kernel level each (no run-time dispatch, SMOKETRACE_DISPATCH=OFF: the level copies would
+# double the kernels' compile time for code the tree already compiles once), no benchmark, -O1 -g1 with
+# assertions on (-g1: the line tables a report's stack
 # trace needs; full -g's variable tracking made one test file's compile 11x slower, 26 min against 2.4). They
 # also cover the SIMD paths the native build (AVX-512 here) does not take (docs/simd.md): the ASan tree is built
 # for x86-64-v3 (AVX2, no AVX-512: core/simd/lanes_avx2.hpp under every lanes kernel, stable_ranks_avx2.hpp, the
@@ -17,7 +19,7 @@ set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 jobs="${SMOKETRACE_JOBS:-$(nproc)}"
 which="${1:-all}"
-common=(-DSMOKETRACE_NATIVE=OFF -DSMOKETRACE_BENCH=OFF -DSMOKETRACE_TESTS=ON
+common=(-DSMOKETRACE_NATIVE=OFF -DSMOKETRACE_DISPATCH=OFF -DSMOKETRACE_BENCH=OFF -DSMOKETRACE_TESTS=ON
         -DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1")
 
 if [ "$which" = all ] || [ "$which" = asan ]; then

@@ -3,6 +3,7 @@
 #include "assets.hpp"
 #include "command.hpp"
 
+#include <smoketrace/core/simd/level.hpp>
 #include <smoketrace/io/temporary_file.hpp>
 
 #include <algorithm>
@@ -115,6 +116,18 @@ int checked_standard_output(std::string_view name, int code) {
     return code == 0 ? 1 : code;
 }
 
+// "kernels: avx512 (this binary: sse2, avx2, avx512)": what --version says of the kernel levels.
+std::string kernel_levels_line() {
+    namespace simd = smoketrace::simd;
+    std::string built;
+    for (simd::Level l : simd::levels_in_binary()) built += (built.empty() ? "" : ", ") + std::string(simd::level_name(l));
+    try {
+        return "kernels: " + std::string(simd::level_name(simd::active_level())) + " (this binary: " + built + ")\n";
+    } catch (const std::exception& e) {
+        return "kernels: none usable (this binary: " + built + "): " + e.what() + "\n";
+    }
+}
+
 int run(int argc, char** argv) {
     using namespace smoketrace::cli;
     // ^C or a scheduler's SIGTERM while a file is being written must not leave its temporary file behind.
@@ -122,7 +135,7 @@ int run(int argc, char** argv) {
     if (argc < 2) return command_error("missing command (usage: smoketrace <command> [arguments])");
     const std::string name = argv[1];
     if (name == "--version" || name == "-V") {
-        std::cout << "smoketrace " << SMOKETRACE_VERSION << "\n";
+        std::cout << "smoketrace " << SMOKETRACE_VERSION << "\n" << kernel_levels_line();
         return 0;
     }
     if (name == "--help" || name == "-h" || name == "help") {
@@ -153,6 +166,14 @@ int run(int argc, char** argv) {
         }
     // A message repeats paths and values the user gave: shown (shown_text.hpp) where it was put together,
     // and the whole once more here, for any part that came from elsewhere (a library's text, a PLY header).
+    try {
+        // SMOKETRACE_SIMD's errors before any work, not at the first pass after a long read.
+        (void)smoketrace::simd::active_level();
+    } catch (const std::exception& e) {
+        std::cerr << "smoketrace " << name << ": " << smoketrace::shown_text(e.what(), smoketrace::kShownUncapped)
+                  << "\n";
+        return 2;
+    }
     try {
         return c->run(Args(argv + 2, argv + argc));
     } catch (const CliError& e) {

@@ -1,5 +1,7 @@
 // The view pass (thesis 4.3.5), see view_compositor.hpp: the image split into 16×16 blocks of pixels, the
-// blocks shared among the threads, each block drawn by the chosen compositor.
+// blocks shared among the threads, each block drawn by the chosen compositor. A kernel source, compiled
+// once per kernel level (core/simd/dispatch.hpp); render_view() chooses the level in
+// view_compositor_dispatch.cpp.
 #include <smoketrace/render/pixel_samples.hpp>
 #include <smoketrace/render/view_compositor.hpp>
 
@@ -12,7 +14,6 @@
 
 #include <algorithm>
 #include <memory>
-#include <stdexcept>
 #include <vector>
 
 namespace smoketrace {
@@ -31,13 +32,11 @@ struct Scratch {
 
 }  // namespace
 
-void render_view(const SmokeScene& scene, std::span<const Particle> particles, std::span<const float> lengths,
-                 const SixwayTexture& texture, const Camera& camera, const ViewSettings& settings, ImageRgba& image) {
-    if (!scene.has_billboards() && !particles.empty())
-        throw std::invalid_argument("render_view: the scene was built without billboards");
-    // Every pixel is written below: a frame of the same size reuses the buffer (no page faults).
-    if (image.width != camera.width() || image.height != camera.height())
-        image = ImageRgba(camera.width(), camera.height(), ImageRgba::Uninitialized{});
+template <simd::Level L>
+void detail::render_view_at_level(const SmokeScene& scene, std::span<const Particle> particles,
+                                  std::span<const float> lengths, const SixwayTexture& texture,
+                                  const Camera& camera, const ViewSettings& settings, ImageRgba& image) {
+    static_assert(L == simd::kCompiledLevel);
     const PixelSamples samples(settings.spp);
     const view::PixelShader shader(scene, particles, lengths, texture, settings);
     tbb::enumerable_thread_specific<Scratch> scratch;
@@ -73,5 +72,10 @@ void render_view(const SmokeScene& scene, std::span<const Particle> particles, s
             }
     });
 }
+
+// This copy's kernel (core/simd/dispatch.hpp); render_view() is in view_compositor_dispatch.cpp.
+template void detail::render_view_at_level<simd::kCompiledLevel>(const SmokeScene&, std::span<const Particle>,
+                                                                 std::span<const float>, const SixwayTexture&,
+                                                                 const Camera&, const ViewSettings&, ImageRgba&);
 
 }  // namespace smoketrace

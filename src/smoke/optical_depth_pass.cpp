@@ -1,4 +1,6 @@
-// The optical-depth pass (thesis 4.3.2), see optical_depth_pass.hpp.
+// The optical-depth pass (thesis 4.3.2), see optical_depth_pass.hpp: a kernel source, compiled once per
+// kernel level (core/simd/dispatch.hpp); trace() and resolve() choose the level in
+// optical_depth_pass_dispatch.cpp.
 #include <smoketrace/core/memory_budget.hpp>
 #include <smoketrace/smoke/optical_depth_pass.hpp>
 #include <smoketrace/geometry/ray_bundle.hpp>
@@ -94,21 +96,11 @@ OpticalDepthPass::~OpticalDepthPass() = default;
 OpticalDepthPass::OpticalDepthPass(OpticalDepthPass&&) noexcept = default;
 OpticalDepthPass& OpticalDepthPass::operator=(OpticalDepthPass&&) noexcept = default;
 
-std::uint64_t default_max_total_hits() {
-    return std::min<std::uint64_t>(std::numeric_limits<std::uint32_t>::max(),
-                                   machine_memory_bytes() / 2 / kPeakBytesPerStoredHit);
-}
-
-void OpticalDepthPass::run(const SmokeScene& smoke, std::span<const Particle> particles,
-                           std::span<const std::uint32_t> which, const glm::vec3& to_light,
-                           const OpticalDepthSettings& settings, OpticalDepthHits& out) {
-    trace(smoke, particles, which, to_light, settings);
-    gather(out);
-}
-
-void OpticalDepthPass::trace(const SmokeScene& smoke, std::span<const Particle> particles,
-                             std::span<const std::uint32_t> which, const glm::vec3& to_light,
-                             const OpticalDepthSettings& settings) {
+template <simd::Level L>
+void OpticalDepthPass::trace_at_level(const SmokeScene& smoke, std::span<const Particle> particles,
+                                      std::span<const std::uint32_t> which, const glm::vec3& to_light,
+                                      const OpticalDepthSettings& settings) {
+    static_assert(L == simd::kCompiledLevel);
     const AccelScene& scene = smoke.scene();
     const glm::vec3 dir = glm::normalize(to_light);
     const std::size_t n = which.size();
@@ -260,7 +252,9 @@ void OpticalDepthPass::gather(OpticalDepthHits& out) const {
     });
 }
 
-void OpticalDepthPass::resolve(HitSort method, std::span<float> lengths) {
+template <simd::Level L>
+void OpticalDepthPass::resolve_at_level(HitSort method, std::span<float> lengths) {
+    static_assert(L == simd::kCompiledLevel);
     const std::size_t n = which_.size();
     if (lengths.size() != n) {
         throw std::invalid_argument("OpticalDepthPass::resolve: " + std::to_string(n) + " particles traced but " +
@@ -284,5 +278,11 @@ void OpticalDepthPass::resolve(HitSort method, std::span<float> lengths) {
         }
     });
 }
+
+// This copy's kernels (core/simd/dispatch.hpp); the entry points are in optical_depth_pass_dispatch.cpp.
+template void OpticalDepthPass::trace_at_level<simd::kCompiledLevel>(const SmokeScene&, std::span<const Particle>,
+                                                                     std::span<const std::uint32_t>, const glm::vec3&,
+                                                                     const OpticalDepthSettings&);
+template void OpticalDepthPass::resolve_at_level<simd::kCompiledLevel>(HitSort, std::span<float>);
 
 }  // namespace smoketrace

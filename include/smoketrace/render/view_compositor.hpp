@@ -25,6 +25,7 @@
 //    just behind it, until the ground, the sky or the threshold.
 #include <smoketrace/render/camera.hpp>
 #include <smoketrace/core/image.hpp>
+#include <smoketrace/core/simd/level.hpp>
 #include <smoketrace/core/work_progress.hpp>
 #include <smoketrace/smoke/scene_description.hpp>
 #include <smoketrace/render/sixway_texture.hpp>
@@ -69,5 +70,14 @@ struct ViewSettings {
 // is not valid (density_kernel.hpp's validate()).
 void render_view(const SmokeScene& scene, std::span<const Particle> particles, std::span<const float> lengths,
                  const SixwayTexture& texture, const Camera& camera, const ViewSettings& settings, ImageRgba& image);
+
+namespace detail {
+// render_view()'s blocks at one kernel level (core/simd/dispatch.hpp), `image` already of the camera's size:
+// view_compositor.cpp, compiled once per level, instantiates it for the level it is compiled for.
+template <simd::Level L>
+void render_view_at_level(const SmokeScene& scene, std::span<const Particle> particles,
+                          std::span<const float> lengths, const SixwayTexture& texture, const Camera& camera,
+                          const ViewSettings& settings, ImageRgba& image);
+}  // namespace detail
 
 }  // namespace smoketrace

@@ -36,6 +36,7 @@
 // in float), normalised once more in double. resolve() then hands out those sums; gather() gives no hits;
 // a ray's hits cost no memory past its bundle.
 #include <smoketrace/core/aligned_allocator.hpp>
+#include <smoketrace/core/simd/level.hpp>
 #include <smoketrace/core/work_progress.hpp>
 #include <smoketrace/smoke/density_kernel.hpp>
 #include <smoketrace/smoke/hit_resolver.hpp>
@@ -138,6 +139,15 @@ public:
     [[nodiscard]] std::span<const std::uint32_t> hit_counts() const { return hit_counts_; }
 
 private:
+    // trace() and resolve() at one kernel level (core/simd/dispatch.hpp): optical_depth_pass.cpp, compiled
+    // once per level, instantiates each for the level it is compiled for.
+    template <simd::Level L>
+    void trace_at_level(const SmokeScene& scene, std::span<const Particle> particles,
+                        std::span<const std::uint32_t> which, const glm::vec3& to_light,
+                        const OpticalDepthSettings& settings);
+    template <simd::Level L>
+    void resolve_at_level(HitSort method, std::span<float> lengths);
+
     struct Scratch {
         std::array<std::vector<SurfaceHit>, kBundleWidth> lane_hits;  // the bundle in flight's, per ray
         BundleKernelSums kernel_sums;  // a smooth kernel's: the bundle in flight's exits and their sums
