@@ -20,6 +20,7 @@ test_packages=(
   gnuplot-nox         # benchmark plots (scripts/plot.sh)
   clang               # scripts/fuzz.sh: libFuzzer needs clang
   libclang-rt-dev     # libFuzzer and the sanitizer runtimes for clang
+  qemu-user           # tests: the kernel levels on emulated older x86 CPUs (tests/support/kernel_levels_emulated.sh)
 )
 
 case "${1:-}" in

@@ -90,10 +90,14 @@ std::vector<std::string> listed_commands(const std::string& help) {
 
 }  // namespace
 
-TEST_CASE("cli help: --version prints the project's version", "[cli]") {
+TEST_CASE("cli help: --version prints the project's version and its kernel level", "[cli]") {
     const Run r = cli("--version");
     CHECK(r.exit_code == 0);
-    CHECK(r.out == std::string("smoketrace ") + SMOKETRACE_VERSION + "\n");
+    const std::string first = std::string("smoketrace ") + SMOKETRACE_VERSION + "\n";
+    CHECK(r.out.substr(0, first.size()) == first);
+    // The second line: the level this process would run, then the binary's levels (test_kernel_levels.cpp).
+    CHECK(r.out.substr(first.size()).rfind("kernels: ", 0) == 0);
+    CHECK(std::count(r.out.begin(), r.out.end(), '\n') == 2);
 }
 
 TEST_CASE("cli help: --help lists every option of every command, each with its default", "[cli]") {

@@ -154,8 +154,8 @@ endif()
 
 # 3. The installed command line: its version, and a render that finds the textures beside it.
 run("smoketrace --version" COMMAND "${prefix}/${BINDIR}/smoketrace" --version)
-if(NOT output STREQUAL "smoketrace ${VERSION}\n")
-  fail("smoketrace --version printed '${output}', expected 'smoketrace ${VERSION}'")
+if(NOT output MATCHES "^smoketrace ${VERSION}\nkernels: [a-z0-9]+ \\(this binary: [a-z0-9, ]+\\)\n$")
+  fail("smoketrace --version printed '${output}', expected 'smoketrace ${VERSION}' and its kernel levels")
 endif()
 run("smoketrace render" COMMAND ${no_env} "${prefix}/${BINDIR}/smoketrace" render
   "${prefix}/${DATADIR}/smoketrace/scenes/minimal.json" -o "${WORK}/cli.png" --size 32x24)

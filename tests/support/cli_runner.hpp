@@ -30,14 +30,15 @@ inline std::string file_bytes(const std::filesystem::path& path) {
 
 namespace detail {
 // Runs `smoketrace ARGS` with stderr, and stdout when `capture_out`, in files of their own, so that tests
-// running in parallel (ctest -j) never read each other's output.
-inline CliRun run_cli(const std::string& args, bool capture_out) {
+// running in parallel (ctest -j) never read each other's output. `environment`: shell assignments put
+// before the command ("NAME=value ...").
+inline CliRun run_cli(const std::string& args, bool capture_out, const std::string& environment = "") {
     static std::atomic<unsigned> serial{0};
     namespace fs = std::filesystem;
     const std::string stem = "smoketrace_" + std::to_string(::getpid()) + "_" + std::to_string(serial++);
     const fs::path err_file = fs::temp_directory_path() / (stem + ".err");
     const fs::path out_file = fs::temp_directory_path() / (stem + ".out");
-    const std::string cmd = std::string(SMOKETRACE_CLI) + " " + args + " >" +
+    const std::string cmd = environment + (environment.empty() ? "" : " ") + std::string(SMOKETRACE_CLI) + " " + args + " >" +
                             (capture_out ? out_file.string() : std::string("/dev/null")) + " 2>" + err_file.string();
     const int status = std::system(cmd.c_str());
     CliRun run{WIFEXITED(status) ? WEXITSTATUS(status) : -1, file_bytes(err_file)};
@@ -53,6 +54,10 @@ inline CliRun run_cli(const std::string& args, bool capture_out) {
 inline CliRun run_cli(const std::string& args) { return detail::run_cli(args, false); }
 // The same, standard output captured too (byte for byte: a PNG written to -o -).
 inline CliRun run_cli_stdout(const std::string& args) { return detail::run_cli(args, true); }
+// run_cli() with environment variables set for the one run ("NAME=value ...", shell words).
+inline CliRun run_cli_with(const std::string& environment, const std::string& args) {
+    return detail::run_cli(args, false, environment);
+}
 
 // A fresh, empty folder, removed with everything in it (even when a test made it read-only).
 struct TempDir {
