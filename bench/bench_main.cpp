@@ -1,6 +1,9 @@
 // smoketrace_bench: [--quick] [--section NAME]... [--repeats N] [--results DIR]
+// The whole benchmark at one kernel level: compiled once per level with the sections that call the trace
+// headers, like the library's passes (core/simd/dispatch.hpp); main() in dispatching_main.cpp.
 #include "bench_registry.hpp"
 
+#include <smoketrace/core/simd/level.hpp>
 #include <smoketrace/io/output_path.hpp>
 
 #include <chrono>
@@ -36,8 +39,9 @@ void report(const std::string& name, double value) {
 }
 }  // namespace smoketrace::bench
 
-int main(int argc, char** argv) {
-    using namespace smoketrace::bench;
+template <smoketrace::simd::Level L>
+int smoketrace::bench::bench_main_at_level(int argc, char** argv) {
+    static_assert(L == simd::kCompiledLevel);
     BenchOptions options;
     options.results_dir = "bench-results";
     std::vector<std::string> only;
@@ -65,6 +69,12 @@ int main(int argc, char** argv) {
         }
     }
     std::filesystem::create_directories(options.results_dir);
+    // Which kernels every figure below comes from: ours (SMOKETRACE_SIMD forces a lower level), and what
+    // Embree was asked for (its own choice unless SMOKETRACE_EMBREE_CONFIG says, e.g. isa=avx2).
+    const char* embree_config = std::getenv("SMOKETRACE_EMBREE_CONFIG");
+    const std::string kernels(simd::level_name(L));
+    std::cout << "kernels: " << kernels << "; Embree's device config: "
+              << (embree_config && *embree_config ? embree_config : "(Embree's default: the best ISA it has)") << "\n";
     const auto start = std::chrono::steady_clock::now();
     auto seconds_since = [](std::chrono::steady_clock::time_point t) {
         return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
@@ -89,7 +99,10 @@ int main(int argc, char** argv) {
     std::cout << "== summary\n" << text.str() << std::flush;
     smoketrace::write_output(std::filesystem::path(options.results_dir) / "summary.txt", [&](std::ostream& out) {
         out << text.str() << durations.str() << "bench_seconds=" << seconds_since(start) << "\n"
-            << "quick=" << (options.quick ? 1 : 0) << "\n";
+            << "quick=" << (options.quick ? 1 : 0) << "\n"
+            << "kernels=" << kernels << "\n";
     });
     return 0;
 }
+
+template int smoketrace::bench::bench_main_at_level<smoketrace::simd::kCompiledLevel>(int, char**);

@@ -1,5 +1,7 @@
 #pragma once
 // The benchmark program is one executable; each bench_*.cpp registers its sections here.
+#include <smoketrace/core/simd/level.hpp>
+
 #include <string>
 #include <string_view>
 #include <vector>
@@ -28,5 +30,9 @@ struct RegisterSection {
 
 // "name=value" summary lines collected from every section and printed at the end.
 void report(const std::string& name, double value);
+
+// The benchmark's main() at one kernel level (bench_main.cpp; dispatching_main.cpp chooses the level).
+template <simd::Level L>
+int bench_main_at_level(int argc, char** argv);
 
 }  // namespace smoketrace::bench
