@@ -1,4 +1,5 @@
-// Ray bundles and the order that groups rays into them (see ray_bundle.hpp).
+// Ray bundles and the order that groups rays into them (see ray_bundle.hpp). A kernel source, compiled once
+// per kernel level (core/simd/dispatch.hpp); bundle_order() chooses the level in ray_bundle_dispatch.cpp.
 #include <smoketrace/core/radix_sort.hpp>
 #include <smoketrace/geometry/ray_bundle.hpp>
 
@@ -36,8 +37,10 @@ std::uint32_t spread_bits(std::uint32_t v) {
 
 }  // namespace
 
-void bundle_order(std::span<const glm::vec3> origins, const glm::vec3& direction, std::vector<std::uint32_t>& order,
-                  BundleOrderScratch& scratch) {
+template <simd::Level L>
+void detail::bundle_order_at_level(std::span<const glm::vec3> origins, const glm::vec3& direction,
+                                   std::vector<std::uint32_t>& order, BundleOrderScratch& scratch) {
+    static_assert(L == simd::kCompiledLevel);
     const std::size_t n = origins.size();
     order.resize(n);
     if (n == 0) return;
@@ -76,5 +79,9 @@ void bundle_order(std::span<const glm::vec3> origins, const glm::vec3& direction
                [](const BundleOrderScratch::Entry& e) { return e.code; });
     for (std::size_t i = 0; i < n; ++i) order[i] = entries[i].index;
 }
+
+// This copy's kernel (core/simd/dispatch.hpp); bundle_order() is in ray_bundle_dispatch.cpp.
+template void detail::bundle_order_at_level<simd::kCompiledLevel>(std::span<const glm::vec3>, const glm::vec3&,
+                                                                  std::vector<std::uint32_t>&, BundleOrderScratch&);
 
 }  // namespace smoketrace

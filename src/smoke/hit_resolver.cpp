@@ -1,4 +1,6 @@
-// The hit resolver (thesis 4.3.3): sort each particle's hits by t, then eq. 3.1 and the in-smoke walk.
+// The hit resolver (thesis 4.3.3): sort each particle's hits by t, then eq. 3.1 and the in-smoke walk. A kernel
+// source, compiled once per kernel level (core/simd/dispatch.hpp); the public functions choose the level in
+// hit_resolver_dispatch.cpp.
 // Each list is sorted on its own (HitSort::adaptive), not all lists in one segmented sort: a short list stays in
 // L1 or registers until its walk, and the lists sort in parallel with no shared histogram (docs/fast-paths.md).
 #include <smoketrace/smoke/hit_resolver.hpp>
@@ -34,7 +36,9 @@ void bubble_sort_by_t(std::span<SurfaceHit> hits) {
 
 }  // namespace
 
-void sort_hits_by_t(std::span<SurfaceHit> hits, std::span<SurfaceHit> scratch, HitSort method) {
+template <simd::Level L>
+void detail::sort_hits_by_t_at_level(std::span<SurfaceHit> hits, std::span<SurfaceHit> scratch, HitSort method) {
+    static_assert(L == simd::kCompiledLevel);
     switch (method) {
         case HitSort::adaptive:
 #if defined(SMOKETRACE_SIMD_AVX512)
@@ -63,16 +67,20 @@ void network_sort_hits_scalar(std::span<SurfaceHit> hits) {
 }
 }  // namespace detail
 
-double optical_path_length(std::span<const SurfaceHit> sorted_hits) {
+template <simd::Level L>
+double detail::optical_path_length_at_level(std::span<const SurfaceHit> sorted_hits) {
+    static_assert(L == simd::kCompiledLevel);
     assert(std::is_sorted(sorted_hits.begin(), sorted_hits.end(),
                           [](const SurfaceHit& a, const SurfaceHit& b) { return a.t < b.t; }));
     assert(sorted_hits.empty() || sorted_hits.front().t >= 0.0f);  // hits lie ahead of the origin (TMin > 0)
-    using L = detail::FastWalkLanes;
-    return detail::walk_sorted_hits<L>(L::SortedHits{sorted_hits});
+    using Walk = detail::FastWalkLanes;
+    return detail::walk_sorted_hits<Walk>(Walk::SortedHits{sorted_hits});
 }
 
-void resolve_optical_path_lengths(HitLists& lists, std::span<const DepthStatus> status, std::span<float> lengths,
-                                  HitSort method) {
+template <simd::Level L>
+void detail::resolve_optical_path_lengths_at_level(HitLists& lists, std::span<const DepthStatus> status,
+                                                   std::span<float> lengths, HitSort method) {
+    static_assert(L == simd::kCompiledLevel);
     const std::size_t particles = lists.particle_count();
     if (status.size() != particles || lengths.size() != particles) {
         throw std::invalid_argument("resolve_optical_path_lengths: " + std::to_string(particles) +
@@ -91,28 +99,41 @@ void resolve_optical_path_lengths(HitLists& lists, std::span<const DepthStatus> 
                       [&](const tbb::blocked_range<std::size_t>& r) {
         ListResolver resolve;
         for (std::size_t i = r.begin(); i < r.end(); ++i)
-            lengths[i] = status[i] == DepthStatus::ok ? resolve(lists.of(i), method) : kFullyDarkPathLength;
+            lengths[i] = status[i] == DepthStatus::ok ? resolve.at_level<L>(lists.of(i), method) : kFullyDarkPathLength;
     });
 }
 
-float ListResolver::operator()(std::span<const PackedSurfaceHit> hits, HitSort method) {
+template <simd::Level L>
+float ListResolver::at_level(std::span<const PackedSurfaceHit> hits, HitSort method) {
+    static_assert(L == simd::kCompiledLevel);
 #if defined(SMOKETRACE_SIMD_AVX512)
     if (method == HitSort::adaptive && hits.size() <= detail::kNetworkSortMaxHits)
         return static_cast<float>(detail::resolve_packed_hits_avx512(hits));
 #endif
     if (unpacked_.size() < hits.size()) unpacked_.resize(hits.size());  // only grows: no refill per list
     for (std::size_t j = 0; j < hits.size(); ++j) unpacked_[j] = unpack_surface_hit(hits[j]);
-    return (*this)(std::span(unpacked_.data(), hits.size()), method);
+    return at_level<L>(std::span(unpacked_.data(), hits.size()), method);
 }
 
-float ListResolver::operator()(std::span<SurfaceHit> hits, HitSort method) {
+template <simd::Level L>
+float ListResolver::at_level(std::span<SurfaceHit> hits, HitSort method) {
+    static_assert(L == simd::kCompiledLevel);
     std::span<SurfaceHit> scratch(small_);
     if (method == HitSort::adaptive && hits.size() > small_.size()) {
         if (hits.size() > large_.size()) large_.resize(hits.size());
         scratch = large_;
     }
-    sort_hits_by_t(hits, scratch, method);
-    return static_cast<float>(optical_path_length(hits));
+    detail::sort_hits_by_t_at_level<L>(hits, scratch, method);
+    return static_cast<float>(detail::optical_path_length_at_level<L>(hits));
 }
+
+// This copy's kernels (core/simd/dispatch.hpp).
+constexpr simd::Level kLevel = simd::kCompiledLevel;
+template void detail::sort_hits_by_t_at_level<kLevel>(std::span<SurfaceHit>, std::span<SurfaceHit>, HitSort);
+template double detail::optical_path_length_at_level<kLevel>(std::span<const SurfaceHit>);
+template void detail::resolve_optical_path_lengths_at_level<kLevel>(HitLists&, std::span<const DepthStatus>,
+                                                                    std::span<float>, HitSort);
+template float ListResolver::at_level<kLevel>(std::span<SurfaceHit>, HitSort);
+template float ListResolver::at_level<kLevel>(std::span<const PackedSurfaceHit>, HitSort);
 
 }  // namespace smoketrace

@@ -274,7 +274,8 @@ void OpticalDepthPass::resolve_at_level(HitSort method, std::span<float> lengths
                 continue;
             }
             const std::span<const PackedSurfaceHit> hits(ray.hits, ray.count);
-            lengths[ray_order_[k]] = ray.status == DepthStatus::ok ? resolve_list(hits, method) : kFullyDarkPathLength;
+            lengths[ray_order_[k]] =
+                ray.status == DepthStatus::ok ? resolve_list.at_level<L>(hits, method) : kFullyDarkPathLength;
         }
     });
 }

@@ -9,6 +9,7 @@
 // boxes tested for the thirty-two in two AVX-512 operations per step. The decisions at a node or an
 // instance (where to go next) are the walk's mispredicted branches, and a bundle pays them once for all
 // its rays: the wider the bundle, the fewer nodes and instance visits per ray (docs/design.md).
+#include <smoketrace/core/simd/level.hpp>
 #include <smoketrace/geometry/ray.hpp>
 
 #include <glm/vec3.hpp>
@@ -77,5 +78,13 @@ struct BundleOrderScratch {
 };
 void bundle_order(std::span<const glm::vec3> origins, const glm::vec3& direction, std::vector<std::uint32_t>& order,
                   BundleOrderScratch& scratch);
+
+namespace detail {
+// bundle_order() at kernel level L (core/simd/dispatch.hpp): ray_bundle.cpp, compiled once per level,
+// instantiates it for its level; bundle_order() (ray_bundle_dispatch.cpp) runs the process's.
+template <simd::Level L>
+void bundle_order_at_level(std::span<const glm::vec3> origins, const glm::vec3& direction,
+                           std::vector<std::uint32_t>& order, BundleOrderScratch& scratch);
+}  // namespace detail
 
 }  // namespace smoketrace

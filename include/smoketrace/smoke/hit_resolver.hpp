@@ -5,6 +5,7 @@
 // The hit resolver: thesis 4.3.3 "compute pass". Turns each particle's optical-depth ray hits (collected in
 // any order by the any-hit callback, thesis 4.3.2) into the optical path length through smoke toward the
 // light (thesis 3.1, eq. 3.1).
+#include <smoketrace/core/simd/level.hpp>
 #include <smoketrace/smoke/light_ray.hpp>
 
 #include <array>
@@ -108,6 +109,13 @@ public:
     // (hit_resolver_avx512.hpp); other lists are unpacked into this resolver's memory first.
     [[nodiscard]] float operator()(std::span<const PackedSurfaceHit> hits, HitSort method);
 
+    // operator() at kernel level L (core/simd/dispatch.hpp), for a pass that runs at L already: operator()
+    // itself chooses the process's level on every call. Instantiated for the levels of the binary only.
+    template <simd::Level L>
+    [[nodiscard]] float at_level(std::span<SurfaceHit> hits, HitSort method);
+    template <simd::Level L>
+    [[nodiscard]] float at_level(std::span<const PackedSurfaceHit> hits, HitSort method);
+
 private:
     std::array<SurfaceHit, 256> small_;  // scratch for the usual short lists, no allocation
     std::vector<SurfaceHit> large_;      // grown once for longer ones
@@ -120,5 +128,17 @@ private:
 // status and lengths: one entry per particle of `lists` (std::invalid_argument otherwise).
 void resolve_optical_path_lengths(HitLists& lists, std::span<const DepthStatus> status, std::span<float> lengths,
                                   HitSort method);
+
+namespace detail {
+// The functions above at kernel level L (core/simd/dispatch.hpp): hit_resolver.cpp, compiled once per level,
+// instantiates them for its level; the functions above (hit_resolver_dispatch.cpp) run the process's.
+template <simd::Level L>
+void sort_hits_by_t_at_level(std::span<SurfaceHit> hits, std::span<SurfaceHit> scratch, HitSort method);
+template <simd::Level L>
+double optical_path_length_at_level(std::span<const SurfaceHit> sorted_hits);
+template <simd::Level L>
+void resolve_optical_path_lengths_at_level(HitLists& lists, std::span<const DepthStatus> status,
+                                           std::span<float> lengths, HitSort method);
+}  // namespace detail
 
 }  // namespace smoketrace
