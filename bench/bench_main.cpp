@@ -1,10 +1,12 @@
 // smoketrace_bench: [--quick] [--section NAME]... [--repeats N] [--results DIR]
 #include "bench_registry.hpp"
+#include "embree_device.hpp"
 
 #include <smoketrace/io/output_path.hpp>
 
 #include <chrono>
 #include <cstdlib>
+#include <exception>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
@@ -63,6 +65,13 @@ int main(int argc, char** argv) {
             std::cerr << "smoketrace_bench: no section '" << o << "' (see --list)\n";
             return 2;
         }
+    }
+    // A device string that the bench or Embree refuses stops the run now, not at the first section using it.
+    try {
+        if (std::getenv(kEmbreeConfigVariable)) (void)bench_embree_device();
+    } catch (const std::exception& e) {
+        std::cerr << "smoketrace_bench: " << e.what() << "\n";
+        return 2;
     }
     std::filesystem::create_directories(options.results_dir);
     const auto start = std::chrono::steady_clock::now();
