@@ -66,7 +66,8 @@ TEST_CASE("embree config: a bad SMOKETRACE_EMBREE_CONFIG is an error naming it, 
 
     // A value Embree cannot parse: its own error, through rtcGetDeviceError.
     const std::string refused = device_error("threads=x");
-    CHECK_THAT(refused, Catch::StartsWith(std::string(kEmbreeConfigVariable) + "=\"threads=x\": embree: rtcNewDevice("));
+    CHECK_THAT(refused,
+               Catch::StartsWith(std::string(kEmbreeConfigVariable) + "=\"threads=x\": embree: rtcNewDevice("));
     CHECK_THAT(refused, Catch::Contains("failed: RTC_ERROR_"));
 
     CHECK(device_error("isa=sse2,threads=1").empty());
