@@ -40,6 +40,7 @@
 //   *_objects_*: the same on the second mesh; *_binary_*: the binary walk's ratio (before the wide tree)
 #include "bench_registry.hpp"
 #include "bench_util.hpp"
+#include "embree_device.hpp"
 #include "timing.hpp"
 
 #include "support/embree_reference.hpp"
@@ -575,9 +576,9 @@ void run_bvh(const BenchOptions& options) {
     std::vector<Row> rows;
 
     // ---- build: ours and every Embree configuration at two threads, ours, medium and high at one ----
-    // The default thread count: the arenas below set each build's. SMOKETRACE_EMBREE_CONFIG (unset: Embree's
-    // defaults) passes a device string, e.g. "hugepages=1", for a side experiment.
-    er::Device device(std::getenv("SMOKETRACE_EMBREE_CONFIG"));
+    // The default thread count: the arenas below set each build's (SMOKETRACE_EMBREE_CONFIG, embree_device.hpp,
+    // may set other things).
+    er::Device device = bench_embree_device();
     tbb::task_arena arena_1(1), arena_2(2);
     std::unique_ptr<MeshBlas> blas;  // the two-thread build's, traversed below
     std::vector<std::unique_ptr<er::Scene>> scenes(std::size(kEmbreeConfigs));  // the two-thread builds'

@@ -2,12 +2,14 @@
 // The whole benchmark at one kernel level: compiled once per level with the sections that call the trace
 // headers, like the library's passes (core/simd/dispatch.hpp); main() in dispatching_main.cpp.
 #include "bench_registry.hpp"
+#include "embree_device.hpp"
 
 #include <smoketrace/core/simd/level.hpp>
 #include <smoketrace/io/output_path.hpp>
 
 #include <chrono>
 #include <cstdlib>
+#include <exception>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
@@ -67,6 +69,13 @@ int smoketrace::bench::bench_main_at_level(int argc, char** argv) {
             std::cerr << "smoketrace_bench: no section '" << o << "' (see --list)\n";
             return 2;
         }
+    }
+    // A device string that the bench or Embree refuses stops the run now, not at the first section using it.
+    try {
+        if (std::getenv(kEmbreeConfigVariable)) (void)bench_embree_device();
+    } catch (const std::exception& e) {
+        std::cerr << "smoketrace_bench: " << e.what() << "\n";
+        return 2;
     }
     std::filesystem::create_directories(options.results_dir);
     // Which kernels every figure below comes from: ours (SMOKETRACE_SIMD forces a lower level), and what

@@ -38,6 +38,7 @@
 // statuses, hit counts and path lengths of ours against every Embree contender over the same shape.
 #include "bench_registry.hpp"
 #include "bench_util.hpp"
+#include "embree_device.hpp"
 #include "support/embree_reference.hpp"
 #include "timing.hpp"
 
@@ -680,7 +681,7 @@ void run_optical_depth(const BenchOptions& options) {
     const int all_threads = tbb::info::default_concurrency();
     tbb::task_arena one_thread(1);
     tbb::task_arena every_thread(all_threads);
-    const er::Device device;
+    const er::Device device = bench_embree_device();
     const glm::vec3 dir = glm::normalize(kToLight);
     std::vector<CsvRow> csv;
     const std::ios_base::fmtflags cout_flags = std::cout.flags();  // restored for report() and later sections

@@ -27,6 +27,7 @@
 // view_rays.csv's ours_over_this is our single rays' time over the row's, tiled_over_this our tiled time.
 #include "bench_registry.hpp"
 #include "bench_util.hpp"
+#include "embree_device.hpp"
 #include "support/embree_reference.hpp"
 #include "timing.hpp"
 
@@ -497,7 +498,7 @@ void run_view_rays(const BenchOptions& options) {
                                                             : std::vector<std::uint32_t>{750, 1500, 10'000};
     const int repeats = std::max(options.repeats, 3);
     const int all_threads = tbb::info::default_concurrency();
-    const er::Device device;
+    const er::Device device = bench_embree_device();
     CsvFile csv("particles,measure,implementation,robust,threads,rays,median_ms,min_ms,max_ms,ours_over_this,work,"
                 "tiled_over_this");
     // Headline figures (750 particles, one thread): ours / the best Embree contender, over every one, over

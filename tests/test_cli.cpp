@@ -684,8 +684,9 @@ TEST_CASE("cli: render --path textbook draws the fast path's frames and refuses 
     constexpr int kMaxStepDifference = 1;
     TempDir dir;
     const std::string sequence = std::string(SMOKETRACE_ASSET_DIR) + "/scenes/two_tubes_sequence.json";
-    for (const auto& [scene, options] : {std::pair{kScene, std::string(" --mode simple-shadow --spp 4")},
-                                         std::pair{sequence, std::string(" --frames 3:4 --kernel uniform")}}) {
+    for (const auto& entry : {std::pair{kScene, std::string(" --mode simple-shadow --spp 4")},
+                              std::pair{sequence, std::string(" --frames 3:4 --kernel uniform")}}) {
+        const std::string &scene = entry.first, &options = entry.second;  // Clang 14 captures no binding
         INFO(scene << options);
         const auto render = [&](const std::string& name, const std::string& path) {
             const fs::path out = dir.path / name;

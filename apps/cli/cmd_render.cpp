@@ -90,7 +90,9 @@ int run_render(const Args& args) {
                             "retrace");
     }
     const std::uint32_t frame_count = options.render.frames;
-    const auto [first, end] = overrides.frame_range(options);
+    // Plain names, not a structured binding: the lambdas below capture them, which Clang 14 cannot.
+    const std::pair<std::uint32_t, std::uint32_t> range = overrides.frame_range(options);
+    const std::uint32_t first = range.first, end = range.second;
     if (to_stdout && frame_count > 1)
         throw CliError("-o -: standard output takes one frame, not " + std::to_string(frame_count) +
                        " (--frames or the scene's render.frames); write a sequence with -o OUT.png or OUT.apng");

@@ -190,6 +190,7 @@ int run(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
+    smoketrace::cli::remember_argv0(argc > 0 ? argv[0] : nullptr);
     const int code = run(argc, argv);
     const bool known = argc >= 2 && find_command(argv[1]) != nullptr;
     return checked_standard_output(known ? std::string_view(argv[1]) : std::string_view(), code);

@@ -24,14 +24,17 @@ std::uint64_t cgroup_limit(const char* path) {
 
 std::uint64_t detect() {
     std::uint64_t bytes = 0;
+#if defined(_SC_PHYS_PAGES)  // not POSIX, but Linux, macOS and the BSDs have it
     const long pages = ::sysconf(_SC_PHYS_PAGES), page_size = ::sysconf(_SC_PAGESIZE);
     if (pages > 0 && page_size > 0) bytes = std::uint64_t(pages) * std::uint64_t(page_size);
-    // cgroup v2, then v1 (v1 reports "no limit" as a huge number, which min() ignores).
+#endif
+    // cgroup v2, then v1 (v1 reports "no limit" as a huge number, which min() ignores); Linux only, and a
+    // file that is not there is no limit.
     for (const char* path : {"/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"}) {
         const std::uint64_t limit = cgroup_limit(path);
         if (limit > 0) bytes = bytes > 0 ? std::min(bytes, limit) : limit;
     }
-    // sysconf cannot fail on Linux; should it anyway, assume a small machine rather than none.
+    // sysconf cannot fail on Linux; should it anyway, or where it cannot say, assume a small machine rather than none.
     return bytes > 0 ? bytes : std::uint64_t{1} << 30;
 }
 

@@ -64,11 +64,30 @@ struct EmbreeHit {
     bool front_face = false;
 };
 
+// Embree's name for an error code, for messages.
+inline const char* error_name(RTCError code) {
+    switch (code) {
+    case RTC_ERROR_NONE: return "RTC_ERROR_NONE";
+    case RTC_ERROR_UNKNOWN: return "RTC_ERROR_UNKNOWN";
+    case RTC_ERROR_INVALID_ARGUMENT: return "RTC_ERROR_INVALID_ARGUMENT";
+    case RTC_ERROR_INVALID_OPERATION: return "RTC_ERROR_INVALID_OPERATION";
+    case RTC_ERROR_OUT_OF_MEMORY: return "RTC_ERROR_OUT_OF_MEMORY";
+    case RTC_ERROR_UNSUPPORTED_CPU: return "RTC_ERROR_UNSUPPORTED_CPU";
+    case RTC_ERROR_CANCELLED: return "RTC_ERROR_CANCELLED";
+    }
+    return "an unknown error code";
+}
+
 class Device {
 public:
-    // config: Embree's device string, e.g. "threads=1" (nullptr: Embree's defaults, all threads).
+    // config: Embree's device string, e.g. "threads=1" (nullptr: Embree's defaults, all threads). Throws
+    // naming the string and Embree's error when Embree makes no device of it (a value it cannot parse, such
+    // as "threads=x"; it ignores keys it does not know).
     explicit Device(const char* config = nullptr) : device_(rtcNewDevice(config)) {
-        if (!device_) throw std::runtime_error("embree: rtcNewDevice failed");
+        if (!device_)
+            throw std::runtime_error(std::string("embree: rtcNewDevice(") +
+                                     (config ? "\"" + std::string(config) + "\"" : std::string("nullptr")) +
+                                     ") failed: " + error_name(rtcGetDeviceError(nullptr)));
         rtcSetDeviceErrorFunction(device_, &Device::on_error, this);
     }
     ~Device() { rtcReleaseDevice(device_); }

@@ -74,29 +74,32 @@ struct alignas(64) InstanceRecord {
     std::uint8_t flags;
     std::uint32_t user_id;
     glm::dvec3 object_to_world_translation;  // subtracted first, then the linear inverse applied
-    // The path's own fields, in the same bytes: `sphere` for world_sphere, `other` for the other paths.
+    // The centre relative to the translation (linear · centre), not the world centre: trace() subtracts the
+    // translation from the ray origin first, exactly as the general path does, so a small sphere far from the
+    // world origin is as precise as there; and scale · radius.
+    struct SphereFields {
+        glm::dvec3 offset;
+        double radius;
+    };
+    struct OtherFields {
+        // Where AccelScene keeps this instance's InstanceDetail, or kNoInstanceDetail (then detail() derives
+        // it from the Instance).
+        std::uint32_t detail;
+        // world_triangles only: how many (in the BLAS's leaf order, from AccelScene::world_triangles()
+        // [first_world_triangle]), and whether a world-space front face is an object-space back face (a
+        // mirroring transform) — XOR TRIANGLE_FRONT_CLOCKWISE, so that rule 4 sees the facing the general
+        // path would.
+        std::uint32_t first_world_triangle;
+        std::uint8_t world_triangle_count;
+        bool world_facing_flipped;
+        // world_triangles only: for a hit's primitive index, on this line rather than behind detail().
+        const BottomLevel* blas;
+    };
+    // The path's own fields, in the same bytes: `sphere` for world_sphere, `other` for the other paths. (Their
+    // types are named outside the union: standard C++ declares no type inside an anonymous one.)
     union {
-        // The centre relative to the translation (linear · centre), not the world centre: trace()
-        // subtracts the translation from the ray origin first, exactly as the general path does, so a small
-        // sphere far from the world origin is as precise as there; and scale · radius.
-        struct {
-            glm::dvec3 offset;
-            double radius;
-        } sphere;
-        struct {
-            // Where AccelScene keeps this instance's InstanceDetail, or kNoInstanceDetail (then detail()
-            // derives it from the Instance).
-            std::uint32_t detail;
-            // world_triangles only: how many (in the BLAS's leaf order, from AccelScene::world_triangles()
-            // [first_world_triangle]), and whether a world-space front face is an object-space back face (a
-            // mirroring transform) — XOR TRIANGLE_FRONT_CLOCKWISE, so that rule 4 sees the facing the general
-            // path would.
-            std::uint32_t first_world_triangle;
-            std::uint8_t world_triangle_count;
-            bool world_facing_flipped;
-            // world_triangles only: for a hit's primitive index, on this line rather than behind detail().
-            const BottomLevel* blas;
-        } other;
+        SphereFields sphere;
+        OtherFields other;
     };
 };
 static_assert(sizeof(InstanceRecord) == 64, "a record is one cache line");

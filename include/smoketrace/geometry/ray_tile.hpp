@@ -49,7 +49,7 @@ public:
     // set_tmax().
     RayTile(const glm::vec3& origin, const glm::vec3& forward, const glm::vec3& right, const glm::vec3& up,
             const float* x, unsigned columns, const float* y, unsigned rows, float tmin)
-        : origin_(origin), forward_(forward), right_(right), up_(up), columns_(columns), rows_(rows), tmin_(tmin) {
+        : origin_(origin), columns_(columns), rows_(rows), tmin_(tmin) {
         assert(columns >= 1 && columns <= kTileColumns && rows >= 1 && rows <= kTileRows);
         float x_lo = x[0], x_hi = x[0], y_lo = y[0], y_hi = y[0], reach = 0.0f;
         for (unsigned c = 0; c < columns; ++c) {
@@ -188,7 +188,7 @@ public:
     }
 
 private:
-    glm::vec3 origin_, forward_, right_, up_;
+    glm::vec3 origin_;
     unsigned columns_, rows_;
     float tmin_;
     alignas(64) float x_[kTileColumns] = {}, y_[kTileRows] = {};
