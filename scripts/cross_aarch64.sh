@@ -4,18 +4,21 @@
 # twice): the cross compiler, qemu-user, and the arm64 libraries through Debian multiarch.
 #   scripts/cross_aarch64.sh          set up, build in build-aarch64/, run the checks below
 #   scripts/cross_aarch64.sh --setup  set up only
-# What runs under qemu-aarch64 (SUBSET, below, says why no more):
-#   1. the unit tests that exercise the code NEON changes, built as build-aarch64/tests/smoketrace_tests:
-#      the lanes at every width against width 1 ([simd]), the kernels written over lanes against their
-#      scalar definitions ([geometry], [bvh], [trace-bundle], [trace], [resolver]), and the density kernels
-#      and special functions over Doubles<2> ([density-kernel], [special-functions]);
-#   2. the command line, byte for byte: depths (CSV) and renders (PNG) of the shipped scenes by the aarch64
-#      binary are compared with `cmp` against the same commands run by the native x86-64 binary (build/,
-#      built here when missing). The optical depths are the thesis pipeline end to end: BVH builds, the
-#      trace, the sorted-hit resolver; a frame adds the compositor.
-# The whole unit-test suite and the Embree comparisons are not run: emulated, they take far longer than
-# CI's budget for this stage (docs/building.md gives the measured times).
-# Environment: SMOKETRACE_JOBS (build parallelism).
+# What runs under qemu-aarch64, and why no more:
+#   1. build-aarch64/tests/smoketrace_lanes_tests (tests/CMakeLists.txt: the kernel tests' sources, no
+#      Embree, no command line), the tags in SUBSET below: the lanes at every width against width 1
+#      ([simd]: NEON's 4 floats, 2 doubles, 4 integers, 4 bytes; the special functions over Doubles<2>), the
+#      sorted-hit resolver ([resolver]), and the kernels written over lanes against their scalar definitions
+#      ([trace-bundle], [trace-tile], [geometry], [bvh]): the code the NEON lanes run in.
+#   2. the command line, byte for byte: depths (CSV) and renders (EXR, PNG, APNG) of the shipped scenes by the
+#      aarch64 binary, compared with `cmp` against the same commands run by the native x86-64 binary. The
+#      optical depths are the thesis pipeline end to end (BVH builds, the trace, the resolver); a frame adds
+#      the tiled compositor.
+# The rest of the unit tests and the Embree comparisons (Debian has Embree for arm64; it is installed only so
+# that the test tree configures) are not built: emulated, building and running them takes far longer than
+# this stage's share of CI (docs/building.md, docs/performance-log.md).
+# Environment: SMOKETRACE_JOBS (build parallelism), SMOKETRACE_X86_CLI (the native binary; default
+# build/smoketrace, built by scripts/build.sh --demo when missing).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 build="$root/build-aarch64"
@@ -83,7 +86,7 @@ echo "== unit tests under qemu-aarch64: $SUBSET"
 "${emulate[@]}" "$build/tests/smoketrace_lanes_tests" --warn NoTests "$SUBSET"
 
 # --- 2. the command line, byte for byte against the native binary ----------------------------------------
-native="$root/build/smoketrace"
+native="${SMOKETRACE_X86_CLI:-$root/build/smoketrace}"  # the native binary: build/ (CI builds it first)
 [ -x "$native" ] || "$root/scripts/build.sh" --demo
 out="$build/cli-check"
 rm -rf "$out" && mkdir -p "$out/x86-64" "$out/aarch64"

@@ -2,9 +2,9 @@
 // width 1, lane by lane. Width 1 is always the plain C++ definition (lanes_scalar.hpp); the widths the
 // build's instruction sets hold are their instructions (lanes_sse2.hpp: 4 floats; lanes_avx2.hpp: 8
 // floats, 4 doubles, 8 integers; lanes_avx512.hpp: 16 floats, 8 doubles, 16 integers; lanes_neon.hpp: 4
-// floats, 2 doubles, 4 integers, 4 bytes), so each build checks the files it compiles. Bit for bit, with one allowance: a NaN result only has to be a NaN (the
-// definition's operand order, which decides which NaN comes out, is the compiler's to choose in scalar
-// code; no kernel lets a NaN reach its result).
+// floats, 2 doubles, 4 integers, 4 bytes), so each build checks the files it compiles. Bit for bit, with
+// one allowance: a NaN result only has to be a NaN (the definition's operand order, which decides which NaN
+// comes out, is the compiler's to choose in scalar code; no kernel lets a NaN reach its result).
 #include <smoketrace/core/prng.hpp>
 #include <smoketrace/core/simd/lanes.hpp>
 
