@@ -1,10 +1,10 @@
 // The lanes types (core/simd/lanes.hpp): every operation at every width against the same operation at
 // width 1, lane by lane. Width 1 is always the plain C++ definition (lanes_scalar.hpp); the widths the
 // build's instruction sets hold are their instructions (lanes_sse2.hpp: 4 floats; lanes_avx2.hpp: 8
-// floats, 4 doubles, 8 integers; lanes_avx512.hpp: 16 floats, 8 doubles, 16 integers), so each build
-// checks the files it compiles. Bit for bit, with one allowance: a NaN result only has to be a NaN (the
-// definition's operand order, which decides which NaN comes out, is the compiler's to choose in scalar
-// code; no kernel lets a NaN reach its result).
+// floats, 4 doubles, 8 integers; lanes_avx512.hpp: 16 floats, 8 doubles, 16 integers; lanes_neon.hpp: 4
+// floats, 2 doubles, 4 integers, 4 bytes), so each build checks the files it compiles. Bit for bit, with
+// one allowance: a NaN result only has to be a NaN (the definition's operand order, which decides which NaN
+// comes out, is the compiler's to choose in scalar code; no kernel lets a NaN reach its result).
 #include <smoketrace/core/prng.hpp>
 #include <smoketrace/core/simd/lanes.hpp>
 
@@ -141,6 +141,7 @@ void check_doubles(Pcg32& rng) {
         c.check("/", [](auto x, auto y) { return x / y; });
         c.check("unary -", [](auto x, auto) { return -x; });
         c.check("sqrt", [](auto x, auto) { return sqrt(x); });
+        c.check("max", [](auto x, auto y) { return max(x, y); });
         c.check("abs", [](auto x, auto) { return abs(x); });
         c.check("copysign", [](auto x, auto y) { return copysign(x, y); });
         c.check("<", [](auto x, auto y) { return x < y; });
@@ -230,6 +231,7 @@ TEST_CASE("simd lanes: floats at every width give the scalar lanes' bits", "[sim
     check_floats<4>(rng);
     check_floats<8>(rng);
     check_floats<16>(rng);
+    check_float_halves<2>(rng);
     check_float_halves<4>(rng);
     check_store_compressed<float, 1>(rng);
     check_store_compressed<float, 4>(rng);
@@ -239,15 +241,18 @@ TEST_CASE("simd lanes: floats at every width give the scalar lanes' bits", "[sim
 
 TEST_CASE("simd lanes: doubles at every width give the scalar lanes' bits", "[simd]") {
     Pcg32 rng(62);
+    check_doubles<2>(rng);
     check_doubles<4>(rng);
     check_doubles<8>(rng);
 }
 
 TEST_CASE("simd lanes: 32-bit integers at every width give the scalar lanes' bits", "[simd]") {
     Pcg32 rng(63);
+    check_uints<4>(rng);
     check_uints<8>(rng);
     check_uints<16>(rng);
     check_store_compressed<std::uint32_t, 1>(rng);
+    check_store_compressed<std::uint32_t, 4>(rng);
     check_store_compressed<std::uint32_t, 8>(rng);
     check_store_compressed<std::uint32_t, 16>(rng);
 }

@@ -45,6 +45,17 @@ struct Lanes<float, 4> {
     return {_mm_or_ps(a.m, b.m)};
 }
 [[gnu::always_inline]] inline unsigned bits(Mask<float, 4> m) { return unsigned(_mm_movemask_ps(m.m)); }
+// Two doubles are the plain C++ lanes here: the halves go through memory (so that every width compiles).
+[[gnu::always_inline]] inline Doubles<2> widen_low(Floats<4> a) {
+    alignas(16) float f[4];
+    store(f, a);
+    return Doubles<2>::widen(f);
+}
+[[gnu::always_inline]] inline Doubles<2> widen_high(Floats<4> a) {
+    alignas(16) float f[4];
+    store(f, a);
+    return Doubles<2>::widen(f + 2);
+}
 
 template <>
 struct Lanes<std::uint8_t, 4> {
