@@ -6,6 +6,10 @@
 # target then defines SMOKETRACE_DISPATCH (and SMOKETRACE_DISPATCH_AVX512), so that its entry points
 # switch over the levels (core/simd/dispatch.hpp). The baseline copy of each kernel is <target>'s own.
 set(SMOKETRACE_KERNEL_LEVEL_SCRIPT ${CMAKE_CURRENT_LIST_DIR}/close_level_objects.cmake)
+# The levels above the baseline, and the flags each is compiled with (core/simd/level.hpp names them).
+set(SMOKETRACE_KERNEL_LEVELS avx2 avx512)
+set(SMOKETRACE_KERNEL_LEVEL_FLAGS_avx2 -march=x86-64-v3)
+set(SMOKETRACE_KERNEL_LEVEL_FLAGS_avx512 -march=x86-64-v4)
 
 function(smoketrace_add_kernel_levels target)
   cmake_parse_arguments(PARSE_ARGV 1 arg "" "" "SOURCES;LINK")
@@ -14,15 +18,10 @@ function(smoketrace_add_kernel_levels target)
   endif()
   set(dispatch_definitions SMOKETRACE_DISPATCH=1 SMOKETRACE_DISPATCH_AVX512=1)
   target_compile_definitions(${target} PRIVATE ${dispatch_definitions})
-  foreach(level avx2 avx512)
-    if(level STREQUAL "avx2")
-      set(flags -march=x86-64-v3)
-    else()
-      set(flags -march=x86-64-v4)
-    endif()
+  foreach(level IN LISTS SMOKETRACE_KERNEL_LEVELS)
     set(objects ${target}_kernels_${level})
     add_library(${objects} OBJECT ${arg_SOURCES})
-    target_compile_options(${objects} PRIVATE ${flags})
+    target_compile_options(${objects} PRIVATE ${SMOKETRACE_KERNEL_LEVEL_FLAGS_${level}})
     target_compile_definitions(${objects} PRIVATE ${dispatch_definitions}
       $<TARGET_PROPERTY:${target},COMPILE_DEFINITIONS>)
     target_include_directories(${objects} PRIVATE $<TARGET_PROPERTY:${target},INCLUDE_DIRECTORIES>)
