@@ -80,10 +80,11 @@ Level choose_level() {
         if (!level)
             throw std::runtime_error(std::string("SMOKETRACE_SIMD=") + forced +
                                      ": no such kernel level (this binary has " + names_of(built) + ")");
-        if (!in_binary(*level))
+        if (!in_binary(*level)) {
+            const char* why = built.size() == 1 ? ": a build without SMOKETRACE_DISPATCH holds one level)" : ")";
             throw std::runtime_error(std::string("SMOKETRACE_SIMD=") + forced + ": this binary has no " + forced +
-                                     " kernels (it has " + names_of(built) +
-                                     "; a build with SMOKETRACE_NATIVE holds only its own level)");
+                                     " kernels (it has " + names_of(built) + why);
+        }
         if (!cpu_runs(*level))
             throw std::runtime_error(std::string("SMOKETRACE_SIMD=") + forced + ": this CPU cannot run the " +
                                      forced + " kernels");
