@@ -81,7 +81,12 @@ int smoketrace::bench::bench_main_at_level(int argc, char** argv) {
     // Which kernels every figure below comes from: ours (SMOKETRACE_SIMD forces a lower level), and what
     // Embree was asked for (its own choice unless SMOKETRACE_EMBREE_CONFIG says, e.g. isa=avx2).
     const char* embree_config = std::getenv("SMOKETRACE_EMBREE_CONFIG");
-    const std::string kernels(simd::level_name(L));
+    // Without SMOKETRACE_BENCH_LEVELS the sections' own loops run at the baseline, the library's passes at
+    // the process's level: then both are said.
+    std::string kernels(simd::level_name(L));
+    if (simd::active_level() != L)
+        kernels += std::string(" (the sections' own loops; the library's passes: ") +
+                   std::string(simd::level_name(simd::active_level())) + ")";
     std::cout << "kernels: " << kernels << "; Embree's device config: "
               << (embree_config && *embree_config ? embree_config : "(Embree's default: the best ISA it has)") << "\n";
     const auto start = std::chrono::steady_clock::now();

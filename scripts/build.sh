@@ -9,8 +9,10 @@ root="$(cd "$(dirname "$0")/.." && pwd)"
 build_dir="${SMOKETRACE_BUILD_DIR:-$root/build}"
 case "${1:-}" in
   "")
+    # SMOKETRACE_CMAKE_ARGS: further configure arguments (.ci/run's, to fit its hour).
+    # shellcheck disable=SC2086
     cmake -S "$root" -B "$build_dir" -DCMAKE_BUILD_TYPE=Release \
-      -DSMOKETRACE_TESTS=ON -DSMOKETRACE_BENCH=ON -DSMOKETRACE_EXAMPLES=ON >/dev/null
+      -DSMOKETRACE_TESTS=ON -DSMOKETRACE_BENCH=ON -DSMOKETRACE_EXAMPLES=ON ${SMOKETRACE_CMAKE_ARGS:-} >/dev/null
     cmake --build "$build_dir" --parallel "$(nproc)"
     ;;
   --demo)
