@@ -15,7 +15,6 @@
 #include <smoketrace/render/frame_renderer.hpp>
 #include <smoketrace/render/sixway_texture.hpp>
 #include <smoketrace/io/scene_file.hpp>
-#include <smoketrace/io/sixway_files.hpp>
 
 #include <tbb/task_arena.h>
 #include <time.h>
@@ -37,11 +36,6 @@ namespace smoketrace::bench {
 namespace {
 
 constexpr int kSize = 1024;
-
-const SixwayTexture& texture() {
-    static const SixwayTexture t = load_sixway_texture(std::filesystem::path(SMOKETRACE_ASSET_DIR) / "sixway.json");
-    return t;
-}
 
 // One arena per thread count: a frame rendered inside arena(1) runs on the calling thread alone.
 class Arenas {
@@ -86,8 +80,8 @@ struct Run {
 
 // Renders frames 0..frames of every configuration, round-robin (frame f of each in turn, starting each
 // round with the next configuration), and returns the statistics of frames 1..frames of each.
-std::vector<Run> render_frames(const SceneDescription& scene, std::span<const Config> configs, int frames,
-                               Arenas& arenas) {
+std::vector<Run> render_frames(const SceneDescription& scene, const SixwayTexture& texture,
+                               std::span<const Config> configs, int frames, Arenas& arenas) {
     std::vector<std::unique_ptr<FrameRenderer>> renderers;
     std::vector<Run> runs(configs.size());
     std::vector<std::vector<FrameTimings>> samples(configs.size());
@@ -100,7 +94,7 @@ std::vector<Run> render_frames(const SceneDescription& scene, std::span<const Co
         o.compositor = configs[c].compositor;
         o.kernel = configs[c].kernel;
         o.width = o.height = kSize;
-        renderers.push_back(std::make_unique<FrameRenderer>(scene, o, texture()));
+        renderers.push_back(std::make_unique<FrameRenderer>(scene, o, texture));
         runs[c].config = configs[c];
     }
     for (int f = 0; f <= frames; ++f)
@@ -183,6 +177,7 @@ void run_view(const BenchOptions& options) {
     std::vector<int> thread_counts = {1};
     if (arenas.all() > 1) thread_counts.push_back(arenas.all());
     const int all = arenas.all();
+    const SixwayTexture& texture = bench_texture(options);
 
     CsvFile csv("experiment,particles,groups,mode,compositor,threads,spp,frames,view_ms_median,view_ms_min,"
                 "view_ms_max,total_ms_median,total_ms_min,total_ms_max,tlas_update_ms,od_pass_ms,resolve_ms,"
@@ -214,14 +209,14 @@ void run_view(const BenchOptions& options) {
     double worst_tiled = 0, worst_threads = 0, lowest_one_thread_share = 1;
     std::size_t off_tiled = 0, off_threads = 0;
     for (std::uint32_t n : counts) {
-        const SceneDescription scene = animated_scene(n, kSize);
+        const SceneDescription scene = animated_scene(options, n, kSize);
         std::vector<Config> configs;
         for (CompositorKind k : {CompositorKind::tiled, CompositorKind::one_traversal})
             for (int t : thread_counts) configs.push_back({"particles", RenderMode::full, k, t});
         configs.push_back({"particles", RenderMode::basic, CompositorKind::tiled, all});
         configs.push_back({"particles", RenderMode::simple_shadow, CompositorKind::tiled, all});
         if (n == kThesisParticleCount) configs.push_back({"spp", RenderMode::full, CompositorKind::tiled, all, 1, 4});
-        const std::vector<Run> runs = render_frames(scene, configs, frames, arenas);
+        const std::vector<Run> runs = render_frames(scene, texture, configs, frames, arenas);
         for (const Run& r : runs) {
             record(n, r);
             if (r.config.threads == 1) lowest_one_thread_share = std::min(lowest_one_thread_share, r.caller_cpu_share);
@@ -307,19 +302,20 @@ void run_view(const BenchOptions& options) {
     report("view_growth_exponent_vs_particles", fit_exponent(xs, view_ms));
 
     // Table B.3 shape: particle groups (750 particles, full mode, tiled, all threads).
-    const SceneDescription scene750 = animated_scene(kThesisParticleCount, kSize);
+    const SceneDescription scene750 = animated_scene(options, kThesisParticleCount, kSize);
     {
         std::vector<Config> configs;
         for (std::uint32_t g : group_counts)
             configs.push_back({"groups", RenderMode::full, CompositorKind::tiled, all, g});
-        for (const Run& r : render_frames(scene750, configs, frames, arenas)) record(kThesisParticleCount, r);
+        for (const Run& r : render_frames(scene750, texture, configs, frames, arenas))
+            record(kThesisParticleCount, r);
     }
 
     // The per-ray one-traversal compositor against the thesis's re-trace loop, same frames, same image.
     {
         const Config configs[] = {{"compositor", RenderMode::full, CompositorKind::one_traversal, all},
                                   {"compositor", RenderMode::full, CompositorKind::retrace, all}};
-        const std::vector<Run> runs = render_frames(scene750, configs, frames, arenas);
+        const std::vector<Run> runs = render_frames(scene750, texture, configs, frames, arenas);
         for (const Run& r : runs) record(kThesisParticleCount, r);
         const Run& one = runs[0];
         const Run& re = runs[1];
@@ -343,7 +339,7 @@ void run_view(const BenchOptions& options) {
                 c.kernel = k;
                 configs.push_back(c);
             }
-        const std::vector<Run> runs = render_frames(scene750, configs, frames, arenas);
+        const std::vector<Run> runs = render_frames(scene750, texture, configs, frames, arenas);
         for (const Run& r : runs) record(kThesisParticleCount, r);
         auto view_of = [&](const DensityKernel& k, int threads) {
             for (const Run& r : runs)
@@ -365,11 +361,10 @@ void run_view(const BenchOptions& options) {
     // A frame where nothing moved (the static default scene, frame 1 after frame 0): no TLAS work and no
     // optical depths, but the view is drawn again for the flipbook's next frame.
     {
-        const SceneDescription still =
-            load_scene_file(std::filesystem::path(SMOKETRACE_ASSET_DIR) / "scenes" / "two_tubes_above.json");
+        const SceneDescription still = bench_scene_file(options, "two_tubes_above.json");
         RenderOptions o = RenderOptions::from_scene(still);
         o.width = o.height = kSize;
-        FrameRenderer renderer(still, o, texture());
+        FrameRenderer renderer(still, o, texture);
         ImageRgba image;
         const FrameReport first = renderer.render(0, image);
         const FrameReport r = renderer.render(1, image);
@@ -388,7 +383,7 @@ const RegisterSection kViewSection{{"view",
                                     "view pass and frame at 1024x1024 vs particles (B.1), tiled vs per-ray "
                                     "compositor at 1 and all threads, spp 4, groups (B.3), one-traversal vs "
                                     "re-trace",
-                                    &run_view}};
+                                    &run_view, true}};
 
 }  // namespace
 }  // namespace smoketrace::bench

@@ -516,7 +516,7 @@ void run_view_rays(const BenchOptions& options) {
     constexpr std::size_t kOurs = 0, kOursBillboards = 1, kOursTiled = 2, kOursBillboardsTiled = 3;
 
     for (const std::uint32_t n : counts) {
-        const SceneDescription desc = animated_scene(n, size);
+        const SceneDescription desc = animated_scene(options, n, size);
         const std::vector<Particle>& ps = desc.smoke.particles;
         const GroundQuad ground{desc.ground->corners};
         const Camera camera(desc.camera.position, desc.camera.look_at, desc.camera.up, desc.camera.fov_deg, size, size);
@@ -839,7 +839,7 @@ void run_view_rays(const BenchOptions& options) {
 const RegisterSection kViewRaysSection{{"view_rays",
                                         "view-pass rays on the smoke scene vs Embree 3 on the same quads (single "
                                         "rays and 4x4 packets): build, closest hit, all layers in front of the ground",
-                                        &run_view_rays}};
+                                        &run_view_rays, true}};
 
 }  // namespace
 }  // namespace smoketrace::bench
