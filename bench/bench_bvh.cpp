@@ -282,9 +282,12 @@ Ratios run_traversal(const TraversalContext& ctx, const std::string& suffix, con
             const std::size_t tile_index = passes.size(), binary_index = extra_walks ? 2 : 0;
             if (tiled)
                 passes.push_back({"smoketrace_tile", threads, [&, parallel] {
-                                      return run_pass(parallel, tiles->size(), [&](std::size_t b, std::size_t e) {
-                                          return ours_closest_tiles(blas, *tiles, b, e);
-                                      });
+                                      return run_pass(
+                                          parallel, tiles->size(),
+                                          [&](std::size_t b, std::size_t e) {
+                                              return ours_closest_tiles(blas, *tiles, b, e);
+                                          },
+                                          kTileRays);
                                   }});
             const std::size_t ours_count = passes.size();
             for (std::size_t i = 0; i < std::size(kEmbreeConfigs); ++i) {

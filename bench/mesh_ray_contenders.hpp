@@ -244,12 +244,15 @@ inline PassResult embree_all_hits(const er::Scene& scene, const std::vector<Ray>
 
 // --- passes over all rays ----------------------------------------------------------------------------
 
-// One pass over all rays, on this thread or on all threads.
+// One pass over `items` items (rays, or tiles of `item_rays` rays), on this thread or on the threads of the
+// arena it runs in, about 1024 rays per task whatever the item: with 1024 tiles per task, a 1024x1024 image's
+// 4096 tiles would keep at most four threads busy.
 template <class Pass>
-PassResult run_pass(bool all_threads, std::size_t n, const Pass& pass) {
-    if (!all_threads) return pass(std::size_t(0), n);
+PassResult run_pass(bool all_threads, std::size_t items, const Pass& pass, std::size_t item_rays = 1) {
+    if (!all_threads) return pass(std::size_t(0), items);
     tbb::combinable<PassResult> partial;
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const tbb::blocked_range<std::size_t>& r) {
+    const std::size_t grain = std::max<std::size_t>(1, 1024 / item_rays);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, items, grain), [&](const tbb::blocked_range<std::size_t>& r) {
         const PassResult p = pass(r.begin(), r.end());
         PassResult& acc = partial.local();
         acc.hits += p.hits;
