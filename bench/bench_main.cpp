@@ -1,5 +1,5 @@
-// smoketrace_bench: [--quick] [--section NAME]... [--repeats N] [--results DIR] [--assets DIR] [--dry-run]
-//                   [--list]
+// smoketrace_bench: [--quick] [--section NAME]... [--repeats N] [--results DIR] [--assets DIR]
+//                   [--thread-counts LIST] [--dry-run] [--list]
 // The whole benchmark at one kernel level: compiled once per level with the sections that call the trace
 // headers, like the library's passes (core/simd/dispatch.hpp); main() in dispatching_main.cpp.
 #include "bench_assets.hpp"
@@ -9,7 +9,10 @@
 #include <smoketrace/core/simd/level.hpp>
 #include <smoketrace/io/output_path.hpp>
 
+#include <tbb/info.h>
+
 #include <algorithm>
+#include <charconv>
 #include <chrono>
 #include <cstdlib>
 #include <exception>
@@ -18,6 +21,8 @@
 #include <iostream>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
+#include <string_view>
 #include <utility>
 
 namespace smoketrace::bench {
@@ -29,6 +34,39 @@ namespace {
 std::vector<std::pair<std::string, double>>& summary() {
     static std::vector<std::pair<std::string, double>> lines;
     return lines;
+}
+
+constexpr int kMaxThreadCount = 1024;
+
+// --thread-counts LIST: positive integers separated by commas ("1,2,4,16"), sorted and without repeats,
+// with 1 added where missing (the sweep's speedups are over one thread).
+std::vector<int> parse_thread_counts(std::string_view list) {
+    std::vector<int> counts;
+    for (std::size_t at = 0; at <= list.size();) {
+        const std::size_t end = std::min(list.find(',', at), list.size());
+        const std::string_view item = list.substr(at, end - at);
+        int n = 0;
+        const auto [ptr, ec] = std::from_chars(item.data(), item.data() + item.size(), n);
+        if (item.empty() || ec != std::errc() || ptr != item.data() + item.size() || n < 1 || n > kMaxThreadCount)
+            throw std::runtime_error("--thread-counts: '" + std::string(item) + "' in '" + std::string(list) +
+                                     "' is not a thread count (give positive integers up to " +
+                                     std::to_string(kMaxThreadCount) + " separated by commas, e.g. 1,2,4,16)");
+        counts.push_back(n);
+        at = end + 1;
+    }
+    counts.push_back(1);
+    std::sort(counts.begin(), counts.end());
+    counts.erase(std::unique(counts.begin(), counts.end()), counts.end());
+    return counts;
+}
+
+// Without --thread-counts: 1, 2, 4, … up to the threads this process may run on, and that count itself.
+std::vector<int> default_thread_counts() {
+    const int cores = tbb::info::default_concurrency();
+    std::vector<int> counts;
+    for (int n = 1; n < cores; n *= 2) counts.push_back(n);
+    counts.push_back(cores);
+    return counts;
 }
 
 }  // namespace
@@ -62,13 +100,14 @@ int smoketrace::bench::bench_main_at_level(int argc, char** argv) {
             else if (a == "--repeats" && i + 1 < argc) options.repeats = std::max(1, std::atoi(argv[++i]));
             else if (a == "--results" && i + 1 < argc) options.results_dir = argv[++i];
             else if (a == "--assets" && i + 1 < argc) assets = argv[++i];
+            else if (a == "--thread-counts" && i + 1 < argc) options.thread_counts = parse_thread_counts(argv[++i]);
             else if (a == "--dry-run") dry_run = true;
             else if (a == "--list") {
                 for (const auto& s : section_registry()) std::cout << s.name << "  " << s.summary << "\n";
                 return 0;
             } else {
                 std::cerr << "usage: smoketrace_bench [--quick] [--section NAME]... [--repeats N] [--results DIR] "
-                             "[--assets DIR] [--dry-run] [--list]\n";
+                             "[--assets DIR] [--thread-counts LIST] [--dry-run] [--list]\n";
                 return 2;
             }
         }
@@ -76,6 +115,7 @@ int smoketrace::bench::bench_main_at_level(int argc, char** argv) {
         std::cerr << "smoketrace_bench: " << e.what() << "\n";
         return 2;
     }
+    if (options.thread_counts.empty()) options.thread_counts = default_thread_counts();
     if (options.quick && options.repeats > 3) options.repeats = 3;
     for (const auto& o : only) {
         bool known = false;
@@ -123,6 +163,8 @@ int smoketrace::bench::bench_main_at_level(int argc, char** argv) {
     if (dry_run) {
         std::cout << "sections:";
         for (const Section* s : chosen) std::cout << " " << s->name;
+        std::cout << "\nthread counts of section threads:";
+        for (const int n : options.thread_counts) std::cout << " " << n;
         std::cout << "\nresults: " << options.results_dir << (options.quick ? " (quick)" : "") << "\n";
         return 0;
     }

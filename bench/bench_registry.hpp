@@ -16,6 +16,7 @@ struct BenchOptions {
     // The assets folder (bench_assets.hpp), found before the first section that reads it; empty when no
     // section run needs one.
     std::filesystem::path assets;
+    std::vector<int> thread_counts;  // --thread-counts: section threads' counts (empty: 1, 2, 4, … the cores)
 };
 
 using SectionFn = void (*)(const BenchOptions&);

@@ -5,7 +5,7 @@
 #     loader (as a bundle's own loader runs it: the running binary is then the loader, argv[0] the bench);
 #   * named by --assets and by SMOKETRACE_ASSETS, --assets first;
 #   * a folder given that is none, or lacks a file, is an error naming it;
-#   * a section that reads no assets does not look for them.
+#   * a section that reads no assets does not look for them; a bad --thread-counts is an error.
 #     bench_assets.sh BENCH SOURCE_ASSETS
 set -euo pipefail
 bench="$1"; source_assets="$2"
@@ -67,4 +67,7 @@ expect_error "--assets: a folder without the scenes" "holds no scenes/two_tubes_
 expect_error "SMOKETRACE_ASSETS: not a folder" "SMOKETRACE_ASSETS: '$tmp/nowhere' is not a folder" \
   env SMOKETRACE_ASSETS="$tmp/nowhere" "$alone" --dry-run --section view
 
+expect_line "--thread-counts" "thread counts of section threads: 1 3 8" "$alone" --dry-run --thread-counts 8,3,8
+expect_error "--thread-counts: not a count" "--thread-counts: '0' in '2,0' is not a thread count" \
+  "$alone" --dry-run --thread-counts 2,0
 echo "ok"
