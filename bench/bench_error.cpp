@@ -193,11 +193,6 @@ RenderOptions options_of(const SceneDescription& scene, const Config& c) {
     return o;
 }
 
-const SixwayTexture& textures() {
-    static const SixwayTexture t = load_sixway_texture(std::filesystem::path(SMOKETRACE_ASSET_DIR) / "sixway.json");
-    return t;
-}
-
 void write_float_map(const std::filesystem::path& path, const std::vector<float>& map) {
     write_output(path, [&](std::ostream& out) {
         out.write(reinterpret_cast<const char*>(map.data()), std::streamsize(map.size() * sizeof(float)));
@@ -213,8 +208,8 @@ std::string fmt(double v, int precision = 3) {
 void run_error(const BenchOptions& options) {
     // Quick: 160² (the whole program must stay under 3 minutes on 2 cores); full: the scene file's 512².
     const int size = options.quick ? 160 : 512;
-    const SceneDescription scene = animated_scene(750, size);
-    const SixwayTexture& texture = textures();
+    const SceneDescription scene = animated_scene(options, 750, size);
+    const SixwayTexture& texture = bench_texture(options);
     std::vector<Run> runs;
     for (const Config& c : configurations()) {
         Run r;
@@ -386,7 +381,7 @@ void run_scaling(const BenchOptions& options) {
     if (all_threads > 1) thread_counts.push_back(all_threads);
     std::vector<std::unique_ptr<tbb::task_arena>> arenas;
     for (int t : thread_counts) arenas.push_back(std::make_unique<tbb::task_arena>(t));
-    const SixwayTexture& texture = textures();
+    const SixwayTexture& texture = bench_texture(options);
 
     std::cout << "  whole frames of the animated scene, scene defaults (sphere, cutoff 60, groups 1, threshold 1/255), "
               << size << "x" << size << ";\n  from " << kLargeSceneFrom
@@ -409,7 +404,7 @@ void run_scaling(const BenchOptions& options) {
     double total_750[2] = {0, 0};
     double largest_hits_per_ray = 0;
     for (const std::uint32_t n : counts) {
-        const SceneDescription scene = animated_scene(n, size);
+        const SceneDescription scene = animated_scene(options, n, size);
         RenderOptions o = RenderOptions::from_scene(scene);
         o.width = o.height = size;
         const int frames = n >= 100'000 ? 2 : n >= 10'000 ? 3 : options.quick ? 6 : std::max(options.repeats, 10);
@@ -493,11 +488,11 @@ void run_scaling(const BenchOptions& options) {
 const RegisterSection kErrorSection{{"error",
                                      "run time against error: exact reference, sweeps of stand-in shape, cutoff, "
                                      "groups, compositor threshold, eq. 4.1 vs over",
-                                     &run_error}};
+                                     &run_error, true}};
 const RegisterSection kScalingSection{{"scaling",
                                        "whole-frame stage times vs particle count (250..1500, 10k, 100k), 1 and all "
                                        "threads, growth exponents",
-                                       &run_scaling}};
+                                       &run_scaling, true}};
 
 }  // namespace
 }  // namespace smoketrace::bench

@@ -1,19 +1,28 @@
-// smoketrace_bench: [--quick] [--section NAME]... [--repeats N] [--results DIR]
+// smoketrace_bench: [--quick] [--section NAME]... [--repeats N] [--results DIR] [--assets DIR]
+//                   [--thread-counts LIST] [--dry-run] [--list]
 // The whole benchmark at one kernel level: compiled once per level with the sections that call the trace
 // headers, like the library's passes (core/simd/dispatch.hpp); main() in dispatching_main.cpp.
+#include "bench_assets.hpp"
 #include "bench_registry.hpp"
 #include "embree_device.hpp"
 
 #include <smoketrace/core/simd/level.hpp>
 #include <smoketrace/io/output_path.hpp>
 
+#include <tbb/info.h>
+
+#include <algorithm>
+#include <charconv>
 #include <chrono>
 #include <cstdlib>
 #include <exception>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
+#include <optional>
 #include <sstream>
+#include <stdexcept>
+#include <string_view>
 #include <utility>
 
 namespace smoketrace::bench {
@@ -26,6 +35,40 @@ std::vector<std::pair<std::string, double>>& summary() {
     static std::vector<std::pair<std::string, double>> lines;
     return lines;
 }
+
+constexpr int kMaxThreadCount = 1024;
+
+// --thread-counts LIST: positive integers separated by commas ("1,2,4,16"), sorted and without repeats,
+// with 1 added where missing (the sweep's speedups are over one thread).
+std::vector<int> parse_thread_counts(std::string_view list) {
+    std::vector<int> counts;
+    for (std::size_t at = 0; at <= list.size();) {
+        const std::size_t end = std::min(list.find(',', at), list.size());
+        const std::string_view item = list.substr(at, end - at);
+        int n = 0;
+        const auto [ptr, ec] = std::from_chars(item.data(), item.data() + item.size(), n);
+        if (item.empty() || ec != std::errc() || ptr != item.data() + item.size() || n < 1 || n > kMaxThreadCount)
+            throw std::runtime_error("--thread-counts: '" + std::string(item) + "' in '" + std::string(list) +
+                                     "' is not a thread count (give positive integers up to " +
+                                     std::to_string(kMaxThreadCount) + " separated by commas, e.g. 1,2,4,16)");
+        counts.push_back(n);
+        at = end + 1;
+    }
+    counts.push_back(1);
+    std::sort(counts.begin(), counts.end());
+    counts.erase(std::unique(counts.begin(), counts.end()), counts.end());
+    return counts;
+}
+
+// Without --thread-counts: 1, 2, 4, … up to the threads this process may run on, and that count itself.
+std::vector<int> default_thread_counts() {
+    const int cores = tbb::info::default_concurrency();
+    std::vector<int> counts;
+    for (int n = 1; n < cores; n *= 2) counts.push_back(n);
+    counts.push_back(cores);
+    return counts;
+}
+
 }  // namespace
 // Formats through a local stream: a section that leaves std::cout in fixed notation must not change how
 // the summary looks.
@@ -47,26 +90,54 @@ int smoketrace::bench::bench_main_at_level(int argc, char** argv) {
     BenchOptions options;
     options.results_dir = "bench-results";
     std::vector<std::string> only;
-    for (int i = 1; i < argc; ++i) {
-        const std::string a = argv[i];
-        if (a == "--quick") options.quick = true;
-        else if (a == "--section" && i + 1 < argc) only.push_back(argv[++i]);
-        else if (a == "--repeats" && i + 1 < argc) options.repeats = std::max(1, std::atoi(argv[++i]));
-        else if (a == "--results" && i + 1 < argc) options.results_dir = argv[++i];
-        else if (a == "--list") {
-            for (const auto& s : section_registry()) std::cout << s.name << "  " << s.summary << "\n";
-            return 0;
-        } else {
-            std::cerr << "usage: smoketrace_bench [--quick] [--section NAME]... [--repeats N] [--results DIR] [--list]\n";
-            return 2;
+    std::optional<std::string> assets;
+    bool dry_run = false;
+    try {
+        for (int i = 1; i < argc; ++i) {
+            const std::string a = argv[i];
+            if (a == "--quick") options.quick = true;
+            else if (a == "--section" && i + 1 < argc) only.push_back(argv[++i]);
+            else if (a == "--repeats" && i + 1 < argc) options.repeats = std::max(1, std::atoi(argv[++i]));
+            else if (a == "--results" && i + 1 < argc) options.results_dir = argv[++i];
+            else if (a == "--assets" && i + 1 < argc) assets = argv[++i];
+            else if (a == "--thread-counts" && i + 1 < argc) options.thread_counts = parse_thread_counts(argv[++i]);
+            else if (a == "--dry-run") dry_run = true;
+            else if (a == "--list") {
+                for (const auto& s : section_registry()) std::cout << s.name << "  " << s.summary << "\n";
+                return 0;
+            } else {
+                std::cerr << "usage: smoketrace_bench [--quick] [--section NAME]... [--repeats N] [--results DIR] "
+                             "[--assets DIR] [--thread-counts LIST] [--dry-run] [--list]\n";
+                return 2;
+            }
         }
+    } catch (const std::exception& e) {
+        std::cerr << "smoketrace_bench: " << e.what() << "\n";
+        return 2;
     }
+    if (options.thread_counts.empty()) options.thread_counts = default_thread_counts();
     if (options.quick && options.repeats > 3) options.repeats = 3;
     for (const auto& o : only) {
         bool known = false;
         for (const auto& s : section_registry()) known = known || o == s.name;
         if (!known) {
             std::cerr << "smoketrace_bench: no section '" << o << "' (see --list)\n";
+            return 2;
+        }
+    }
+    std::vector<const Section*> chosen;
+    for (const auto& s : section_registry())
+        if (only.empty() || std::find(only.begin(), only.end(), s.name) != only.end()) chosen.push_back(&s);
+    // The assets folder is looked for when a section run reads it, or when one is named (a wrong one is an
+    // error either way), before any section starts.
+    std::string assets_line = "(not needed)";
+    if (assets || std::any_of(chosen.begin(), chosen.end(), [](const Section* s) { return s->needs_assets; })) {
+        try {
+            const BenchAssets found = find_bench_assets(assets, argc > 0 ? argv[0] : nullptr);
+            options.assets = found.folder;
+            assets_line = found.folder.string() + " (" + found.found_by + ")";
+        } catch (const std::exception& e) {
+            std::cerr << "smoketrace_bench: " << e.what() << "\n";
             return 2;
         }
     }
@@ -77,7 +148,6 @@ int smoketrace::bench::bench_main_at_level(int argc, char** argv) {
         std::cerr << "smoketrace_bench: " << e.what() << "\n";
         return 2;
     }
-    std::filesystem::create_directories(options.results_dir);
     // Which kernels every figure below comes from: ours (SMOKETRACE_SIMD forces a lower level), and what
     // Embree was asked for (its own choice unless SMOKETRACE_EMBREE_CONFIG says, e.g. isa=avx2).
     const char* embree_config = std::getenv("SMOKETRACE_EMBREE_CONFIG");
@@ -88,17 +158,25 @@ int smoketrace::bench::bench_main_at_level(int argc, char** argv) {
         kernels += std::string(" (the sections' own loops; the library's passes: ") +
                    std::string(simd::level_name(simd::active_level())) + ")";
     std::cout << "kernels: " << kernels << "; Embree's device config: "
-              << (embree_config && *embree_config ? embree_config : "(Embree's default: the best ISA it has)") << "\n";
+              << (embree_config && *embree_config ? embree_config : "(Embree's default: the best ISA it has)") << "\n"
+              << "assets: " << assets_line << "\n";
+    if (dry_run) {
+        std::cout << "sections:";
+        for (const Section* s : chosen) std::cout << " " << s->name;
+        std::cout << "\nthread counts of section threads:";
+        for (const int n : options.thread_counts) std::cout << " " << n;
+        std::cout << "\nresults: " << options.results_dir << (options.quick ? " (quick)" : "") << "\n";
+        return 0;
+    }
+    std::filesystem::create_directories(options.results_dir);
     const auto start = std::chrono::steady_clock::now();
     auto seconds_since = [](std::chrono::steady_clock::time_point t) {
         return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
     };
     std::ostringstream durations;
     durations.precision(3);
-    for (const auto& s : section_registry()) {
-        bool wanted = only.empty();
-        for (const auto& o : only) wanted = wanted || o == s.name;
-        if (!wanted) continue;
+    for (const Section* section : chosen) {
+        const Section& s = *section;
         std::cout << "== " << s.name << ": " << s.summary << "\n" << std::flush;
         const auto t0 = std::chrono::steady_clock::now();
         s.run(options);

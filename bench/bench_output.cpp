@@ -83,12 +83,11 @@ void check_round_trip(const fs::path& file, const Rgba8Image& expected) {
 
 void run_output(const BenchOptions& options) {
     // The frame: the 750-particle animated scene, full mode, its second frame (the first warms the caches).
-    const SceneDescription scene = animated_scene(750, kSize);
+    const SceneDescription scene = animated_scene(options, 750, kSize);
     RenderOptions o = RenderOptions::from_scene(scene);
     o.render.mode = RenderMode::full;
     o.width = o.height = kSize;
-    const SixwayTexture texture =
-        load_sixway_texture(fs::path(SMOKETRACE_ASSET_DIR) / "sixway.json");
+    const SixwayTexture& texture = bench_texture(options);
     FrameRenderer renderer(scene, o, texture);
     ImageRgba frame;
     renderer.render(0, frame);
@@ -178,7 +177,7 @@ void run_output(const BenchOptions& options) {
 const RegisterSection kOutputSection{{"output",
                                       "writing a 1024x1024 frame: sRGB encoding (vs the textbook formula) and PNG "
                                       "files (ours over zlib vs stb_image_write)",
-                                      &run_output}};
+                                      &run_output, true}};
 
 }  // namespace
 }  // namespace smoketrace::bench

@@ -2,6 +2,7 @@
 // The benchmark program is one executable; each bench_*.cpp registers its sections here.
 #include <smoketrace/core/simd/level.hpp>
 
+#include <filesystem>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -12,6 +13,10 @@ struct BenchOptions {
     bool quick = false;          // --quick: the CI-sized run (< 3 minutes on 2 cores in total)
     int repeats = 5;             // medians over this many repeats
     std::string results_dir;     // CSV output folder
+    // The assets folder (bench_assets.hpp), found before the first section that reads it; empty when no
+    // section run needs one.
+    std::filesystem::path assets;
+    std::vector<int> thread_counts;  // --thread-counts: section threads' counts (empty: 1, 2, 4, … the cores)
 };
 
 using SectionFn = void (*)(const BenchOptions&);
@@ -20,6 +25,7 @@ struct Section {
     std::string_view name;
     std::string_view summary;
     SectionFn run;
+    bool needs_assets = false;  // reads BenchOptions::assets (the scene files, the six-way texture)
 };
 
 std::vector<Section>& section_registry();

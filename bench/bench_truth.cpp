@@ -219,11 +219,6 @@ struct Run {
     bool pareto = false;
 };
 
-const SixwayTexture& textures() {
-    static const SixwayTexture t = load_sixway_texture(std::filesystem::path(SMOKETRACE_ASSET_DIR) / "sixway.json");
-    return t;
-}
-
 std::string fmt(double v, int precision = 3) {
     std::ostringstream s;
     s << std::fixed << std::setprecision(precision) << v;
@@ -231,9 +226,9 @@ std::string fmt(double v, int precision = 3) {
 }
 
 // The frame of `options` at `frame` from a fresh renderer: the timings of render(frame) alone.
-FrameTimings render_once(const SceneDescription& scene, const RenderOptions& options, std::uint64_t frame,
-                         ImageRgba& image, std::vector<float>* lengths) {
-    FrameRenderer renderer(scene, options, textures());
+FrameTimings render_once(const SceneDescription& scene, const RenderOptions& options, const SixwayTexture& texture,
+                         std::uint64_t frame, ImageRgba& image, std::vector<float>* lengths) {
+    FrameRenderer renderer(scene, options, texture);
     renderer.skip_to(frame);
     const FrameTimings t = renderer.render(frame, image).timings;
     if (lengths) *lengths = renderer.depths().lengths();
@@ -242,19 +237,21 @@ FrameTimings render_once(const SceneDescription& scene, const RenderOptions& opt
 
 // The scene's settings drawn with each particle's true optical depth (l = τ / σt) in place of the
 // stand-ins' traced l: what the frame would be if approximation (a) were exact.
-void render_with_true_depths(const SceneDescription& scene, const RenderOptions& options, std::uint64_t frame,
-                             const std::vector<double>& tau, ImageRgba& image, std::vector<float>& lengths) {
-    FrameRenderer renderer(scene, options, textures());
+void render_with_true_depths(const SceneDescription& scene, const RenderOptions& options,
+                             const SixwayTexture& texture, std::uint64_t frame, const std::vector<double>& tau,
+                             ImageRgba& image, std::vector<float>& lengths) {
+    FrameRenderer renderer(scene, options, texture);
     renderer.skip_to(frame);
     ImageRgba ignored;
     renderer.render(frame, ignored);  // brings particles, light and TLAS to the frame
     lengths.resize(tau.size());
     for (std::size_t i = 0; i < tau.size(); ++i) lengths[i] = float(tau[i] / double(scene.smoke.sigma_t));
-    render_view(renderer.smoke(), renderer.particles().particles(), lengths, textures(), renderer.camera(),
+    render_view(renderer.smoke(), renderer.particles().particles(), lengths, texture, renderer.camera(),
                 renderer.view_settings(frame), image);
 }
 
-Truth compute_truth(const SceneDescription& scene, std::uint64_t frame, int size, bool quick);
+Truth compute_truth(const SceneDescription& scene, std::uint64_t frame, int size, bool quick,
+                    const SixwayBakeSettings& puff);
 
 int truth_size(const BenchOptions& options) {
     if (options.quick) return kQuickTruthSize;
@@ -267,17 +264,15 @@ int truth_size(const BenchOptions& options) {
     return kTruthSize;
 }
 
-const SixwayBakeSettings& bake_settings() {
-    static const SixwayBakeSettings puff =
-        read_sixway_bake_settings(std::filesystem::path(SMOKETRACE_ASSET_DIR) / "sixway.json");
+const SixwayBakeSettings& bake_settings(const BenchOptions& options) {
+    static const SixwayBakeSettings puff = read_sixway_bake_settings(options.assets / "sixway.json");
     return puff;
 }
 
 // The scene alpha that gives the billboards the volume's mean opacity: over every texel column of every
 // flipbook frame, the volume's opacity 1 − e^{−σt·r·∫ρ dz} (r the particles' mean radius) against the
 // texture's, 1 − e^{−extinction·∫ρ dz} (the bake's alpha, before 8-bit rounding), ratio of the sums.
-float matched_alpha(const SceneDescription& scene) {
-    const SixwayBakeSettings& bake = bake_settings();
+float matched_alpha(const SceneDescription& scene, const SixwayBakeSettings& bake) {
     const PuffVoxels g(bake);
     double radius = 0.0;
     for (const Particle& p : scene.smoke.particles) radius += double(p.radius);
@@ -321,12 +316,12 @@ void run_truth(const BenchOptions& options) {
     for (const TruthScene& ts : kScenes) {
         // --quick: the sequence's frame alone (its particle depths take ~10 s whatever the image size).
         if (options.quick && ts.frame == 0) continue;
-        SceneDescription scene = load_scene_file(std::filesystem::path(SMOKETRACE_ASSET_DIR) / "scenes" / ts.file);
+        SceneDescription scene = bench_scene_file(options, ts.file);
         scene.camera.width = scene.camera.height = std::uint32_t(size);
         const RenderOptions defaults = RenderOptions::from_scene(scene);
         const bool animated = ts.frame > 0;
 
-        const Truth truth = compute_truth(scene, ts.frame, size, options.quick);
+        const Truth truth = compute_truth(scene, ts.frame, size, options.quick, bake_settings(options));
         std::cout << "  -- " << ts.name << " (" << ts.file << ", frame " << ts.frame << ", " << size << "x" << size
                   << ", " << scene.smoke.particles.size() << " particles): truth " << fmt(truth.seconds, 1)
                   << " s (render " << fmt(truth.render_seconds, 1) << " s), error bound " << truth.bound << ", unconverged pixels " << truth.unconverged << "\n"
@@ -342,14 +337,16 @@ void run_truth(const BenchOptions& options) {
             for (std::size_t k = 0; k < runs.size(); ++k) {
                 Run& r = runs[(k + std::size_t(rep)) % runs.size()];
                 if (!r.config.shippable()) continue;
-                r.samples.push_back(render_once(scene, r.config.options, ts.frame, r.image, &r.lengths));
+                r.samples.push_back(
+                    render_once(scene, r.config.options, bench_texture(options), ts.frame, r.image, &r.lengths));
             }
-        const float alpha_matched = matched_alpha(scene);
+        const float alpha_matched = matched_alpha(scene, bake_settings(options));
         for (Run& r : runs) {
             if (r.config.depths == Depths::true_tau) {
                 SceneDescription drawn = scene;
                 if (r.config.alpha >= 0.0f) drawn.smoke.alpha = alpha_matched;
-                render_with_true_depths(drawn, r.config.options, ts.frame, truth.tau, r.image, r.lengths);
+                render_with_true_depths(drawn, r.config.options, bench_texture(options), ts.frame, truth.tau, r.image,
+                                        r.lengths);
             }
             if (r.config.ladder()) r.image = truth.rungs[std::size_t(r.config.rung)];
             for (std::size_t k = 0; k < 5; ++k) {
@@ -533,8 +530,8 @@ void run_truth(const BenchOptions& options) {
 
 // ---- the truth ------------------------------------------------------------------------------------------
 
-Truth compute_truth(const SceneDescription& scene, std::uint64_t frame, int size, bool quick) {
-    const SixwayBakeSettings& puff = bake_settings();
+Truth compute_truth(const SceneDescription& scene, std::uint64_t frame, int size, bool quick,
+                    const SixwayBakeSettings& puff) {
     TruthSettings settings;
     if (quick) {
         // CI size: the pipeline end to end, not a converged truth (its figures are not quoted). The light
@@ -561,7 +558,7 @@ Truth compute_truth(const SceneDescription& scene, std::uint64_t frame, int size
 const RegisterSection kTruthSection{{"truth",
                                      "run time against error against the ground truth (volume render): every mode "
                                      "and knob on the shipped scenes, SSIM, ground-shadow error, transmittance",
-                                     &run_truth}};
+                                     &run_truth, true}};
 
 }  // namespace
 }  // namespace smoketrace::bench

@@ -1,8 +1,12 @@
 #pragma once
 // Small helpers shared by the bench sections: CSV files written whole or not at all, the log-log growth
 // exponent, the scene and textures every frame-level section starts from.
+#include "bench_registry.hpp"
+
 #include <smoketrace/io/output_path.hpp>
 #include <smoketrace/io/scene_file.hpp>
+#include <smoketrace/io/sixway_files.hpp>
+#include <smoketrace/render/sixway_texture.hpp>
 #include <smoketrace/smoke/tube_generator.hpp>
 
 #include <cmath>
@@ -12,9 +16,21 @@
 #include <ostream>
 #include <sstream>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace smoketrace::bench {
+
+// The scene file assets/scenes/`name` of the run's assets folder (BenchOptions::assets, bench_assets.hpp).
+inline SceneDescription bench_scene_file(const BenchOptions& options, std::string_view name) {
+    return load_scene_file(options.assets / "scenes" / name);
+}
+
+// The six-way texture of the run's assets folder, read once (the folder does not change during a run).
+inline const SixwayTexture& bench_texture(const BenchOptions& options) {
+    static const SixwayTexture texture = load_sixway_texture(options.assets / "sixway.json");
+    return texture;
+}
 
 // Rows collected in memory and written at the end through a temporary file and a rename, so a results
 // folder never holds a half-written CSV (an interrupted run leaves the previous file).
@@ -93,9 +109,8 @@ inline constexpr float kJitterPerFrame = 0.002f;  // world units per frame, per 
 inline constexpr float kSpinPerFrame = 0.02f;     // radians per frame
 
 // From kLargeSceneFrom particles on, the radius shrinks (bench_particle_radius) and the cutoff is off.
-inline SceneDescription animated_scene(std::uint32_t count, int size) {
-    SceneDescription d =
-        load_scene_file(std::filesystem::path(SMOKETRACE_ASSET_DIR) / "scenes" / "two_tubes_right.json");
+inline SceneDescription animated_scene(const BenchOptions& options, std::uint32_t count, int size) {
+    SceneDescription d = bench_scene_file(options, "two_tubes_right.json");
     TubeSettings t = d.smoke.tubes.value_or(TubeSettings{});
     t.particles = count;
     t.particle_radius = bench_particle_radius(count, t.particle_radius);

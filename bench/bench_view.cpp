@@ -4,21 +4,18 @@
 // the density kernels' shadow rays (every particle toward the light summed) against uniform's nearest one.
 //
 // Every configuration renders the animated two-tube scene (bench_util.hpp: the light turns, particles
-// drift and spin, so each frame refits the TLAS and traces 1/G of the optical depths). Frame 0 traces
-// every particle and warms the caches; the statistics are over the frames after it. The configurations
-// compared with each other render the same frames round-robin, one frame each in turn, so that a change in
-// the machine's load reaches all of them alike; each runs inside a TBB arena of its thread count.
+// drift and spin, so each frame refits the TLAS and traces 1/G of the optical depths). The configurations
+// compared with each other render the same frames in turns, each inside a TBB arena of its thread count
+// (frame_runs.hpp).
 #include "bench_registry.hpp"
 #include "bench_util.hpp"
+#include "frame_runs.hpp"
 #include "timing.hpp"
 
 #include <smoketrace/render/frame_renderer.hpp>
-#include <smoketrace/render/sixway_texture.hpp>
 #include <smoketrace/io/scene_file.hpp>
-#include <smoketrace/io/sixway_files.hpp>
 
-#include <tbb/task_arena.h>
-#include <time.h>
+#include <tbb/info.h>
 
 #include <algorithm>
 #include <chrono>
@@ -38,105 +35,8 @@ namespace {
 
 constexpr int kSize = 1024;
 
-const SixwayTexture& texture() {
-    static const SixwayTexture t = load_sixway_texture(std::filesystem::path(SMOKETRACE_ASSET_DIR) / "sixway.json");
-    return t;
-}
-
-// One arena per thread count: a frame rendered inside arena(1) runs on the calling thread alone.
-class Arenas {
-public:
-    explicit Arenas(int all_threads) : all_(all_threads), one_(1), every_(all_threads) {}
-    [[nodiscard]] int all() const { return all_; }
-    tbb::task_arena& of(int threads) { return threads == 1 ? one_ : every_; }
-
-private:
-    int all_;
-    tbb::task_arena one_, every_;
-};
-
-// CPU time of `clock` (CLOCK_PROCESS_CPUTIME_ID: every thread of the process; CLOCK_THREAD_CPUTIME_ID: this
-// thread), ms.
-double cpu_ms(clockid_t clock) {
-    timespec t{};
-    clock_gettime(clock, &t);
-    return 1e3 * double(t.tv_sec) + 1e-6 * double(t.tv_nsec);
-}
-
-struct Config {
-    const char* experiment;
-    RenderMode mode = RenderMode::full;
-    CompositorKind compositor = CompositorKind::tiled;
-    int threads = 1;
-    std::uint32_t groups = 1;
-    std::uint32_t spp = 1;
-    DensityKernel kernel{};
-};
-
-struct Run {
-    Config config;
-    Stats view, total, tlas, od, resolve;
-    // The process's CPU time over a frame's wall time (median over frames): up to the thread count, less
-    // when the machine is loaded. The calling thread's share of the process's CPU time (the lowest of any
-    // frame): 1 when every frame ran on the calling thread alone (what a one-thread configuration must show,
-    // whatever the load), about 1/threads when all threads shared the work.
-    double cpu_per_wall = 0, caller_cpu_share = 0;
-    ImageRgba last;  // the last frame, for comparing compositors
-};
-
-// Renders frames 0..frames of every configuration, round-robin (frame f of each in turn, starting each
-// round with the next configuration), and returns the statistics of frames 1..frames of each.
-std::vector<Run> render_frames(const SceneDescription& scene, std::span<const Config> configs, int frames,
-                               Arenas& arenas) {
-    std::vector<std::unique_ptr<FrameRenderer>> renderers;
-    std::vector<Run> runs(configs.size());
-    std::vector<std::vector<FrameTimings>> samples(configs.size());
-    std::vector<std::vector<double>> cpu_per_wall(configs.size()), caller_share(configs.size());
-    for (std::size_t c = 0; c < configs.size(); ++c) {
-        RenderOptions o = RenderOptions::from_scene(scene);
-        o.render.mode = configs[c].mode;
-        o.render.groups = configs[c].groups;
-        o.render.spp = configs[c].spp;
-        o.compositor = configs[c].compositor;
-        o.kernel = configs[c].kernel;
-        o.width = o.height = kSize;
-        renderers.push_back(std::make_unique<FrameRenderer>(scene, o, texture()));
-        runs[c].config = configs[c];
-    }
-    for (int f = 0; f <= frames; ++f)
-        for (std::size_t k = 0; k < configs.size(); ++k) {
-            const std::size_t c = (k + std::size_t(f)) % configs.size();
-            FrameReport r;
-            const double process0 = cpu_ms(CLOCK_PROCESS_CPUTIME_ID), caller0 = cpu_ms(CLOCK_THREAD_CPUTIME_ID);
-            const auto wall0 = std::chrono::steady_clock::now();
-            arenas.of(configs[c].threads).execute([&] { r = renderers[c]->render(std::uint64_t(f), runs[c].last); });
-            const double wall = elapsed_ms(wall0);
-            const double process = cpu_ms(CLOCK_PROCESS_CPUTIME_ID) - process0;
-            const double caller = cpu_ms(CLOCK_THREAD_CPUTIME_ID) - caller0;
-            if (f == 0) continue;
-            samples[c].push_back(r.timings);
-            cpu_per_wall[c].push_back(wall > 0 ? process / wall : 0.0);
-            caller_share[c].push_back(process > 0 ? caller / process : 0.0);
-        }
-    for (std::size_t c = 0; c < configs.size(); ++c) {
-        std::vector<double> view, total, tlas, od, resolve;
-        for (const FrameTimings& t : samples[c]) {
-            view.push_back(t.view);
-            total.push_back(t.total);
-            tlas.push_back(t.tlas_update);
-            od.push_back(t.od_pass);
-            resolve.push_back(t.resolve);
-        }
-        runs[c].view = stats_of(view);
-        runs[c].total = stats_of(total);
-        runs[c].tlas = stats_of(tlas);
-        runs[c].od = stats_of(od);
-        runs[c].resolve = stats_of(resolve);
-        runs[c].cpu_per_wall = stats_of(cpu_per_wall[c]).median;
-        runs[c].caller_cpu_share = stats_of(caller_share[c]).min;
-    }
-    return runs;
-}
+using Config = FrameConfig;
+using Run = FrameRun;
 
 struct ImageDifference {
     double largest = 0;     // of one channel
@@ -179,10 +79,11 @@ void run_view(const BenchOptions& options) {
                                                                                          10'000};
     const std::vector<std::uint32_t> group_counts =
         options.quick ? std::vector<std::uint32_t>{1, 4, 32} : std::vector<std::uint32_t>{1, 2, 4, 8, 16, 32};
-    Arenas arenas(tbb::info::default_concurrency());
+    const int all = tbb::info::default_concurrency();
+    Arenas arenas;
     std::vector<int> thread_counts = {1};
-    if (arenas.all() > 1) thread_counts.push_back(arenas.all());
-    const int all = arenas.all();
+    if (all > 1) thread_counts.push_back(all);
+    const SixwayTexture& texture = bench_texture(options);
 
     CsvFile csv("experiment,particles,groups,mode,compositor,threads,spp,frames,view_ms_median,view_ms_min,"
                 "view_ms_max,total_ms_median,total_ms_min,total_ms_max,tlas_update_ms,od_pass_ms,resolve_ms,"
@@ -214,14 +115,14 @@ void run_view(const BenchOptions& options) {
     double worst_tiled = 0, worst_threads = 0, lowest_one_thread_share = 1;
     std::size_t off_tiled = 0, off_threads = 0;
     for (std::uint32_t n : counts) {
-        const SceneDescription scene = animated_scene(n, kSize);
+        const SceneDescription scene = animated_scene(options, n, kSize);
         std::vector<Config> configs;
         for (CompositorKind k : {CompositorKind::tiled, CompositorKind::one_traversal})
             for (int t : thread_counts) configs.push_back({"particles", RenderMode::full, k, t});
         configs.push_back({"particles", RenderMode::basic, CompositorKind::tiled, all});
         configs.push_back({"particles", RenderMode::simple_shadow, CompositorKind::tiled, all});
         if (n == kThesisParticleCount) configs.push_back({"spp", RenderMode::full, CompositorKind::tiled, all, 1, 4});
-        const std::vector<Run> runs = render_frames(scene, configs, frames, arenas);
+        const std::vector<Run> runs = render_frames(scene, texture, kSize, configs, frames, arenas);
         for (const Run& r : runs) {
             record(n, r);
             if (r.config.threads == 1) lowest_one_thread_share = std::min(lowest_one_thread_share, r.caller_cpu_share);
@@ -307,19 +208,20 @@ void run_view(const BenchOptions& options) {
     report("view_growth_exponent_vs_particles", fit_exponent(xs, view_ms));
 
     // Table B.3 shape: particle groups (750 particles, full mode, tiled, all threads).
-    const SceneDescription scene750 = animated_scene(kThesisParticleCount, kSize);
+    const SceneDescription scene750 = animated_scene(options, kThesisParticleCount, kSize);
     {
         std::vector<Config> configs;
         for (std::uint32_t g : group_counts)
             configs.push_back({"groups", RenderMode::full, CompositorKind::tiled, all, g});
-        for (const Run& r : render_frames(scene750, configs, frames, arenas)) record(kThesisParticleCount, r);
+        for (const Run& r : render_frames(scene750, texture, kSize, configs, frames, arenas))
+            record(kThesisParticleCount, r);
     }
 
     // The per-ray one-traversal compositor against the thesis's re-trace loop, same frames, same image.
     {
         const Config configs[] = {{"compositor", RenderMode::full, CompositorKind::one_traversal, all},
                                   {"compositor", RenderMode::full, CompositorKind::retrace, all}};
-        const std::vector<Run> runs = render_frames(scene750, configs, frames, arenas);
+        const std::vector<Run> runs = render_frames(scene750, texture, kSize, configs, frames, arenas);
         for (const Run& r : runs) record(kThesisParticleCount, r);
         const Run& one = runs[0];
         const Run& re = runs[1];
@@ -343,7 +245,7 @@ void run_view(const BenchOptions& options) {
                 c.kernel = k;
                 configs.push_back(c);
             }
-        const std::vector<Run> runs = render_frames(scene750, configs, frames, arenas);
+        const std::vector<Run> runs = render_frames(scene750, texture, kSize, configs, frames, arenas);
         for (const Run& r : runs) record(kThesisParticleCount, r);
         auto view_of = [&](const DensityKernel& k, int threads) {
             for (const Run& r : runs)
@@ -365,11 +267,10 @@ void run_view(const BenchOptions& options) {
     // A frame where nothing moved (the static default scene, frame 1 after frame 0): no TLAS work and no
     // optical depths, but the view is drawn again for the flipbook's next frame.
     {
-        const SceneDescription still =
-            load_scene_file(std::filesystem::path(SMOKETRACE_ASSET_DIR) / "scenes" / "two_tubes_above.json");
+        const SceneDescription still = bench_scene_file(options, "two_tubes_above.json");
         RenderOptions o = RenderOptions::from_scene(still);
         o.width = o.height = kSize;
-        FrameRenderer renderer(still, o, texture());
+        FrameRenderer renderer(still, o, texture);
         ImageRgba image;
         const FrameReport first = renderer.render(0, image);
         const FrameReport r = renderer.render(1, image);
@@ -388,7 +289,7 @@ const RegisterSection kViewSection{{"view",
                                     "view pass and frame at 1024x1024 vs particles (B.1), tiled vs per-ray "
                                     "compositor at 1 and all threads, spp 4, groups (B.3), one-traversal vs "
                                     "re-trace",
-                                    &run_view}};
+                                    &run_view, true}};
 
 }  // namespace
 }  // namespace smoketrace::bench

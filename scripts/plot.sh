@@ -15,6 +15,8 @@
 #   resolver.png  resolver time per hit against the cutoff for bubble, std::sort and the adaptive sort
 #                 (resolver.csv, section "resolver", thesis table B.4)
 #   embree.png    time ours / time Embree 3 for each side-by-side measurement (summary.txt)
+#   threads.png   the thread sweep: speedup over one thread, ours and Embree's fastest, and time ours / time
+#                 Embree at each thread count, one line per workload (threads.csv, section "threads")
 #   grid.png      the reference render, the thesis's configuration, the best configuration and the
 #                 best one's error heat map (images/, section "error")
 #   truth_pareto.png  run time against image error against the ground truth, one panel per scene, the
@@ -31,7 +33,7 @@ results=""
 for a in "$@"; do
   case "$a" in
     --assets) assets=1 ;;
-    -h|--help) sed -n '2,25p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,27p' "$0"; exit 0 ;;
     *) results="$a" ;;
   esac
 done
@@ -230,6 +232,49 @@ EOF
   fi
 fi
 
+# ---- the thread sweep ---------------------------------------------------------------------------------
+if have threads.csv "threads.png"; then
+  workloads=$(pick "$results/threads.csv" "" "" workload | awk '!seen[$0]++' | tr '\n' ' ')
+  compared=""; alone=""
+  for w in $workloads; do
+    pick "$results/threads.csv" workload "$w" threads ours_speedup embree_speedup ratio_vs_embree > "$tmp/threads_$w.dat"
+    # The frames have no Embree side (their rows leave its columns empty): ours alone, drawn in black.
+    if awk 'NF == 4 { found = 1 } END { exit !found }' "$tmp/threads_$w.dat"; then compared+="$w "; else alone+="$w "; fi
+  done
+  cores=$(pick "$results/threads.csv" "" "" threads | sort -n | tail -1)
+  gnuplot <<EOF
+$common
+set datafile separator whitespace
+set datafile nocolumnheaders
+set terminal pngcairo size 1800,820 font "sans,11" noenhanced
+set output "$out/threads.png"
+set multiplot layout 1,3 title "Thread sweep (section threads) against the thread count (x axis): medians of interleaved rounds, each contender in a TBB arena of the count"
+set logscale xy 2
+set format y "%g"
+set xrange [1:$cores]
+set key below maxcols 3 font "sans,9" box
+compared = "$compared"
+alone = "$alone"
+colors = "#1f77b4 #ff7f0e #2ca02c #d62728 #9467bd #8c564b #e377c2 #7f7f7f #bcbd22 #17becf #393b79 #637939 #8c6d31 #843c39"
+c(i) = word(colors, (i - 1) % words(colors) + 1)
+set title "ours: speedup over 1 thread"
+set ylabel "time at 1 thread / time at n"
+plot x with lines dt 2 lc rgb "black" title "linear", \
+     for [i = 1:words(alone)] "$tmp/threads_".word(alone, i).".dat" using 1:2 with linespoints pt 5 lw 3 lc rgb "black" dt i title word(alone, i), \
+     for [i = 1:words(compared)] "$tmp/threads_".word(compared, i).".dat" using 1:2 with linespoints pt (i % 13 + 1) lw 2 lc rgb c(i) title word(compared, i)
+set title "Embree's fastest contender: speedup over 1 thread"
+plot x with lines dt 2 lc rgb "black" title "linear", \
+     for [i = 1:words(compared)] "$tmp/threads_".word(compared, i).".dat" using 1:3 with linespoints pt (i % 13 + 1) lw 2 lc rgb c(i) title word(compared, i)
+set title "time ours / time Embree's fastest (below 1: ours faster)"
+set ylabel "ratio"
+set logscale y 10
+plot 1 with lines dt 2 lc rgb "black" notitle, \
+     for [i = 1:words(compared)] "$tmp/threads_".word(compared, i).".dat" using 1:4 with linespoints pt (i % 13 + 1) lw 2 lc rgb c(i) title word(compared, i)
+unset multiplot
+EOF
+  made+=(threads.png)
+fi
+
 # ---- image grid ---------------------------------------------------------------------------------------
 if have images/grid.txt "grid.png"; then
   g="$results/images/grid.txt"
@@ -283,7 +328,7 @@ plot \"$tmp/truth_front_$sc.csv\" using 1:2 with steps lw 3 lc rgb \"#bbbbbb\" t
   done
   gnuplot <<EOF
 $common
-set terminal pngcairo size 1800,640 font "sans,11" noenhanced
+set terminal pngcairo size 1800,820 font "sans,11" noenhanced
 set output "$out/truth_pareto.png"
 sweeps = "scene mode shape cutoff groups spp compositing threshold named"
 colors = "#000000 #e377c2 #1f77b4 #ff7f0e #2ca02c #17becf #d62728 #9467bd #8c564b"
