@@ -1375,7 +1375,7 @@ SceneDescription parse_scene(std::string_view json_text, std::string_view source
 
 SceneDescription load_scene_file(const std::filesystem::path& path) {
     const std::string name = path.string();
-    std::string text;
+    JsonText text;
     try {
         // Padded for simdjson, so that the text is held once however large the file.
         text = read_json_object_text(path, kMaxSceneFileBytes, simdjson::SIMDJSON_PADDING);
