@@ -309,3 +309,40 @@ TEST_CASE("scene JSON readers: a list read in pieces, with problems in and acros
         (void)expect_reference_error(list + many + ok + "]");
     }
 }
+
+// The fast reader finds the list's start in the document's first 64 KiB (the whole document when it begins
+// later) and its end from the document's end (the last ']' after a '}'): what follows the list, or a head
+// longer than that, must not change what it reads, and what only looks like the list's end must not either.
+TEST_CASE("scene JSON readers: where the list begins and ends, whatever comes before and after it",
+          "[scene][json_readers]") {
+    const std::string list = generated_list(3000, 7);  // ~200 KB: longer than the head simdjson indexes
+    REQUIRE(list.size() > (std::size_t{64} << 10));
+    SECTION("a long head, a long tail, an empty list") {
+        const std::string blank(70000, ' ');
+        require_readers_agree(R"({ "light": { "direction": [0, 1, 0] },)" + blank + R"("smoke": { "particles": )" +
+                              list + kTail);
+        require_readers_agree(kHead + list + R"(, "sigma_t": 1 )" + blank + kTail);
+        require_readers_agree(kHead + (" [ \n ]" + blank) + kTail);
+        require_readers_agree(std::string(kHead) + "[\n" + list.substr(1, list.size() - 2) + "\n\t\r\n]" + kTail);
+    }
+    SECTION("a ']' after a '}' that is not the list's end") {
+        const std::string ok = R"({"center": [0, 0, 0], "radius": 1})";
+        const std::vector<std::string> texts = {
+            // After the list: an array of objects, and the two bytes in a string.
+            kHead + list + R"(, "shape": "}]" )" + kTail,
+            kHead + list + R"(, "shape": "sphere", "extra": [{}] )" + kTail,
+            kHead + list + std::string(kTail, std::strlen(kTail) - 1) + R"(, "more": [{"a": 1}] })",
+            // In the list: a key holding them, and an object in a particle's array.
+            kHead + ("[" + ok + R"(, {"center": [0, 0, 0], "radius": 1, "}]": 2}, )") + list.substr(1) + kTail,
+            kHead + list.substr(0, list.size() - 1) + R"(, {"center": [0, 0, 0], "velocity": [{}], "radius": 1}])" +
+                kTail,
+        };
+        for (const std::string& text : texts) {
+            INFO("text: " << text.substr(0, 200) << " ... " << text.substr(text.size() - 200));
+            const std::string reference = error_of(text, SceneJsonReader::reference);
+            CHECK(reference.rfind("bad.json: ", 0) == 0);
+            CHECK(error_of(text, SceneJsonReader::automatic) == reference);
+            CHECK(error_of(text, SceneJsonReader::fast) != "(no error)");
+        }
+    }
+}
