@@ -885,10 +885,34 @@ struct ListValueSite {
     }
 };
 
-// Number tokens longer than this are converted by std::from_chars: simdjson 3.0's get_double() misreads a
-// number of more than 19 significant digits (0.1000000000000000055511151231257827 as 4e-16; simdjson issue
-// #2093, fixed in 3.6.3), and 18 characters cannot hold more than 18 digits.
+// simdjson 3.0's get_double() misreads some numbers of more than 19 digits (0.1000000000000000055511151231257827
+// as 4e-16: past a 0's leading zeros it counts too few digits and overflows its 64-bit integer; simdjson issue
+// #2093, fixed in 3.6.3). A number token longer than kLongestTokenForSimdjson is converted by std::from_chars
+// unless it has at most 19 digits before its exponent (leading zeros included), which that integer holds
+// exactly, and an exponent of at most 2 digits, which keeps its power of ten (at least 10^-118) within
+// get_double()'s exact range (10^-342 … 10^308). An exporter's doubles ("-0.009585144929587841": 19 digits in
+// 21 characters) read there.
 constexpr std::size_t kLongestTokenForSimdjson = 18;
+constexpr std::size_t kMostDigitsForSimdjson = 19;
+constexpr std::size_t kMostExponentDigitsForSimdjson = 2;
+
+// A number token's length (simdjson's raw token runs on over the white space after the number), and its digits
+// before and after an exponent's 'e', in one pass.
+struct NumberShape {
+    std::size_t length = 0;
+    std::size_t digits = 0;
+    std::size_t exponent_digits = 0;
+};
+NumberShape shape_of(std::string_view token) {
+    NumberShape shape;
+    std::size_t* count = &shape.digits;
+    for (; shape.length < token.size() && !json_whitespace(token[shape.length]); ++shape.length) {
+        const char c = token[shape.length];
+        if (c >= '0' && c <= '9') ++*count;
+        else if (c == 'e' || c == 'E') count = &shape.exponent_digits;
+    }
+    return shape;
+}
 
 // A JSON number as the reference reader reads it (nlohmann: strtod, correctly rounded). nlohmann reads "-0" as
 // the integer 0, which is +0 as a double; simdjson's get_double() gives -0.
@@ -896,11 +920,11 @@ double list_number(ondemand::value& value, std::string_view& token) {
     token = value.raw_json_token();
     double v;
     if (value.get_double().get(v)) throw FastReaderDeclined{"not a number"};  // also checks the JSON syntax
-    if (token.size() > kLongestTokenForSimdjson) {  // (the token runs on over the whitespace after the number)
-        const char* end = token.data();
-        while (end != token.data() + token.size() && !json_whitespace(*end)) ++end;
-        if (std::size_t(end - token.data()) > kLongestTokenForSimdjson &&
-            std::from_chars(token.data(), end, v).ec != std::errc())
+    if (token.size() > kLongestTokenForSimdjson) {
+        const NumberShape n = shape_of(token);
+        const bool exact = n.digits <= kMostDigitsForSimdjson && n.exponent_digits <= kMostExponentDigitsForSimdjson;
+        if (n.length > kLongestTokenForSimdjson && !exact &&
+            std::from_chars(token.data(), token.data() + n.length, v).ec != std::errc())
             throw FastReaderDeclined{"a number from_chars does not read"};
     }
     if (v == 0.0 && std::signbit(v) && token.find_first_of(".eE") == std::string_view::npos) v = 0.0;
