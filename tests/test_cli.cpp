@@ -3,6 +3,7 @@
 #include "support/cli_runner.hpp"
 #include "support/fixtures.hpp"
 
+#include <smoketrace/core/process_usage.hpp>
 #include <smoketrace/io/pfm_io.hpp>
 #include <smoketrace/io/png_io.hpp>
 #include <smoketrace/smoke/optical_path_lengths.hpp>
@@ -23,10 +24,12 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -85,6 +88,35 @@ Depths library_depths(const SceneDescription& desc, std::uint32_t cutoff, const 
 
 const char* status_word(DepthStatus s) {
     return s == DepthStatus::ok ? "ok" : s == DepthStatus::occluded ? "occluded" : "cutoff";
+}
+
+// The "name=value" lines of a --timings report, from its start to the line `until` (exclusive; "" for the end),
+// as numbers. A value that is not a whole number (the faults) or a decimal fails the test.
+std::map<std::string, double> timing_fields(const std::string& report, const std::string& until = "") {
+    std::map<std::string, double> fields;
+    std::istringstream in(report);
+    for (std::string line; std::getline(in, line);) {
+        if (!until.empty() && line.rfind(until, 0) == 0) break;
+        const std::size_t eq = line.find('=');
+        if (eq == std::string::npos || line.find(' ') != std::string::npos) continue;  // "frame=0 tlas=rebuild"
+        const std::string name = line.substr(0, eq), value = line.substr(eq + 1);
+        INFO(line);
+        char* end = nullptr;
+        const double v = std::strtod(value.c_str(), &end);
+        REQUIRE((!value.empty() && *end == '\0'));
+        if (name.find("_faults") != std::string::npos)
+            REQUIRE(value.find_first_not_of("0123456789") == std::string::npos);
+        fields[name] = v;
+    }
+    return fields;
+}
+
+// What the children this process has waited for have spent so far (RUSAGE_CHILDREN).
+ProcessUsage children_usage() {
+    rusage u{};
+    REQUIRE(::getrusage(RUSAGE_CHILDREN, &u) == 0);
+    const auto ms = [](const timeval& t) { return double(t.tv_sec) * 1e3 + double(t.tv_usec) * 1e-3; };
+    return {ms(u.ru_utime), ms(u.ru_stime), std::int64_t(u.ru_minflt), std::int64_t(u.ru_majflt)};
 }
 
 }  // namespace
@@ -271,6 +303,58 @@ TEST_CASE("cli: depths --path textbook writes textbook::optical_depths, with the
         CHECK_THAT(r.err, Catch::Contains(expect));
         CHECK_FALSE(fs::exists(out));
     }
+}
+
+// --timings: beside each stage's wall time, what the process spent in it, as lines a script can read. The
+// counts are checked against what they must be: a stage that allocates fresh memory faults, no stage uses more
+// CPU than its threads had, the stages together fault no more than the whole process did (getrusage() of the
+// child), and render's total covers its stages.
+TEST_CASE("cli: --timings gives each stage's CPU time and page faults", "[cli][timings]") {
+    TempDir dir;
+    // 50000 particles (the tubes' generator: no list to write), uniform kernel: the hits are kept, in memory.
+    const fs::path scene = dir.write("tubes.json", R"({ "light": { "direction": [0, 1, 0] },
+        "smoke": { "tubes": { "count": 50000, "particle_radius": 0.043 }, "kernel": "uniform" },
+        "ground": { "corners": [[-5, -3, -5], [-5, -3, 5], [5, -3, 5], [5, -3, -5]] } })");
+    const fs::path csv = dir.path / "depths.csv";
+    const ProcessUsage before = children_usage();
+    const CliRun r = run_cli_stdout("depths " + scene.string() + " -o " + csv.string() + " --threads 2 --timings");
+    const ProcessUsage child = children_usage() - before;
+    INFO(r.out << r.err);
+    REQUIRE(r.exit_code == 0);
+    const std::map<std::string, double> f = timing_fields(r.out);
+    double stage_faults = 0.0;
+    for (const char* stage : {"read_scene", "tlas_update", "od_pass", "resolve", "write_csv"}) {
+        INFO(stage);
+        const std::string s = stage;
+        for (const char* field : {"", ".user_ms", ".system_ms", ".minor_faults", ".major_faults"}) {
+            INFO(field);
+            REQUIRE(f.count(s + (*field ? field : "")) == 1);
+            CHECK(f.at(s + (*field ? field : "")) >= 0.0);
+        }
+        // Two worker threads, and a millisecond for the clock and the counters read at slightly other instants.
+        CHECK(f.at(s + ".user_ms") + f.at(s + ".system_ms") <= 2.0 * f.at(s) + 1.0);
+        stage_faults += f.at(s + ".minor_faults");
+    }
+    // 50000 particles of 40 bytes and the scene's instances and TLAS: fresh pages in both stages.
+    CHECK(f.at("read_scene.minor_faults") > 0.0);
+    CHECK(f.at("tlas_update.minor_faults") > 0.0);
+    CHECK(stage_faults <= double(child.minor_faults));
+
+    const fs::path png = dir.path / "frame.png";
+    const CliRun v = run_cli_stdout("render " + kScene + " -o " + png.string() + " --size 32x32 --frames 2 --timings");
+    INFO(v.out << v.err);
+    REQUIRE(v.exit_code == 0);
+    const std::map<std::string, double> frame0 = timing_fields(v.out, "frame=1");
+    REQUIRE(frame0.count("total.minor_faults") == 1);
+    for (const char* field : {".user_ms", ".system_ms", ".minor_faults", ".major_faults"}) {
+        INFO(field);
+        double sum = 0.0;
+        for (const char* stage : {"tlas_update", "od_pass", "resolve", "view"})
+            sum += frame0.at(stage + std::string(field));
+        // Each printed with 3 decimals: four roundings of at most 0.0005 each.
+        CHECK(frame0.at("total" + std::string(field)) + 0.002 >= sum);
+    }
+    CHECK(timing_fields(v.out.substr(v.out.find("\nmedian\n") + 1)).count("view.minor_faults") == 1);
 }
 
 TEST_CASE("cli: bad arguments and files name the problem and leave no output", "[cli]") {

@@ -437,10 +437,18 @@ TEST_CASE("hostile scene: a scene file longer than kMaxSceneFileBytes is refused
     const fs::path fifo2 = dir.path / "small.json";
     REQUIRE(::mkfifo(fifo2.c_str(), 0600) == 0);
     FifoWriter small(fifo2, "{", ' ', kBound);
-    const std::string text = read_json_object_text(fifo2, kBound, 64);
+    const JsonText text = read_json_object_text(fifo2, kBound, 64);
     CHECK(small.written() == kBound);
     CHECK(text.size() == kBound);
     CHECK(text.capacity() >= kBound + 64);
+    // A regular file is read whole too (past the first chunk, straight into the text), then zero bytes.
+    std::string scene = std::string("{") + kLight + R"(, "smoke": { "particles": [)";
+    while (scene.size() < 3 * kBound) scene += R"({ "center": [1, 2, 3], "radius": 0.5 }, )";
+    scene += R"({ "center": [1, 2, 3], "radius": 0.5 }] } })";
+    const JsonText file_text = read_json_object_text(dir.write("long.json", scene), kMaxSceneFileBytes, 64);
+    CHECK(file_text.view() == scene);
+    REQUIRE(file_text.capacity() >= scene.size() + 64);
+    CHECK(std::string_view(file_text.data() + scene.size(), 64) == std::string(64, '\0'));
 }
 
 TEST_CASE("hostile cli: an empty particle list is valid: render draws the ground and sky, depths writes a header", "[hostile][cli]") {

@@ -87,7 +87,12 @@ const char* const kNumbers[] = {"0", "-0", "-0.0", "0e5", "-0e-3", "1", "-1", "1
                                 "123456789012345678901", "9007199254740993", "-9223372036854775808",
                                 "18446744073709551615", "3.4028234e38", "0.1000000000000000055511151231257827",
                                 "1e15", "-1E15", "0.30000000000000004", "2.5e-3", "1.7976931348623157e-300",
-                                "1e-999999", "-1e-999999", "0.000000000000000000000000000000000000000000001"};
+                                "1e-999999", "-1e-999999", "0.000000000000000000000000000000000000000000001",
+                                // Exporters' doubles, and the longest numbers simdjson reads on its exact path
+                                "-0.009585144929587841", "0.2551898956298828", "-1.2419604063034058",
+                                "1.234567890123456789", "-0.1234567890123456789", "1234567890123456789",
+                                "-1.234567890123456789e-99", "9.999999999999999999e37", "0.0000000000000000001e-1",
+                                "-0.01234567890123456789", "1.234567890123456789e-100"};
 
 const char* const kHead = R"({ "light": { "direction": [0, 1, 0] }, "smoke": { "particles": )";
 const char* const kTail = R"( }, "ground": { "corners": [[-5,-3,-5], [-5,-3,5], [5,-3,5], [5,-3,-5]] } })";
@@ -307,5 +312,42 @@ TEST_CASE("scene JSON readers: a list read in pieces, with problems in and acros
         list.append(cut - nested.find("{}") - list.size(), ' ') += nested;
         REQUIRE(list.find('{', cut) == list.find("{}"));
         (void)expect_reference_error(list + many + ok + "]");
+    }
+}
+
+// The fast reader finds the list's start in the document's first 64 KiB (the whole document when it begins
+// later) and its end from the document's end (the last ']' after a '}'): what follows the list, or a head
+// longer than that, must not change what it reads, and what only looks like the list's end must not either.
+TEST_CASE("scene JSON readers: where the list begins and ends, whatever comes before and after it",
+          "[scene][json_readers]") {
+    const std::string list = generated_list(3000, 7);  // ~200 KB: longer than the head simdjson indexes
+    REQUIRE(list.size() > (std::size_t{64} << 10));
+    SECTION("a long head, a long tail, an empty list") {
+        const std::string blank(70000, ' ');
+        require_readers_agree(R"({ "light": { "direction": [0, 1, 0] },)" + blank + R"("smoke": { "particles": )" +
+                              list + kTail);
+        require_readers_agree(kHead + list + R"(, "sigma_t": 1 )" + blank + kTail);
+        require_readers_agree(kHead + (" [ \n ]" + blank) + kTail);
+        require_readers_agree(std::string(kHead) + "[\n" + list.substr(1, list.size() - 2) + "\n\t\r\n]" + kTail);
+    }
+    SECTION("a ']' after a '}' that is not the list's end") {
+        const std::string ok = R"({"center": [0, 0, 0], "radius": 1})";
+        const std::vector<std::string> texts = {
+            // After the list: an array of objects, and the two bytes in a string.
+            kHead + list + R"(, "shape": "}]" )" + kTail,
+            kHead + list + R"(, "shape": "sphere", "extra": [{}] )" + kTail,
+            kHead + list + std::string(kTail, std::strlen(kTail) - 1) + R"(, "more": [{"a": 1}] })",
+            // In the list: a key holding them, and an object in a particle's array.
+            kHead + ("[" + ok + R"(, {"center": [0, 0, 0], "radius": 1, "}]": 2}, )") + list.substr(1) + kTail,
+            kHead + list.substr(0, list.size() - 1) + R"(, {"center": [0, 0, 0], "velocity": [{}], "radius": 1}])" +
+                kTail,
+        };
+        for (const std::string& text : texts) {
+            INFO("text: " << text.substr(0, 200) << " ... " << text.substr(text.size() - 200));
+            const std::string reference = error_of(text, SceneJsonReader::reference);
+            CHECK(reference.rfind("bad.json: ", 0) == 0);
+            CHECK(error_of(text, SceneJsonReader::automatic) == reference);
+            CHECK(error_of(text, SceneJsonReader::fast) != "(no error)");
+        }
     }
 }

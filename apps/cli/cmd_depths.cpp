@@ -64,7 +64,8 @@ int run_depths(const Args& args) {
     if (work) work->begin("reading the scene", 0);
     StageClock read_clock;
     const SceneDescription desc = load_scene_file(scene_path);
-    const double read_ms = read_clock.lap_ms();
+    ProcessUsage read_usage;
+    const double read_ms = read_clock.lap_ms(read_usage);
     check_output_not_input(output, scene_inputs(scene_path, desc));  // the PLY it names, now known
     const auto& particles = desc.smoke.particles;
     std::optional<GroundQuad> ground;
@@ -85,7 +86,7 @@ int run_depths(const Args& args) {
         if (work) work->begin("TLAS build", 0);
         SmokeScene smoke(particles, options.shape, ground, /*billboards=*/false);
         smoke.update(particles, desc.camera.position);
-        t.tlas_update = clock.lap_ms();
+        t.tlas_update = clock.lap_ms(t.usage.tlas_update);
         if (textbook) {
             if (work) work->begin("optical depths (textbook)", 0);
             textbook_depths = textbook::optical_depths(smoke, particles, all, desc.light.direction, settings.cutoff,
@@ -117,14 +118,20 @@ int run_depths(const Args& args) {
                                                          true_depths);
         for (const std::string& piece : pieces) out.write(piece.data(), std::streamsize(piece.size()));
     });
-    const double write_ms = write_clock.lap_ms();
+    ProcessUsage write_usage;
+    const double write_ms = write_clock.lap_ms(write_usage);
     progress.finish();
     std::cerr << (output.kind == OutputKind::standard_output ? std::string("wrote the CSV to standard output")
                                                              : "wrote " + shown_text(*out_path, kMaxShownPathBytes))
               << " (" << particles.size() << (particles.size() == 1 ? " particle)\n" : " particles)\n");
-    // The stages, then reading the scene and writing the CSV (once each, whatever --repeat says).
-    if (timings) report << format_timings(median(runs), false) << "read_scene=" << read_ms << "\nwrite_csv=" << write_ms
-                        << '\n';
+    // The stages, then reading the scene and writing the CSV (once each, whatever --repeat says); then the
+    // same stages' CPU time and page faults.
+    if (timings) {
+        const FrameTimings m = median(runs);
+        report << format_timings(m, false) << "read_scene=" << read_ms << "\nwrite_csv=" << write_ms << '\n'
+               << format_usage(m, false) << format_stage_usage("read_scene", read_usage)
+               << format_stage_usage("write_csv", write_usage);
+    }
     return 0;
 }
 
@@ -137,7 +144,9 @@ constexpr OptionHelp kOptions[] = {
     {"--threads", "T", "all cores", "worker threads; the output is the same for any T"},
     {"--repeat", "R", "1", "run the pass R times (for --timings)"},
     {"--timings", "", "off", "print the median stage times in ms (tlas_update, od_pass, resolve), then the times to "
-                            "read the scene and write the CSV (read_scene, write_csv); on standard error with -o -"},
+                            "read the scene and write the CSV (read_scene, write_csv), then each stage's CPU time "
+                            "and page faults (STAGE.user_ms, .system_ms, .minor_faults, .major_faults); on standard "
+                            "error with -o -"},
     {"--truth", "", "off", "add a column true_optical_depth: the ground truth's τ from each centre to the light "
                           "(docs/ground-truth.md; compare with optical_path_length × sigma_t)"},
     {"--assets", "DIR", "as render's", "with --truth: folder of the six-way textures whose sixway.json \"bake\" gives "

@@ -149,7 +149,8 @@ int run_render(const Args& args) {
         all.push_back(r.timings);
         if (timings) {
             progress.clear_line();
-            report << "frame=" << f << " tlas=" << to_string(r.tlas) << "\n" << format_timings(r.timings, true);
+            report << "frame=" << f << " tlas=" << to_string(r.tlas) << "\n" << format_timings(r.timings, true)
+                   << format_usage(r.timings, true);
             report.flush();
         }
         if (work) work->begin(animation ? "compressing the frame" : image_stage.c_str(), 0);
@@ -177,7 +178,10 @@ int run_render(const Args& args) {
         }
     }
     progress.finish();
-    if (timings && end - first > 1) report << "median\n" << format_timings(median(all), true);
+    if (timings && end - first > 1) {
+        const FrameTimings m = median(all);
+        report << "median\n" << format_timings(m, true) << format_usage(m, true);
+    }
     if (animation)
         std::cerr << "wrote " << shown_text(out.string(), kMaxShownPathBytes) << " (" << end - first
                   << " frames at " << options.render.fps << " per second)\n";
@@ -220,7 +224,8 @@ constexpr OptionHelp kOptions[] = {
      "folder of the six-way textures (sixway.json, sixway_pos.png, sixway_neg.png)"},
     {"--textures", "DIR", "as --assets", "the same as --assets (its older name)"},
     {"--timings", "", "off",
-     "print each frame's stage times in ms, and their medians over a sequence (on standard error with -o -)"},
+     "print each frame's stage times in ms, then each stage's CPU time and page faults (STAGE.user_ms, "
+     ".system_ms, .minor_faults, .major_faults), and their medians over a sequence (on standard error with -o -)"},
 };
 
 const RegisterCommand registration{

@@ -815,25 +815,51 @@ struct FastReaderDeclined {
     const char* reason;
 };
 
-// /smoke/particles when it is an array; false when it is not there, not an array, or the document is broken
-// on the way to it (the reference reader then reads the document).
-bool find_particle_list(ondemand::document& document, ondemand::array& list) {
+constexpr bool json_whitespace(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n'; }
+
+// Where /smoke/particles begins (its '['), when it is an array; null when it is not there, not an array, or the
+// document is broken on the way to it (the reference reader then reads the document). On-Demand reads only as far
+// as the list's first byte, so that the text after it need not have been indexed.
+const char* find_particle_list(ondemand::document& document) {
     ondemand::object root;
-    if (document.get_object().get(root)) return false;
+    if (document.get_object().get(root)) return nullptr;
     for (auto member : root) {
         ondemand::field field;
-        if (std::move(member).get(field)) return false;
+        if (std::move(member).get(field)) return nullptr;
         if (!(field.key() == "smoke")) continue;
         ondemand::object smoke;
-        if (field.value().get_object().get(smoke)) return false;
+        if (field.value().get_object().get(smoke)) return nullptr;
         for (auto smoke_member : smoke) {
             ondemand::field smoke_field;
-            if (std::move(smoke_member).get(smoke_field)) return false;
-            if (smoke_field.key() == "particles") return !smoke_field.value().get_array().get(list);
+            if (std::move(smoke_member).get(smoke_field)) return nullptr;
+            if (!(smoke_field.key() == "particles")) continue;
+            ondemand::value list = smoke_field.value();
+            const std::string_view token = list.raw_json_token();
+            return !token.empty() && token.front() == '[' ? token.data() : nullptr;
         }
-        return false;
+        return nullptr;
     }
-    return false;
+    return nullptr;
+}
+
+// Where the particle list opened at text[open] ends: the ']' after it when only JSON white space lies between
+// (an empty list), else the last ']' in the text that follows a '}' (white space between), as a list of
+// particles ends; npos when there is none. Sought from the text's end, it costs the bytes after the list alone,
+// not a pass over the list. A ']' that only looks like the list's end (in a string, or closing an array of
+// objects after the list) leaves in the list's text what is no particle, and the fast reader then declines the
+// list: it reads each piece as an array of particles with nothing after it (FastParticleList), so a list it
+// reads did end there.
+std::size_t particle_list_end(std::string_view text, std::size_t open) {
+    std::size_t first = open + 1;
+    while (first < text.size() && json_whitespace(text[first])) ++first;
+    if (first < text.size() && text[first] == ']') return first;
+    for (std::size_t i = text.size(); i-- > open + 1;) {
+        if (text[i] != ']') continue;
+        std::size_t before = i;
+        while (before > open + 1 && json_whitespace(text[before - 1])) --before;
+        if (text[before - 1] == '}') return i;
+    }
+    return std::string_view::npos;
 }
 
 // A number of a particle in the list, for messages: its path, and its text as the file wrote it.
@@ -859,12 +885,34 @@ struct ListValueSite {
     }
 };
 
-// Number tokens longer than this are converted by std::from_chars: simdjson 3.0's get_double() misreads a
-// number of more than 19 significant digits (0.1000000000000000055511151231257827 as 4e-16; simdjson issue
-// #2093, fixed in 3.6.3), and 18 characters cannot hold more than 18 digits.
+// simdjson 3.0's get_double() misreads some numbers of more than 19 digits (0.1000000000000000055511151231257827
+// as 4e-16: past a 0's leading zeros it counts too few digits and overflows its 64-bit integer; simdjson issue
+// #2093, fixed in 3.6.3). A number token longer than kLongestTokenForSimdjson is converted by std::from_chars
+// unless it has at most 19 digits before its exponent (leading zeros included), which that integer holds
+// exactly, and an exponent of at most 2 digits, which keeps its power of ten (at least 10^-118) within
+// get_double()'s exact range (10^-342 … 10^308). An exporter's doubles ("-0.009585144929587841": 19 digits in
+// 21 characters) read there.
 constexpr std::size_t kLongestTokenForSimdjson = 18;
+constexpr std::size_t kMostDigitsForSimdjson = 19;
+constexpr std::size_t kMostExponentDigitsForSimdjson = 2;
 
-constexpr bool json_whitespace(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n'; }
+// A number token's length (simdjson's raw token runs on over the white space after the number), and its digits
+// before and after an exponent's 'e', in one pass.
+struct NumberShape {
+    std::size_t length = 0;
+    std::size_t digits = 0;
+    std::size_t exponent_digits = 0;
+};
+NumberShape shape_of(std::string_view token) {
+    NumberShape shape;
+    std::size_t* count = &shape.digits;
+    for (; shape.length < token.size() && !json_whitespace(token[shape.length]); ++shape.length) {
+        const char c = token[shape.length];
+        if (c >= '0' && c <= '9') ++*count;
+        else if (c == 'e' || c == 'E') count = &shape.exponent_digits;
+    }
+    return shape;
+}
 
 // A JSON number as the reference reader reads it (nlohmann: strtod, correctly rounded). nlohmann reads "-0" as
 // the integer 0, which is +0 as a double; simdjson's get_double() gives -0.
@@ -872,11 +920,11 @@ double list_number(ondemand::value& value, std::string_view& token) {
     token = value.raw_json_token();
     double v;
     if (value.get_double().get(v)) throw FastReaderDeclined{"not a number"};  // also checks the JSON syntax
-    if (token.size() > kLongestTokenForSimdjson) {  // (the token runs on over the whitespace after the number)
-        const char* end = token.data();
-        while (end != token.data() + token.size() && !json_whitespace(*end)) ++end;
-        if (std::size_t(end - token.data()) > kLongestTokenForSimdjson &&
-            std::from_chars(token.data(), end, v).ec != std::errc())
+    if (token.size() > kLongestTokenForSimdjson) {
+        const NumberShape n = shape_of(token);
+        const bool exact = n.digits <= kMostDigitsForSimdjson && n.exponent_digits <= kMostExponentDigitsForSimdjson;
+        if (n.length > kLongestTokenForSimdjson && !exact &&
+            std::from_chars(token.data(), token.data() + n.length, v).ec != std::errc())
             throw FastReaderDeclined{"a number from_chars does not read"};
     }
     if (v == 0.0 && std::signbit(v) && token.find_first_of(".eE") == std::string_view::npos) v = 0.0;
@@ -902,7 +950,7 @@ auto list_triple(ondemand::value& value, std::size_t particle, std::string_view 
     return out;
 }
 
-// Reads /smoke/particles from its text (the array, '[' to ']', as simdjson found it in the document) in
+// Reads /smoke/particles from its text (the array, '[' to the ']' particle_list_end() found) in
 // pieces of about kListPieceBytes read in parallel, each by its own On-Demand parser: no tree, no path string
 // per value. read_particle() is its reference: the same keys and the same checks in the same order.
 //
@@ -917,6 +965,7 @@ public:
     explicit FastParticleList(std::string_view list_text) : text_(list_text) {}
 
     // The particles, as local_particle() makes them; `origin`, when the file gave none, from the first.
+    // Declines unless every piece reads, which also shows that particle_list_end() found the list's end.
     void read(const Reader& r, std::vector<Particle>& particles, std::optional<glm::dvec3>& origin) const {
         const std::vector<std::string_view> pieces = cut_into_pieces();
         std::vector<std::size_t> first(pieces.size() + 1, 0);  // each piece's first particle in the list
@@ -980,6 +1029,8 @@ private:
                 particles[index++] = local_particle(values, *origin);
             }
             if (index != end) throw FastReaderDeclined{"a brace outside a particle"};
+            // The array read, nothing may follow it: the piece held particles and nothing else.
+            if (!document.current_location().error()) throw FastReaderDeclined{"text after the particles"};
         }
     };
 
@@ -1284,23 +1335,41 @@ SceneDescription read_scene(const json& document, const Reader& r, const FastPar
     return scene;
 }
 
-// The fast path, for a document with a particle list: simdjson indexes the text once; the list's text is cut
-// out and the rest (small) goes through the reference reader's scan and tree, with [] in the list's place;
-// the list is read from simdjson's index. Empty when there is no list (nothing to gain). Throws
-// FastReaderDeclined, or SceneFileError for any problem; parse_scene_text() then asks the reference reader.
+// The fast path, for a document with a particle list: simdjson finds the list's start, particle_list_end() its
+// end; the rest (small) goes through the reference reader's scan and tree, with [] in the list's place, and the
+// list is read by FastParticleList. Empty when there is no list (nothing to gain). Throws FastReaderDeclined, or
+// SceneFileError for any problem; parse_scene_text() then asks the reference reader.
 std::optional<SceneDescription> parse_fast(simdjson::padded_string_view text, const Reader& r,
                                            const std::filesystem::path& base_dir) {
+    // simdjson indexes a copy of the first kHeadBytes alone, cut before a '{' (a particle's, where a list has
+    // begun) so that the cut falls outside a string, and closed by a '}' (On-Demand checks a root object's last
+    // byte before it reads it): a scene's keys before its list take far fewer bytes, and the list itself (10^6
+    // particles: tens of millions of positions, 4 bytes each, in memory touched once) is then indexed only piece
+    // by piece, by the pieces' readers. A list that begins later is found in the whole text.
+    constexpr std::size_t kHeadBytes = std::size_t{64} << 10;
+    const std::string_view whole(text.data(), text.length());
     ondemand::parser parser;
-    ondemand::document document;
-    if (parser.iterate(text).get(document)) throw FastReaderDeclined{"not JSON simdjson can index"};
-    ondemand::array list;
-    std::string_view list_text;
-    if (!find_particle_list(document, list) || list.raw_json().get(list_text)) return std::nullopt;
-    const std::size_t begin = std::size_t(list_text.data() - text.data());
+    std::size_t begin = std::string_view::npos;
+    const std::size_t cut = whole.size() > kHeadBytes ? whole.rfind('{', kHeadBytes) : std::string_view::npos;
+    if (cut != std::string_view::npos && cut > 0) {
+        const simdjson::padded_string head(std::string(whole.substr(0, cut)) + '}');
+        ondemand::document document;
+        if (!parser.iterate(head).get(document))
+            if (const char* list = find_particle_list(document)) begin = std::size_t(list - head.data());
+    }
+    if (begin == std::string_view::npos) {
+        ondemand::document document;
+        if (parser.iterate(text).get(document)) throw FastReaderDeclined{"not JSON simdjson can index"};
+        const char* list = find_particle_list(document);
+        if (!list) return std::nullopt;
+        begin = std::size_t(list - text.data());
+    }
+    const std::size_t end = particle_list_end(whole, begin);
+    if (end == std::string_view::npos) throw FastReaderDeclined{"no end of a particle list"};
+    const std::string_view list_text = whole.substr(begin, end + 1 - begin);
     std::string rest;
-    rest.reserve(text.length() - list_text.size() + 2);
-    rest.append(text.data(), begin).append("[]");
-    rest.append(text.data() + begin + list_text.size(), text.data() + text.length());
+    rest.reserve(whole.size() - list_text.size() + 2);
+    rest.append(whole.substr(0, begin)).append("[]").append(whole.substr(end + 1));
     const json tree = parse_json(rest, r, r.source());
     const FastParticleList fast(list_text);
     return read_scene(tree, r, &fast, base_dir);
@@ -1375,7 +1444,7 @@ SceneDescription parse_scene(std::string_view json_text, std::string_view source
 
 SceneDescription load_scene_file(const std::filesystem::path& path) {
     const std::string name = path.string();
-    std::string text;
+    JsonText text;
     try {
         // Padded for simdjson, so that the text is held once however large the file.
         text = read_json_object_text(path, kMaxSceneFileBytes, simdjson::SIMDJSON_PADDING);

@@ -64,7 +64,7 @@ SixwayTexture load_sixway_texture(const fs::path& positive_png, const fs::path& 
 }
 
 SixwayLayout read_sixway_layout(const fs::path& layout_json) {
-    std::string text;
+    JsonText text;
     try {
         text = read_json_object_text(layout_json, kMaxSixwayLayoutBytes);
     } catch (const JsonTextFileError& e) {
@@ -72,7 +72,7 @@ SixwayLayout read_sixway_layout(const fs::path& layout_json) {
     }
     nlohmann::json doc;
     try {
-        doc = nlohmann::json::parse(text);
+        doc = nlohmann::json::parse(text.view());
     } catch (const nlohmann::json::parse_error& e) {
         throw std::runtime_error("'" + layout_json.string() + "': not valid JSON: " + e.what());
     }
@@ -93,7 +93,7 @@ SixwayLayout read_sixway_layout(const fs::path& layout_json) {
 
 SixwayBakeSettings read_sixway_bake_settings(const fs::path& layout_json) {
     const SixwayLayout layout = read_sixway_layout(layout_json);  // the format, version and grid checked first
-    const nlohmann::json doc = nlohmann::json::parse(read_json_object_text(layout_json, kMaxSixwayLayoutBytes));
+    const nlohmann::json doc = nlohmann::json::parse(read_json_object_text(layout_json, kMaxSixwayLayoutBytes).view());
     if (!doc.contains("bake") || !doc.at("bake").is_object())
         layout_error(layout_json, "/bake", "missing: the ground truth needs the puff the textures were baked from "
                                            "(bake them again with smoketrace bake-sixway)");

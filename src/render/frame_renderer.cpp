@@ -78,7 +78,7 @@ bool FrameRenderer::advance_to(std::uint64_t frame, bool trace_depths, FrameRepo
 
     if (progress_) progress_->begin("TLAS update", 0);
     report.tlas = smoke_.update(particles_.particles(), camera_.position());
-    t.tlas_update = clock.lap_ms();
+    t.tlas_update = clock.lap_ms(t.usage.tlas_update);
     if (trace_depths && options_.render.mode != RenderMode::basic) {
         // The first frame traces every particle so that none starts without a value; after that, one
         // group per frame (thesis 4.4.2).
@@ -136,16 +136,16 @@ FrameReport FrameRenderer::render(std::uint64_t frame, ImageRgba& image) {
     if (still && flipbook_frame == last_flipbook_frame_ && image.width == options_.width &&
         image.height == options_.height) {
         report.reused_previous = true;
-        t.total = total.lap_ms();
+        t.total = total.lap_ms(t.usage.total);
         return report;
     }
     StageClock clock;
 
     const ViewSettings v = view_settings(frame);
     render_view(smoke_, particles_.particles(), depths_.lengths(), texture_, camera_, v, image);
-    t.view = clock.lap_ms();
+    t.view = clock.lap_ms(t.usage.view);
     last_flipbook_frame_ = flipbook_frame;
-    t.total = total.lap_ms();
+    t.total = total.lap_ms(t.usage.total);
     return report;
 }
 

@@ -10,7 +10,7 @@ void OpticalPathLengths::update(const SmokeScene& scene, std::span<const Particl
                            const OpticalDepthSettings& settings, HitSort sort, FrameTimings& timings) {
     StageClock clock;
     pass_.trace(scene, particles, which, to_light, settings);
-    timings.od_pass = clock.lap_ms();
+    timings.od_pass = clock.lap_ms(timings.usage.od_pass);
     // The hits resolved where the pass kept them: gathering them into one buffer first (pass_.gather(),
     // then resolve_optical_path_lengths()) gives the same lengths after copying every hit once more.
     group_lengths_.resize(which.size());
@@ -21,7 +21,7 @@ void OpticalPathLengths::update(const SmokeScene& scene, std::span<const Particl
         status_[which[i]] = pass_.status()[i];
         hit_counts_[which[i]] = pass_.hit_counts()[i];
     }
-    timings.resolve = clock.lap_ms();
+    timings.resolve = clock.lap_ms(timings.usage.resolve);
 }
 
 }  // namespace smoketrace
