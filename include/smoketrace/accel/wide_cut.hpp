@@ -5,8 +5,12 @@
 #include <smoketrace/accel/bvh.hpp>
 #include <smoketrace/accel/bvh_bottom_up.hpp>
 
+#include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
+#include <algorithm>
+#include <cstddef>
 #include <cstdint>
 #include <limits>
 #include <memory>
@@ -114,8 +118,8 @@ private:
 
 // Lays out the wide tree of `cut` as one depth-first work list would (a node's inner children side by side,
 // appended when it is made; the last child's subtree first), the large subtrees' stretches filled in
-// parallel: the same array at any thread count. allocate(count) is called once with the number of wide
-// nodes; then make(wide, slot, n, axis, child) once for every wide node (from several threads at once): the
+// parallel: the same array at any thread count. allocate(count) sizes the array for `count` wide nodes (on
+// one thread: first for at most one per binary inner node, and to the count at the end, a shrink); then make(wide, slot, n, axis, child) once for every wide node (from several threads at once): the
 // wide node `wide` has n slots, the binary nodes slot[0 … n) in the order of order_slots() (bvh.hpp) along
 // `axis`, and child[i] is the wide node of slot i where that is an inner node.
 template <unsigned W, class Allocate, class Make>
@@ -129,9 +133,10 @@ void lay_out_wide_tree(const Bvh& binary, const WideCut<W>& cut, Allocate&& allo
         return n.is_leaf() || detail::descendants_end(binary, b) - n.first <= kSerialSweepNodes;
     };
     // A wide node's slots, ordered (its children are numbered in that order); returns its inner children.
-    auto children = [&](std::uint32_t b, std::uint32_t* slot, unsigned& n, int& axis) {
+    // Counting needs no order.
+    auto children = [&](std::uint32_t b, std::uint32_t* slot, unsigned& n, int& axis, bool order = true) {
         n = cut.slots(b, slot);
-        axis = order_slots(binary, slot, n);
+        axis = order ? order_slots(binary, slot, n) : 0;
         unsigned inner = 0;
         for (unsigned i = 0; i < n; ++i) inner += binary.nodes[slot[i]].is_leaf() ? 0u : 1u;
         return inner;
@@ -145,7 +150,7 @@ void lay_out_wide_tree(const Bvh& binary, const WideCut<W>& cut, Allocate&& allo
             std::uint32_t slot[W], child[W];
             unsigned n;
             int axis;
-            children(job.binary, slot, n, axis);
+            children(job.binary, slot, n, axis, write);
             for (unsigned i = 0; i < n; ++i)
                 if (!binary.nodes[slot[i]].is_leaf()) {
                     child[i] = next++;
@@ -155,6 +160,16 @@ void lay_out_wide_tree(const Bvh& binary, const WideCut<W>& cut, Allocate&& allo
         }
         return next;
     };
+
+    // One thread, or a tree one task lays out: the work list alone, with no sizing pass (its work would be spent for nothing).
+    const std::size_t threads = std::min<std::size_t>(
+        std::size_t(tbb::this_task_arena::max_concurrency()),
+        tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+    if (threads == 1 || one_task(0)) {
+        allocate((binary.node_count() - 1) / 2 + 1);
+        allocate(std::size_t{lay_out_subtree({0u, 0u}, 1, true)});
+        return;
+    }
 
     // The top of the tree, serially, in the work list's order: its own nodes, and the subtrees left to tasks,
     // each with where its nodes' children start (after sizing them all in parallel).
