@@ -2,6 +2,7 @@
 // BLAS (triangle_mesh.hpp) and the stand-in meshes (stand_in_shapes.hpp), each against brute force.
 #include <smoketrace/trace/blas_traversal.hpp>
 #include <smoketrace/accel/bvh.hpp>
+#include <smoketrace/accel/bvh_bottom_up.hpp>
 #include <smoketrace/accel/bvh_builder.hpp>
 #include <smoketrace/accel/bvh_traversal.hpp>
 #include <smoketrace/accel/blas_wide_traversal.hpp>
@@ -16,6 +17,7 @@
 #include <tbb/global_control.h>
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -1176,15 +1178,56 @@ std::vector<ReferenceWideNode> reference_wide_layout(const Bvh& binary) {
     return nodes;
 }
 
-TEST_CASE("Wide BVH: the collapse of a large tree lays out its nodes depth first, slots and boxes as chosen",
+TEST_CASE("Bottom-up sweep: each node once, after its children; the sum's bits the same at 1, 2 and 8 threads",
           "[bvh]") {
+    for (const std::size_t count : {std::size_t{1}, std::size_t{2}, std::size_t{3000}, std::size_t{120000}}) {
+        const auto boxes = random_boxes(count, 95 + count);
+        const Bvh bvh = build_bvh(boxes, BvhBuildSettings{{}, 1});
+        // The serial definition: every node but the padding slot, backward.
+        double backward = 0.0;
+        for (std::size_t k = bvh.nodes.size(); k-- > 0;)
+            if (k != 1 || bvh.nodes.size() == 1) backward += sah_term(bvh.nodes[k], SahCosts{});
+        double first_sum = 0.0;
+        for (const int threads : {1, 2, 8}) {
+            tbb::global_control limit(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+            std::vector<std::atomic<int>> visits(bvh.nodes.size());
+            std::atomic<int> early{0};
+            const double sum = sweep_bottom_up(bvh, [&](std::uint32_t k) {
+                const BvhNode& n = bvh.nodes[k];
+                if (!n.is_leaf() && (visits[n.first].load() != 1 || visits[n.first + 1].load() != 1)) ++early;
+                ++visits[k];
+                return sah_term(n, SahCosts{});
+            });
+            INFO(count << " primitives, threads " << threads);
+            CHECK(early.load() == 0);
+            int wrong = 0;
+            for (std::size_t k = 0; k < visits.size(); ++k)
+                wrong += visits[k].load() != (k == 1 && visits.size() > 1 ? 0 : 1) ? 1 : 0;
+            CHECK(wrong == 0);
+            if (threads == 1) first_sum = sum;
+            CHECK(sum == first_sum);
+            // A tree within one task sums in backward array order; a larger one differs from it by rounding.
+            if (bvh.nodes.size() <= kSerialSweepNodes) CHECK(sum == backward);
+            CHECK(std::abs(sum - backward) <= 1e-12 * backward);
+        }
+    }
+}
+
+TEST_CASE("Wide BVH: the collapse of a large tree lays out its nodes depth first, slots and boxes as chosen, "
+          "at 1, 2 and 8 threads",
+          "[bvh]") {
+    // 200k binary nodes: a dozen subtrees laid out by tasks of their own, below a top laid out serially.
     const auto boxes = random_boxes(100000, 93);
     const Bvh binary = build_bvh(boxes, BvhBuildSettings{{}, 1});
+    REQUIRE(binary.nodes.size() > 8 * kSerialSweepNodes);
     std::vector<std::uint8_t> masks(binary.nodes.size());
     for (std::size_t k = 0; k < masks.size(); ++k) masks[k] = static_cast<std::uint8_t>(k * 37 + 1);
     const std::vector<ReferenceWideNode> want = reference_wide_layout(binary);
+    const int threads = GENERATE(1, 2, 8);
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
     WideBvh wide;
     wide.collapse(binary, masks);
+    INFO("threads " << threads);
     REQUIRE(wide.node_count() == want.size());
     CHECK(wide.root_mask() == masks[0]);
     int bad = 0;

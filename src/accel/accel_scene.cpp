@@ -1,6 +1,7 @@
 // Two-level scene and its TLAS update policy (see accel_scene.hpp).
 #include <smoketrace/accel/bvh_builder.hpp>
 #include <smoketrace/accel/accel_scene.hpp>
+#include <smoketrace/accel/bvh_bottom_up.hpp>
 
 #include <glm/geometric.hpp>
 #include <glm/matrix.hpp>
@@ -436,23 +437,21 @@ void AccelScene::rebuild() {
 
 void AccelScene::refit_binary() { sweep_binary<true>(); }
 
-// One backward sweep (children before parents) refits the boxes (kRefitBoxes; a fresh build's are exact
-// already), ORs the instance masks and sums the SAH cost, with the terms and order of Bvh::sah_cost, so the
-// rebuild test costs no extra pass.
+// One sweep, children before parents (sweep_bottom_up(), in parallel over subtrees), refits the boxes
+// (kRefitBoxes; a fresh build's are exact already), ORs the instance masks and sums the SAH cost, with the
+// terms and order of Bvh::sah_cost, so the rebuild test costs no extra pass.
 template <bool kRefitBoxes>
 void AccelScene::sweep_binary() {
-    constexpr std::size_t kPrefetch = 16;
+    constexpr std::uint32_t kPrefetch = 16;
     auto& nodes = tlas_.nodes;
     const SahCosts costs{};
-    double weighted = 0.0;
-    for (std::size_t k = nodes.size(); k-- > 0;) {
+    const double weighted = sweep_bottom_up(tlas_, [&](std::uint32_t k) {
         // A leaf's instance box is read at random (leaf order is not instance order): fetched kPrefetch
-        // nodes ahead, the misses overlap instead of stalling the sweep one after another.
+        // nodes ahead of a backward pass, the misses overlap instead of stalling the sweep one after another.
         if (kRefitBoxes && k >= kPrefetch) {
             const BvhNode& ahead = nodes[k - kPrefetch];
             if (ahead.is_leaf()) __builtin_prefetch(&world_boxes_[tlas_.prim_indices[ahead.first]]);
         }
-        if (k == 1) continue;
         BvhNode& n = nodes[k];
         Aabb b;
         std::uint8_t m = 0;
@@ -468,8 +467,8 @@ void AccelScene::sweep_binary() {
         }
         if (kRefitBoxes) n.bounds = b;
         node_masks_[k] = m;
-        weighted += sah_term(n, costs);
-    }
+        return sah_term(n, costs);
+    });
     const double root_area = nodes.empty() ? 0.0 : double(nodes[0].bounds.area());
     sah_current_ = nodes.empty() ? 0.0 : root_area > 0.0 ? weighted / root_area : tlas_.sah_cost(costs);
 }

@@ -1,5 +1,6 @@
 // Bvh queries and refit (see bvh.hpp).
 #include <smoketrace/accel/bvh.hpp>
+#include <smoketrace/accel/bvh_bottom_up.hpp>
 
 #include <algorithm>
 #include <stdexcept>
@@ -26,17 +27,13 @@ double Bvh::sah_cost(const SahCosts& costs) const {
     if (nodes.empty()) return 0.0;
     const double root_area = nodes[0].bounds.area();
     if (!(root_area > 0.0)) return costs.intersection * double(nodes[0].count);
-    // Backward, and divided by the root's area once at the end: the order and the terms of the fused
-    // refit sweep of the TLAS (AccelScene::refit), so that both give the same bits.
-    double weighted = 0.0;
-    for (std::size_t i = nodes.size(); i-- > 0;)
-        if (i != 1) weighted += sah_term(nodes[i], costs);
-    return weighted / root_area;
+    // Summed by sweep_bottom_up() and divided by the root's area once at the end: the order and the terms of
+    // the fused refit sweep of the TLAS (AccelScene::refit_binary), so that both give the same bits.
+    return sweep_bottom_up(*this, [&](std::uint32_t i) { return sah_term(nodes[i], costs); }) / root_area;
 }
 
 void Bvh::refit(std::span<const Aabb> prim_boxes) {
-    for (std::size_t k = nodes.size(); k-- > 0;) {
-        if (k == 1) continue;
+    sweep_bottom_up(*this, [&](std::uint32_t k) {
         BvhNode& n = nodes[k];
         Aabb b;
         if (n.is_leaf()) {
@@ -45,7 +42,8 @@ void Bvh::refit(std::span<const Aabb> prim_boxes) {
             b = merge(nodes[n.first].bounds, nodes[n.first + 1].bounds);
         }
         n.bounds = b;
-    }
+        return 0.0;
+    });
 }
 
 int order_slots(const Bvh& binary, std::uint32_t* slot, unsigned n) {

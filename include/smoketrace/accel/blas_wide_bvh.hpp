@@ -53,7 +53,8 @@ public:
     [[nodiscard]] std::size_t node_count() const { return nodes_.size(); }
 
 private:
-    std::vector<Node, HugePageAllocator<Node, 64>> nodes_;  // in huge pages: a walk reads it at random
+    // In huge pages (a walk reads it at random), grown unwritten: collapse() writes each node whole.
+    std::vector<Node, HugePageAllocator<Node, 64, /*kUnwritten=*/true>> nodes_;
 };
 
 extern template class BlasWideBvh<4>;

@@ -6,8 +6,10 @@
 // The two children of a node are stored side by side as a pair at an even index (the root is node 0,
 // node 1 is padding), and the node array is 64-byte aligned, so one cache line holds both child boxes:
 // the traversal tests both children of a node after a single memory fetch, the same effect as a
-// "child boxes in the parent" layout but with a node half the size. Nodes are in depth-first order
-// (a pair always comes after its parent), so a refit is one backward sweep over the array.
+// "child boxes in the parent" layout but with a node half the size. Nodes are in depth-first order, left
+// subtree first (a pair always comes after its parent, and a node's descendants are the stretch of the array
+// from its pair on): a refit is one backward sweep over the array, or over each subtree's stretch in
+// parallel (bvh_bottom_up.hpp).
 #include <smoketrace/core/aligned_allocator.hpp>
 #include <smoketrace/geometry/aabb.hpp>
 

@@ -52,8 +52,10 @@ public:
     [[nodiscard]] std::uint8_t root_mask() const { return root_mask_; }
 
 private:
-    std::vector<WideBvhNode, AlignedAllocator<WideBvhNode, 64>> nodes_;
-    std::vector<std::uint32_t> source_;  // per node and slot: the binary node it copies (~0u: unused)
+    // Grown unwritten: collapse() writes each node whole, in parallel, the first touch of their pages.
+    std::vector<WideBvhNode, UnwrittenAllocator<WideBvhNode, 64>> nodes_;
+    std::vector<std::uint32_t, UnwrittenAllocator<std::uint32_t>> source_;  // per node and slot: the binary
+                                                                            // node it copies (~0u: unused)
     std::uint8_t root_mask_ = 0;
 };
 

@@ -3,11 +3,19 @@
 // and which binary nodes fill each wide node's slots. Both wide trees use it: the mesh BLAS's
 // (blas_wide_bvh.hpp) and the top level's (wide_bvh.hpp).
 #include <smoketrace/accel/bvh.hpp>
+#include <smoketrace/accel/bvh_bottom_up.hpp>
 
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <cstddef>
 #include <cstdint>
 #include <limits>
 #include <memory>
 #include <utility>
+#include <vector>
 
 namespace smoketrace {
 
@@ -21,11 +29,11 @@ namespace smoketrace {
 template <unsigned W>
 class WideCut {
 public:
+    // The costs are left unwritten by the allocation: the sweep's own (parallel) writes touch their pages first.
     explicit WideCut(const Bvh& binary) : binary_(binary), cost_(new Costs[binary.nodes.size()]) {
-        // Depth-first layout: children after their parent, so one backward sweep sees them first.
-        for (std::size_t i = binary.nodes.size(); i-- > 0;) {
+        sweep_bottom_up(binary, [&](std::uint32_t i) {
             const BvhNode& b = binary.nodes[i];
-            if ((i == 1 && binary.nodes.size() > 1) || b.is_leaf()) continue;
+            if (b.is_leaf()) return 0.0;
             float shared[W];
             share(b, shared);
             // Ties go to sharing: a wide node fewer for the same cost.
@@ -33,7 +41,8 @@ public:
             Costs& c = cost_[i];
             c[0] = own;
             for (unsigned q = 1; q < W; ++q) c[q] = shared[q] <= own ? shared[q] : own;
-        }
+            return 0.0;
+        });
     }
 
     // The slots of the wide node made from binary node `node`, in the binary tree's left-right order; returns
@@ -106,5 +115,135 @@ private:
     const Bvh& binary_;
     std::unique_ptr<Costs[]> cost_;  // per binary node; a leaf's entry is unused
 };
+
+// Lays out the wide tree of `cut` as one depth-first work list would (a node's inner children side by side,
+// appended when it is made; the last child's subtree first), the large subtrees' stretches filled in
+// parallel: the same array at any thread count. allocate(count) sizes the array for `count` wide nodes (on
+// one thread: first for at most one per binary inner node, and to the count at the end, a shrink); then make(wide, slot, n, axis, child) once for every wide node (from several threads at once): the
+// wide node `wide` has n slots, the binary nodes slot[0 … n) in the order of order_slots() (bvh.hpp) along
+// `axis`, and child[i] is the wide node of slot i where that is an inner node.
+template <unsigned W, class Allocate, class Make>
+void lay_out_wide_tree(const Bvh& binary, const WideCut<W>& cut, Allocate&& allocate, Make&& make) {
+    struct Job {
+        std::uint32_t binary, wide;
+    };
+    // A subtree whose binary stretch fits one sweep task is laid out by one task, the rest by the list below.
+    auto one_task = [&](std::uint32_t b) {
+        const BvhNode& n = binary.nodes[b];
+        return n.is_leaf() || detail::descendants_end(binary, b) - n.first <= kSerialSweepNodes;
+    };
+    // A wide node's slots, ordered (its children are numbered in that order); returns its inner children.
+    // Counting needs no order.
+    auto children = [&](std::uint32_t b, std::uint32_t* slot, unsigned& n, int& axis, bool order = true) {
+        n = cut.slots(b, slot);
+        axis = order ? order_slots(binary, slot, n) : 0;
+        unsigned inner = 0;
+        for (unsigned i = 0; i < n; ++i) inner += binary.nodes[slot[i]].is_leaf() ? 0u : 1u;
+        return inner;
+    };
+    // The work list over one task's subtree, its nodes' children from `next` on; returns past the last.
+    auto lay_out_subtree = [&](Job root, std::uint32_t next, bool write) {
+        std::vector<Job> jobs{root};
+        while (!jobs.empty()) {
+            const Job job = jobs.back();
+            jobs.pop_back();
+            std::uint32_t slot[W], child[W];
+            unsigned n;
+            int axis;
+            children(job.binary, slot, n, axis, write);
+            for (unsigned i = 0; i < n; ++i)
+                if (!binary.nodes[slot[i]].is_leaf()) {
+                    child[i] = next++;
+                    jobs.push_back({slot[i], child[i]});
+                }
+            if (write) make(job.wide, slot, n, axis, child);
+        }
+        return next;
+    };
+
+    // One thread, or a tree one task lays out: the work list alone, with no sizing pass (its work would be spent for nothing).
+    const std::size_t threads = std::min<std::size_t>(
+        std::size_t(tbb::this_task_arena::max_concurrency()),
+        tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+    if (threads == 1 || one_task(0)) {
+        allocate((binary.node_count() - 1) / 2 + 1);
+        allocate(std::size_t{lay_out_subtree({0u, 0u}, 1, true)});
+        return;
+    }
+
+    // The top of the tree, serially, in the work list's order: its own nodes, and the subtrees left to tasks,
+    // each with where its nodes' children start (after sizing them all in parallel).
+    struct Top {
+        Job job;
+        std::uint32_t first_child;  // subtrees: where its nodes' children start
+        bool subtree;
+    };
+    std::vector<Top> top;
+    std::vector<std::uint32_t> sizes;  // per subtree in `top`'s order: its wide nodes below its root
+    {
+        std::vector<Job> jobs{{0u, 0u}};
+        while (!jobs.empty()) {
+            const Job job = jobs.back();
+            jobs.pop_back();
+            if (one_task(job.binary)) {
+                top.push_back({job, 0, true});
+                continue;
+            }
+            std::uint32_t slot[W];
+            unsigned n;
+            int axis;
+            children(job.binary, slot, n, axis);
+            top.push_back({job, 0, false});
+            for (unsigned i = 0; i < n; ++i)
+                if (!binary.nodes[slot[i]].is_leaf()) jobs.push_back({slot[i], 0});
+        }
+    }
+    std::vector<std::uint32_t> subtree_at;  // indices into `top` of the subtrees
+    for (std::uint32_t t = 0; t < top.size(); ++t)
+        if (top[t].subtree) subtree_at.push_back(t);
+    sizes.resize(subtree_at.size());
+    tbb::parallel_for(std::size_t{0}, subtree_at.size(), [&](std::size_t s) {
+        sizes[s] = lay_out_subtree(top[subtree_at[s]].job, 0, false);
+    });
+    // Numbered as the work list numbers them: a node's inner children when it is made; a subtree's nodes
+    // after its root, in one stretch. The top nodes are met in the same order as above.
+    std::uint32_t next = 1;
+    {
+        std::size_t t = 0, s = 0;
+        std::vector<std::uint32_t> wide_of{0u};  // the list's pending wide indices, as a stack
+        while (!wide_of.empty()) {
+            const std::uint32_t wide = wide_of.back();
+            wide_of.pop_back();
+            Top& item = top[t++];
+            item.job.wide = wide;
+            item.first_child = next;
+            if (item.subtree) {
+                next += sizes[s++];
+                continue;
+            }
+            std::uint32_t slot[W];
+            unsigned n;
+            int axis;
+            next += children(item.job.binary, slot, n, axis);
+            for (std::uint32_t c = item.first_child; c < next; ++c) wide_of.push_back(c);
+        }
+    }
+    allocate(std::size_t{next});
+    tbb::parallel_for(std::size_t{0}, top.size(), [&](std::size_t t) {
+        const Top& item = top[t];
+        if (item.subtree) {
+            lay_out_subtree(item.job, item.first_child, true);
+            return;
+        }
+        std::uint32_t slot[W], child[W];
+        unsigned n;
+        int axis;
+        children(item.job.binary, slot, n, axis);
+        std::uint32_t c = item.first_child;
+        for (unsigned i = 0; i < n; ++i)
+            if (!binary.nodes[slot[i]].is_leaf()) child[i] = c++;
+        make(item.job.wide, slot, n, axis, child);
+    });
+}
 
 }  // namespace smoketrace
