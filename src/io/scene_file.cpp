@@ -14,8 +14,10 @@
 
 #include <nlohmann/json.hpp>
 #include <simdjson.h>
+#include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
@@ -623,18 +625,39 @@ struct DefaultView {
 };
 DefaultView default_view(const std::vector<Particle>& particles, const std::optional<GroundDescription>& ground,
                          float fov_deg, std::uint32_t width, std::uint32_t height) {
-    // Bounding sphere: centre of the box, radius to the farthest surface point.
+    // Bounding sphere: centre of the box, radius to the farthest surface point. Both are reductions over the
+    // particles, in parallel: minima and maxima are exact, so the result is the same whatever the split.
     glm::dvec3 center(0.0);
     double radius = 1.0;
     if (!particles.empty()) {
-        glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
-        for (const Particle& p : particles) {
-            lo = glm::min(lo, glm::dvec3(p.center) - double(p.radius));
-            hi = glm::max(hi, glm::dvec3(p.center) + double(p.radius));
-        }
-        center = 0.5 * (lo + hi);
-        radius = 0.0;
-        for (const Particle& p : particles) radius = std::max(radius, glm::length(glm::dvec3(p.center) - center) + p.radius);
+        using Range = tbb::blocked_range<std::size_t>;
+        const Range all(0, particles.size());
+        struct Box {
+            glm::dvec3 lo, hi;
+        };
+        constexpr double kInf = std::numeric_limits<double>::infinity();
+        const Box box = tbb::parallel_reduce(
+            all, Box{glm::dvec3(kInf), glm::dvec3(-kInf)},
+            [&](const Range& range, Box b) {
+                for (std::size_t i = range.begin(); i != range.end(); ++i) {
+                    const Particle& p = particles[i];
+                    b.lo = glm::min(b.lo, glm::dvec3(p.center) - double(p.radius));
+                    b.hi = glm::max(b.hi, glm::dvec3(p.center) + double(p.radius));
+                }
+                return b;
+            },
+            [](const Box& a, const Box& b) { return Box{glm::min(a.lo, b.lo), glm::max(a.hi, b.hi)}; });
+        center = 0.5 * (box.lo + box.hi);
+        radius = tbb::parallel_reduce(
+            all, 0.0,
+            [&](const Range& range, double farthest) {
+                for (std::size_t i = range.begin(); i != range.end(); ++i) {
+                    const Particle& p = particles[i];
+                    farthest = std::max(farthest, glm::length(glm::dvec3(p.center) - center) + p.radius);
+                }
+                return farthest;
+            },
+            [](double a, double b) { return std::max(a, b); });
     } else if (ground) {
         for (const glm::vec3& c : ground->corners) center += 0.25 * glm::dvec3(c);
         radius = 0.0;
