@@ -10,6 +10,7 @@
 #include <smoketrace/io/json_text_file.hpp>
 #include <smoketrace/io/ply_points.hpp>
 #include <smoketrace/core/memory_budget.hpp>
+#include <smoketrace/core/populated_pages.hpp>
 #include <smoketrace/core/shown_text.hpp>
 
 #include <nlohmann/json.hpp>
@@ -803,8 +804,8 @@ std::string read_ply_particles(const Reader& r, const Node& list, const std::fil
             r.fail(list.path + ": " + name + ": element vertex", problem);
         const std::vector<PlyPiece> pieces = ply.pieces();
         // Only now: pieces() has held the count against the file's size, so a header that lies cannot claim
-        // more memory than the file could hold.
-        particles.resize(std::size_t(ply.vertex_count()));
+        // more memory than the file could hold. Its fresh pages faulted in by the threads together.
+        resize_populated(particles, std::size_t(ply.vertex_count()));
 
         // One thread's piece reader and batch, kept from piece to piece.
         struct Scratch {
