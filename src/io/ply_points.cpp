@@ -1,7 +1,8 @@
-// PLY point clouds (see ply_points.hpp). The header is a few lines of text, read in order. The vertices are read
-// in pieces by pread() at their offsets, a batch at a time into the piece reader's buffer, each wanted property
-// decoded from its offset (binary) or its index among the vertex's values (ascii): the file's bytes are
-// copied once, into a buffer a thread reuses, and no allocation happens per vertex.
+// PLY point clouds (see ply_points.hpp). The header is a few lines of text, read in order. The vertices are
+// read in pieces by pread() at their offsets into the piece reader's buffer, each wanted property decoded
+// from its offset (binary) or its index among the vertex's values (ascii): a binary file's bytes are copied
+// once, into a buffer a thread reuses (an ascii file's twice: its values are counted first), and no
+// allocation happens per vertex.
 #include <smoketrace/io/ply_points.hpp>
 
 #include <algorithm>
