@@ -554,10 +554,10 @@ void PlyPointReader::PieceReader::start_text(std::uint64_t offset) {
 bool PlyPointReader::PieceReader::read_more(std::size_t keep_from) {
     // buffer_[keep_from, end_) moves to the front (a value that runs on past the buffer's end), then the
     // next bytes of the file follow it; a value as long as the buffer doubles it.
+    if (buffer_.size() < kReadBytes) buffer_.resize(kReadBytes);
     const std::size_t kept = end_ - keep_from;
     std::memmove(buffer_.data(), buffer_.data() + keep_from, kept);
     pos_ -= keep_from;
-    if (buffer_.size() < kReadBytes) buffer_.resize(kReadBytes);
     if (kept == buffer_.size()) buffer_.resize(2 * buffer_.size());
     const std::size_t got = reader_->read_at(offset_, buffer_.data() + kept, buffer_.size() - kept);
     offset_ += got;
