@@ -8,6 +8,8 @@
 #include <smoketrace/smoke/tube_generator.hpp>
 
 #include <catch2/catch.hpp>
+#include <tbb/global_control.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <bit>
@@ -19,6 +21,7 @@
 #include <iterator>
 #include <limits>
 #include <string>
+#include <tuple>
 #include <vector>
 
 using namespace smoketrace;
@@ -375,4 +378,181 @@ TEST_CASE("PLY particles: header values that overflow, a second vertex element, 
     while (good.size() + filler.size() + 1000 < kMaxPlyHeaderBytes) filler += "comment " + std::string(990, 'y') + "\n";
     dir.write("c.ply", replaced(good, "end_header", filler + "end_header"));
     CHECK(load_scene_file(scene).smoke.particles.size() == 3);
+}
+
+namespace {
+
+// The scene read with `threads` threads at most (a TBB arena of that size), up to kMostThreads whatever the
+// machine's core count: TBB's limit is raised to it for the read, where fewer cores would have it lower.
+constexpr int kMostThreads = 4;
+SceneDescription load_with_threads(const std::filesystem::path& scene, int threads) {
+    const tbb::global_control most(tbb::global_control::max_allowed_parallelism, kMostThreads);
+    SceneDescription loaded;
+    tbb::task_arena(threads).execute([&] { loaded = load_scene_file(scene); });
+    return loaded;
+}
+
+std::string error_with_threads(const std::filesystem::path& scene, int threads) {
+    try {
+        (void)load_with_threads(scene, threads);
+    } catch (const SceneFileError& e) {
+        return e.what();
+    }
+    return "(no error)";
+}
+
+std::size_t piece_count(const std::filesystem::path& ply) {
+    PlyPointReader reader(ply, "cloud.ply");
+    return reader.pieces().size();
+}
+
+// An ascii PLY of `particles` (x y z radius) whose values are separated by every kind of white space in
+// turn, so that vertices begin and end anywhere in a line, and a vertex's values span lines.
+std::string ragged_ascii(const std::vector<Particle>& particles) {
+    std::string out = "ply\nformat ascii 1.0\nelement vertex " + std::to_string(particles.size()) +
+                      "\nproperty float x\nproperty float y\nproperty float z\nproperty float radius\nend_header\n";
+    constexpr const char* kSeparators[] = {" ", "\t", "\n", "  ", "\r\n", " \n\t", "\v", "\f", " "};
+    std::size_t n = 0;
+    for (const Particle& p : particles)
+        for (float v : {p.center.x, p.center.y, p.center.z, p.radius})
+            out += shortest(double(v)) + kSeparators[n++ % std::size(kSeparators)];
+    return out + "\n";
+}
+
+}  // namespace
+
+TEST_CASE("PLY particles: a cloud of many pieces gives the same particles at any thread count", "[ply]") {
+    const std::vector<Particle> particles = some_particles(80000);
+    TempDir dir;
+    const auto ply_scene = dir.write("ply.json", kSceneHead + std::string("\"cloud.ply\"") + kSceneTail);
+    struct Cloud {
+        const char* name;
+        std::string text;
+        bool velocity;
+    };
+    const Cloud clouds[] = {
+        {"binary little-endian floats, velocity", ply_file(particles, {"binary_little_endian", false, false, true}),
+         true},
+        {"binary big-endian doubles, extra properties and elements",
+         ply_file(particles, {"binary_big_endian", true, true, false}), false},
+        {"ascii, extra properties and elements, velocity", ply_file(particles, {"ascii", false, true, true}), true},
+        {"ascii, vertices across lines", ragged_ascii(particles), false},
+    };
+    for (const Cloud& cloud : clouds) {
+        INFO(cloud.name);
+        dir.write("cloud.ply", cloud.text);
+        REQUIRE(piece_count(dir.path / "cloud.ply") >= 8);
+        const SceneDescription one = load_with_threads(ply_scene, 1);
+        // The reference: the same particles as a JSON list.
+        const auto json_scene = dir.write("list.json", kSceneHead + json_list(particles, cloud.velocity) + kSceneTail);
+        require_same_particles(one, load_scene_file(json_scene), cloud.velocity);
+        for (int threads : {2, kMostThreads}) {
+            INFO(threads << " threads");
+            const SceneDescription more = load_with_threads(ply_scene, threads);
+            require_same_particles(one, more, cloud.velocity);
+            // The default camera, which frames every particle, too.
+            CHECK(std::memcmp(&one.camera, &more.camera, sizeof one.camera) == 0);
+        }
+    }
+}
+
+TEST_CASE("PLY particles: in a cloud of many pieces the first problem in the file is reported, at any thread "
+          "count", "[ply]") {
+    TempDir dir;
+    // Binary: 200000 vertices of 16 bytes, 13 pieces; ascii: 60000 lines of some 45 bytes, 10 pieces.
+    const std::vector<Particle> particles = some_particles(200000);
+    const std::vector<Particle> ascii_particles(particles.begin(), particles.begin() + 60000);
+    const std::string ply = (dir.path / "c.ply").string();
+    const auto scene = dir.write("s.json", kSceneHead + std::string("\"c.ply\"") + kSceneTail);
+    // An ascii cloud of `ascii_particles` with the values `changes` gives (vertex, value index, text) in place.
+    auto ascii_with = [&](const std::vector<std::tuple<std::size_t, int, std::string>>& changes) {
+        std::string out = "ply\nformat ascii 1.0\nelement vertex " + std::to_string(ascii_particles.size()) +
+                          "\nproperty float x\nproperty float y\nproperty float z\nproperty uchar id\n"
+                          "property float radius\nend_header\n";
+        for (std::size_t i = 0; i < ascii_particles.size(); ++i) {
+            const Particle& p = ascii_particles[i];
+            std::string values[5] = {shortest(double(p.center.x)), shortest(double(p.center.y)),
+                                     shortest(double(p.center.z)), "7", shortest(double(p.radius))};
+            for (const auto& [vertex, index, text] : changes)
+                if (vertex == i) values[index] = text;
+            out += values[0] + " " + values[1] + " " + values[2] + " " + values[3] + " " + values[4] + "\n";
+        }
+        return out;
+    };
+    std::vector<Particle> late = particles, two = particles;
+    late[190000].radius = -1.0f;
+    two[30000].center.y = std::numeric_limits<float>::quiet_NaN();
+    two[170000].radius = -1.0f;
+    const std::string ascii = ascii_with({});
+    struct Case {
+        std::string name, text, expected;
+    };
+    const std::vector<Case> cases = {
+        {"a value in a late piece", ply_file(late, {}), ply + ": vertex 190000, property radius: must be > 0 (got -1)"},
+        {"values in two pieces", ply_file(two, {}), ply + ": vertex 30000, property y: must be finite (got nan)"},
+        {"a value the reader refuses after one the scene refuses", ascii_with({{20000, 4, "-1"}, {50000, 0, "abc"}}),
+         ply + ": vertex 20000, property radius: must be > 0 (got -1)"},
+        {"a value the scene refuses after one the reader refuses", ascii_with({{20000, 0, "abc"}, {50000, 4, "-1"}}),
+         ply + ": vertex 20000, property x: not a number (got \"abc\")"},
+        // In one piece, and one batch of the reader: the vertex first in the file, not the kind of problem.
+        {"a value the reader refuses just after one the scene refuses", ascii_with({{5, 4, "-1"}, {8, 1, "abc"}}),
+         ply + ": vertex 5, property radius: must be > 0 (got -1)"},
+        {"the data ends in a late piece", ascii.substr(0, ascii.size() - 1000),
+         ply + ": truncated: the header declares 60000 vertices, the data ends in vertex "},
+        {"the data ends after a value the reader refuses",
+         ascii_with({{30000, 2, "1e99"}}).substr(0, ascii.size() * 3 / 4),
+         ply + ": vertex 30000, property z: out of range for float (got \"1e99\")"},
+        {"trailing data after a late piece", ascii + "1 2 3\n",
+         ply + ": after the last vertex the file has 1 more non-blank lines, where the header's elements after "
+               "vertex give 0"},
+    };
+    for (const Case& c : cases) {
+        INFO(c.name);
+        dir.write("c.ply", c.text);
+        REQUIRE(piece_count(dir.path / "c.ply") >= 8);
+        const std::string serial = error_with_threads(scene, 1);
+        INFO("message: " << serial);
+        CHECK(serial.rfind(scene.string() + ": /smoke/particles: " + ply, 0) == 0);
+        CHECK(serial.find(c.expected) != std::string::npos);
+        for (int threads : {2, kMostThreads}) CHECK(error_with_threads(scene, threads) == serial);
+    }
+}
+
+TEST_CASE("PLY particles: a piece ends a batch before a vertex it cannot read, and refuses it at the next read",
+          "[ply]") {
+    TempDir dir;
+    std::string text = ply_file(some_particles(20), {"ascii"});
+    // Vertex 5's y: the sixth line of the vertices.
+    std::size_t at = text.find("end_header\n") + 11;
+    for (int line = 0; line < 5; ++line) at = text.find('\n', at) + 1;
+    at = text.find(' ', at) + 1;
+    text.replace(at, text.find(' ', at) - at, "0x1p3");
+    const auto path = dir.write("c.ply", text);
+    PlyPointReader reader(path, "c.ply");
+    const std::vector<PlyPiece> pieces = reader.pieces();
+    REQUIRE(pieces.size() == 1);
+    PlyPointReader::PieceReader piece(reader);
+    piece.start(pieces[0]);
+    std::vector<PlyPoint> batch(7);
+    CHECK(piece.read(batch) == 5);
+    CHECK_THROWS_WITH(piece.read(batch), "c.ply: vertex 5, property y: not a number (got \"0x1p3\")");
+}
+
+TEST_CASE("PLY particles: an ascii value longer than the reader's buffer", "[ply]") {
+    TempDir dir;
+    // 1.000…0 with more zeros than a piece or a read holds: a valid float, so the value must be read whole.
+    const std::string long_one = "1." + std::string(2 * kPlyPieceBytes, '0');
+    const auto path = dir.write("c.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                         "property float z\nproperty float radius\nend_header\n0 0 0 " + long_one +
+                                         "\n" + long_one + " 2 3 0.5\n4 " + long_one + " 6 0.25\n");
+    const auto scene = dir.write("s.json", kSceneHead + std::string("\"c.ply\"") + kSceneTail);
+    REQUIRE(piece_count(path) == 3);
+    for (int threads : {1, 2}) {
+        const SceneDescription s = load_with_threads(scene, threads);
+        REQUIRE(s.smoke.particles.size() == 3);
+        CHECK(s.smoke.particles[0].radius == 1.0f);
+        CHECK(double(s.smoke.particles[1].center.x) + s.origin.x == 1.0);
+        CHECK(double(s.smoke.particles[2].center.y) + s.origin.y == 1.0);
+        CHECK(s.smoke.particles[2].radius == 0.25f);
+    }
 }

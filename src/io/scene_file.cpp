@@ -10,18 +10,22 @@
 #include <smoketrace/io/json_text_file.hpp>
 #include <smoketrace/io/ply_points.hpp>
 #include <smoketrace/core/memory_budget.hpp>
+#include <smoketrace/core/populated_pages.hpp>
 #include <smoketrace/core/shown_text.hpp>
 
 #include <nlohmann/json.hpp>
 #include <simdjson.h>
+#include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -622,18 +626,39 @@ struct DefaultView {
 };
 DefaultView default_view(const std::vector<Particle>& particles, const std::optional<GroundDescription>& ground,
                          float fov_deg, std::uint32_t width, std::uint32_t height) {
-    // Bounding sphere: centre of the box, radius to the farthest surface point.
+    // Bounding sphere: centre of the box, radius to the farthest surface point. Both are reductions over the
+    // particles, in parallel: minima and maxima are exact, so the result is the same whatever the split.
     glm::dvec3 center(0.0);
     double radius = 1.0;
     if (!particles.empty()) {
-        glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
-        for (const Particle& p : particles) {
-            lo = glm::min(lo, glm::dvec3(p.center) - double(p.radius));
-            hi = glm::max(hi, glm::dvec3(p.center) + double(p.radius));
-        }
-        center = 0.5 * (lo + hi);
-        radius = 0.0;
-        for (const Particle& p : particles) radius = std::max(radius, glm::length(glm::dvec3(p.center) - center) + p.radius);
+        using Range = tbb::blocked_range<std::size_t>;
+        const Range all(0, particles.size());
+        struct Box {
+            glm::dvec3 lo, hi;
+        };
+        constexpr double kInf = std::numeric_limits<double>::infinity();
+        const Box box = tbb::parallel_reduce(
+            all, Box{glm::dvec3(kInf), glm::dvec3(-kInf)},
+            [&](const Range& range, Box b) {
+                for (std::size_t i = range.begin(); i != range.end(); ++i) {
+                    const Particle& p = particles[i];
+                    b.lo = glm::min(b.lo, glm::dvec3(p.center) - double(p.radius));
+                    b.hi = glm::max(b.hi, glm::dvec3(p.center) + double(p.radius));
+                }
+                return b;
+            },
+            [](const Box& a, const Box& b) { return Box{glm::min(a.lo, b.lo), glm::max(a.hi, b.hi)}; });
+        center = 0.5 * (box.lo + box.hi);
+        radius = tbb::parallel_reduce(
+            all, 0.0,
+            [&](const Range& range, double farthest) {
+                for (std::size_t i = range.begin(); i != range.end(); ++i) {
+                    const Particle& p = particles[i];
+                    farthest = std::max(farthest, glm::length(glm::dvec3(p.center) - center) + p.radius);
+                }
+                return farthest;
+            },
+            [](double a, double b) { return std::max(a, b); });
     } else if (ground) {
         for (const glm::vec3& c : ground->corners) center += 0.25 * glm::dvec3(c);
         radius = 0.0;
@@ -763,41 +788,72 @@ struct PlyValueSite {
     }
 };
 
-// Vertices decoded per call of PlyPointReader::read().
-constexpr std::size_t kPlyBatch = 4096;
+// Vertices decoded per call of PlyPointReader::PieceReader::read().
+constexpr std::size_t kPlyBatch = 1024;
 
-// "particles": "cloud.ply": the file's vertices, a path relative to the scene file's folder (`base_dir`).
-// Returns the file's name as messages give it.
-template <class Add>
+// "particles": "cloud.ply": the file's vertices, a path relative to the scene file's folder (`base_dir`), each
+// through the checks of a JSON list's particle, the file's pieces in parallel. `origin`, when the file gave
+// none, from the first vertex. Returns the file's name as messages give it.
 std::string read_ply_particles(const Reader& r, const Node& list, const std::filesystem::path& base_dir,
-                        std::vector<Particle>& particles, Add&& add) {
+                               std::vector<Particle>& particles, std::optional<glm::dvec3>& origin) {
     const std::filesystem::path path = base_dir / r.string(list);
     const std::string name = path.string();
     try {
         PlyPointReader ply(path, name);
         if (const std::string problem = particle_count_problem(ply.vertex_count(), false); !problem.empty())
             r.fail(list.path + ": " + name + ": element vertex", problem);
-        std::vector<PlyPoint> batch(kPlyBatch);
-        std::uint64_t index = 0;
-        std::size_t count = ply.read(batch);
-        // Only now: the first read() has held the count against the file's size, so a header that lies
-        // cannot reserve more than the file could hold.
-        particles.reserve(std::size_t(ply.vertex_count()));
-        for (; count != 0; count = ply.read(batch)) {
-            for (const PlyPoint& p : std::span(batch).first(count)) {
-                ParticleValues v;
-                v.center = {r.coordinate(p.x, PlyValueSite{name, index, "x", p.x}),
-                            r.coordinate(p.y, PlyValueSite{name, index, "y", p.y}),
-                            r.coordinate(p.z, PlyValueSite{name, index, "z", p.z})};
-                v.radius = r.radius(p.radius, kRadius, PlyValueSite{name, index, "radius", p.radius});
-                if (ply.has_velocity())
-                    v.velocity = {r.real(p.vx, kAny, PlyValueSite{name, index, "vx", p.vx}),
-                                  r.real(p.vy, kAny, PlyValueSite{name, index, "vy", p.vy}),
-                                  r.real(p.vz, kAny, PlyValueSite{name, index, "vz", p.vz})};
-                add(v);
-                ++index;
+        const std::vector<PlyPiece> pieces = ply.pieces();
+        // Only now: pieces() has held the count against the file's size, so a header that lies cannot claim
+        // more memory than the file could hold. Its fresh pages faulted in by the threads together.
+        resize_populated(particles, std::size_t(ply.vertex_count()));
+
+        // One thread's piece reader and batch, kept from piece to piece.
+        struct Scratch {
+            PlyPointReader::PieceReader piece;
+            std::vector<PlyPoint> batch = std::vector<PlyPoint>(kPlyBatch);
+        };
+        tbb::enumerable_thread_specific<Scratch> scratch([&] { return Scratch{PlyPointReader::PieceReader(ply)}; });
+        const auto read_piece = [&](const PlyPiece& piece, std::optional<glm::dvec3>& piece_origin) {
+            Scratch& s = scratch.local();
+            s.piece.start(piece);
+            std::uint64_t index = piece.first_vertex;
+            for (std::size_t count; (count = s.piece.read(s.batch)) != 0;) {
+                for (const PlyPoint& p : std::span(s.batch).first(count)) {
+                    ParticleValues v;
+                    v.center = {r.coordinate(p.x, PlyValueSite{name, index, "x", p.x}),
+                                r.coordinate(p.y, PlyValueSite{name, index, "y", p.y}),
+                                r.coordinate(p.z, PlyValueSite{name, index, "z", p.z})};
+                    v.radius = r.radius(p.radius, kRadius, PlyValueSite{name, index, "radius", p.radius});
+                    if (ply.has_velocity())
+                        v.velocity = {r.real(p.vx, kAny, PlyValueSite{name, index, "vx", p.vx}),
+                                      r.real(p.vy, kAny, PlyValueSite{name, index, "vy", p.vy}),
+                                      r.real(p.vz, kAny, PlyValueSite{name, index, "vz", p.vz})};
+                    if (!piece_origin) piece_origin = origin_near(v.center, v.radius);
+                    particles[std::size_t(index++)] = local_particle(v, *piece_origin);
+                }
             }
-        }
+        };
+        // The first piece alone, so that its first vertex sets the origin before any other is placed.
+        if (!pieces.empty()) read_piece(pieces[0], origin);
+        // Every piece keeps its own problem, and the first piece's in file order is raised, then finish()'s:
+        // the problem a reader from the file's start would have met first, whatever the thread count. A
+        // piece after one with a problem is not read.
+        std::vector<std::exception_ptr> problems(pieces.size());
+        std::atomic<std::size_t> first_problem = pieces.size();
+        tbb::parallel_for(std::size_t{1}, pieces.size(), [&](std::size_t i) {
+            if (i > first_problem.load(std::memory_order_relaxed)) return;
+            try {
+                std::optional<glm::dvec3> piece_origin = origin;
+                read_piece(pieces[i], piece_origin);
+            } catch (...) {
+                problems[i] = std::current_exception();
+                std::size_t seen = first_problem.load();
+                while (i < seen && !first_problem.compare_exchange_weak(seen, i)) {}
+            }
+        });
+        for (const std::exception_ptr& problem : problems)
+            if (problem) std::rethrow_exception(problem);
+        ply.finish();
     } catch (const PlyError& e) {
         r.fail(list.path, e.what());
     }
@@ -1128,7 +1184,7 @@ SmokeDescription read_smoke(const Reader& r, const Node& n, std::optional<glm::d
             smoke.particles.push_back(local_particle(values, *origin));
         };
         if (list->value->is_string()) {
-            smoke.particle_file = read_ply_particles(r, *list, base_dir, smoke.particles, add);
+            smoke.particle_file = read_ply_particles(r, *list, base_dir, smoke.particles, origin);
         } else if (fast) {
             fast->read(r, smoke.particles, origin);
         } else {

@@ -4,14 +4,15 @@
 // Contract checked on every input:
 //  * the reader either reads the file or throws PlyError whose message starts with the name it was given;
 //    any other exception escapes and libFuzzer reports it as a crash, as are sanitizer findings;
-//  * a file it reads gives exactly vertex_count() vertices, and read() then returns 0;
+//  * a file it reads gives exactly vertex_count() vertices: its pieces follow one another in file order
+//    from vertex 0, each gives its vertex_count, and read() then returns 0;
 //  * a binary file it reads holds at least 4 bytes (x, y, z, radius of the smallest type) per vertex it
 //    declares: a header count cannot make the reader invent vertices the file does not hold;
 //  * the scene file that names a cloud the reader read either loads or throws SceneFileError naming the
 //    scene file (a cloud the reader refuses, the scene refuses with the reader's message: not run again).
 //
-// The reader takes a path (it reads the file in batches), so each input is written to a file of this
-// process's own in the temporary folder first.
+// The reader takes a path (it reads the file in pieces, in batches), so each input is written to a file of
+// this process's own in the temporary folder first. The pieces are read here in order, on this thread.
 // Build and run: scripts/fuzz.sh (clang, -DSMOKETRACE_FUZZ=ON, build-fuzz/); seed corpus: tests/fuzz/corpus_ply/.
 #include <smoketrace/io/ply_points.hpp>
 #include <smoketrace/io/scene_file.hpp>
@@ -59,14 +60,23 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
                             std::string_view::npos;
         // Odd-sized batches, so that the last one is partial and the batch boundaries move.
         std::vector<PlyPoint> batch(7);
+        PlyPointReader::PieceReader piece(reader);
         std::uint64_t read = 0;
-        while (const std::size_t n = reader.read(batch)) {
-            if (n > batch.size()) violated("read() returned more than asked for");
-            read += n;
-            if (read > reader.vertex_count()) violated("more vertices than the header declares");
+        for (const PlyPiece& p : reader.pieces()) {
+            if (p.first_vertex != read || p.vertex_count == 0) violated("pieces out of order, overlapping or empty");
+            piece.start(p);
+            std::uint64_t in_piece = 0;
+            while (const std::size_t n = piece.read(batch)) {
+                if (n > batch.size()) violated("read() returned more than asked for");
+                in_piece += n;
+                if (in_piece > p.vertex_count) violated("more vertices than the piece holds");
+            }
+            if (in_piece != p.vertex_count) violated("fewer vertices than the piece holds");
+            if (piece.read(batch) != 0) violated("read() after the piece's last vertex returned vertices");
+            read += in_piece;
         }
+        reader.finish();
         if (read != reader.vertex_count()) violated("fewer vertices than the header declares");
-        if (reader.read(batch) != 0) violated("read() after the last vertex returned vertices");
         if (binary && reader.vertex_count() > size / 4) violated("a binary file declares more vertices than it holds");
     } catch (const PlyError& e) {
         if (std::string_view(e.what()).rfind(std::string(kName) + ": ", 0) != 0)
