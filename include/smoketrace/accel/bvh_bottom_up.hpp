@@ -16,7 +16,7 @@
 
 namespace smoketrace {
 
-// A few hundred microseconds of work per task, and 64 of them in a 10^6-node tree.
+// Large enough that a task's work dwarfs its scheduling, small enough that a 10^6-node tree makes dozens.
 inline constexpr std::uint32_t kSerialSweepNodes = 1u << 14;
 
 namespace detail {
