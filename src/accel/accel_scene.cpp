@@ -411,8 +411,8 @@ void AccelScene::rebuild() {
     // ray (stand-ins masked out) or a light ray (billboards masked out) would still walk the other half.
     tlas_ = build_grouped_bvh(world_boxes_, std::span<const std::uint8_t>(instance_masks_),
                               BvhBuildSettings{.max_leaf_size = 1});
-    // Two independent halves side by side: the node masks, the SAH cost and the wide tree (serial, a
-    // chain of cache misses down the binary tree), and the records to leaf order (one instance per leaf:
+    // Two independent halves side by side: the node masks, the SAH cost and the wide tree (each parallel
+    // over subtrees), and the records to leaf order (one instance per leaf:
     // prim_indices is a permutation; each k writes its own record and its instance's slot).
     decltype(records_) in_leaf_order(records_.size());
     tbb::parallel_invoke(
