@@ -1,7 +1,7 @@
 // Two-level scene and its TLAS update policy (see accel_scene.hpp).
 #include <smoketrace/accel/bvh_builder.hpp>
 #include <smoketrace/accel/accel_scene.hpp>
-#include <smoketrace/accel/bvh_bottom_up.hpp>
+#include "bvh_bottom_up.hpp"
 
 #include <glm/geometric.hpp>
 #include <glm/matrix.hpp>

@@ -1,6 +1,6 @@
 // Collapsing a mesh BLAS's binary tree into a W-wide one (see blas_wide_bvh.hpp).
 #include <smoketrace/accel/blas_wide_bvh.hpp>
-#include <smoketrace/accel/wide_cut.hpp>
+#include "wide_cut.hpp"
 
 #include <cstdint>
 #include <limits>

@@ -1,6 +1,6 @@
 // Bvh queries and refit (see bvh.hpp).
 #include <smoketrace/accel/bvh.hpp>
-#include <smoketrace/accel/bvh_bottom_up.hpp>
+#include "bvh_bottom_up.hpp"
 
 #include <algorithm>
 #include <stdexcept>

@@ -1,6 +1,6 @@
 // Collapsing a binary BVH into a 4-wide one, and refitting it from the binary tree (see wide_bvh.hpp).
 #include <smoketrace/accel/wide_bvh.hpp>
-#include <smoketrace/accel/wide_cut.hpp>
+#include "wide_cut.hpp"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>

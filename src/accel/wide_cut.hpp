@@ -3,7 +3,7 @@
 // and which binary nodes fill each wide node's slots. Both wide trees use it: the mesh BLAS's
 // (blas_wide_bvh.hpp) and the top level's (wide_bvh.hpp).
 #include <smoketrace/accel/bvh.hpp>
-#include <smoketrace/accel/bvh_bottom_up.hpp>
+#include "bvh_bottom_up.hpp"
 
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
