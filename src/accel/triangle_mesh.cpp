@@ -1,6 +1,7 @@
 // Mesh BLAS construction (see triangle_mesh.hpp).
 #include <smoketrace/accel/triangle_mesh.hpp>
 #include <smoketrace/geometry/ray_triangle.hpp>
+#include "bvh_bottom_up.hpp"
 
 #include <glm/geometric.hpp>
 #include <tbb/blocked_range.h>
@@ -57,7 +58,7 @@ MeshBlas::MeshBlas(const TriangleMesh& mesh, const BvhBuildSettings& settings)
     // in double is the costly part, so it runs in parallel; the first bad triangle is then reported in
     // input order).
     const std::size_t n_in = mesh.triangles.size();
-    std::vector<std::uint8_t> kind(n_in);
+    std::vector<std::uint8_t, UnwrittenAllocator<std::uint8_t>> kind(n_in);  // every entry written below
     const BoxStorage box_storage(n_in);
     Aabb* const boxes = box_storage.data();
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_in, kParallelGrain),
@@ -116,19 +117,21 @@ MeshBlas::MeshBlas(const TriangleMesh& mesh, const BvhBuildSettings& settings)
 
 void MeshBlas::assign_blocks() {
     const auto& nodes = bvh_.nodes;
-    leaf_blocks_.assign(nodes.size(), 0);
+    leaf_blocks_.clear();
+    leaf_blocks_.resize(nodes.size());  // unwritten: the loop writes every entry once
     leaf_starts_.clear();
     std::size_t count = 0;
     for (std::size_t i = 0; i < nodes.size(); ++i) {
+        leaf_blocks_[i] = static_cast<std::uint32_t>(count);  // an inner node's is unused
         if (i == 1 || !nodes[i].is_leaf()) continue;  // node 1: the layout's padding slot (bvh.hpp)
-        leaf_blocks_[i] = static_cast<std::uint32_t>(count);
         leaf_starts_.emplace_back(nodes[i].first, static_cast<std::uint32_t>(count));
         count += (nodes[i].count + kTriangleBlockLanes - 1) / kTriangleBlockLanes;
     }
     if (count > std::numeric_limits<std::uint32_t>::max())
         throw std::length_error("MeshBlas: too many triangle blocks");
     std::sort(leaf_starts_.begin(), leaf_starts_.end());
-    blocks_.assign(count, TriangleBlock{});  // spare lanes stay zero
+    blocks_.clear();
+    blocks_.resize(count);  // unwritten: refresh_blocks() writes every block whole
 }
 
 std::uint32_t MeshBlas::leaf_block(std::uint32_t first) const {
@@ -144,10 +147,15 @@ void MeshBlas::refresh_blocks() {
         for (std::size_t i = r.begin(); i < r.end(); ++i) {
             const BvhNode& n = nodes[i];
             if (i == 1 || !n.is_leaf()) continue;
-            for (std::uint32_t k = 0; k < n.count; ++k) {
-                const Triangle& t = triangles_[n.first + k];
-                blocks_[leaf_blocks_[i] + k / kTriangleBlockLanes].set(k % kTriangleBlockLanes, t.v0, t.v1, t.v2,
-                                                                        bvh_.prim_indices[n.first + k]);
+            // Each block made whole, then stored: its spare lanes zero, its memory written once.
+            TriangleBlock* out = blocks_.data() + leaf_blocks_[i];
+            for (std::uint32_t k0 = 0; k0 < n.count; k0 += kTriangleBlockLanes, ++out) {
+                TriangleBlock b{};
+                for (std::uint32_t k = k0; k < n.count && k < k0 + kTriangleBlockLanes; ++k) {
+                    const Triangle& t = triangles_[n.first + k];
+                    b.set(k - k0, t.v0, t.v1, t.v2, bvh_.prim_indices[n.first + k]);
+                }
+                *out = b;
             }
         }
     });
@@ -155,7 +163,7 @@ void MeshBlas::refresh_blocks() {
 
 // Leaf boxes first, in parallel and in memory order (leaf ranges ascend with the depth-first node order,
 // so the triangles stream in), as the build's boxes were made; then one backward sweep over the inner
-// nodes (children before parents: the layout is depth-first), which reads nothing but nodes.
+// nodes (children before parents, subtrees in parallel: bvh_bottom_up.hpp), which reads nothing but nodes.
 void MeshBlas::refit_boxes() {
     auto& nodes = bvh_.nodes;
     tbb::parallel_for(Range(0, nodes.size(), 1024), [&](const Range& r) {
@@ -172,11 +180,11 @@ void MeshBlas::refit_boxes() {
             n.bounds = b;
         }
     });
-    for (std::size_t i = nodes.size(); i-- > 0;) {
+    sweep_bottom_up(bvh_, [&](std::uint32_t i) {
         BvhNode& n = nodes[i];
-        if (i == 1 || n.is_leaf()) continue;
-        n.bounds = merge(nodes[n.first].bounds, nodes[n.first + 1].bounds);
-    }
+        if (!n.is_leaf()) n.bounds = merge(nodes[n.first].bounds, nodes[n.first + 1].bounds);
+        return 0.0;
+    });
     sah_current_ = bvh_.sah_cost(settings_.costs);
 }
 

@@ -3,6 +3,7 @@
 #include <smoketrace/accel/blas_wide_bvh.hpp>
 #include <smoketrace/accel/bvh.hpp>
 #include <smoketrace/accel/bvh_builder.hpp>
+#include <smoketrace/core/aligned_allocator.hpp>
 #include <smoketrace/core/huge_page_allocator.hpp>
 #include <smoketrace/geometry/ray_triangle_block.hpp>
 
@@ -60,7 +61,7 @@ public:
     [[nodiscard]] const BlasWideBvh<kMeshBlasWidth>& wide() const { return wide_; }
     [[nodiscard]] Aabb bounds() const { return bvh_.empty() ? Aabb{} : bvh_.bounds(); }
     // Leaf order: triangle k of a leaf range is leaf_triangles()[k], input triangle primitive_id(k).
-    [[nodiscard]] const std::vector<Triangle>& leaf_triangles() const { return triangles_; }
+    [[nodiscard]] std::span<const Triangle> leaf_triangles() const { return triangles_; }
     // The same triangles in blocks of eight: the binary tree's leaf node i (first, count) holds its
     // triangles in blocks leaf_blocks()[i] …, lane by lane in leaf order, the last block's spare lanes zero.
     // Walks of the binary tree map a leaf to its blocks with leaf_block().
@@ -98,18 +99,20 @@ private:
 
     BvhBuildSettings settings_{};
     std::size_t vertex_count_ = 0;
-    // Leaf order: each triangle's vertex indices, for a refit to find its new vertices.
-    std::vector<glm::uvec3> leaf_indices_;
+    // Leaf order: each triangle's vertex indices, for a refit to find its new vertices. This array,
+    // triangles_ and blocks_ grow unwritten: the build's parallel passes write every element whole, the
+    // first touch of their pages (fresh memory is what a build mostly pays for where page faults are dear).
+    std::vector<glm::uvec3, UnwrittenAllocator<glm::uvec3>> leaf_indices_;
     // The degenerate triangles, left out of the tree: input index and vertex indices, in input order.
     std::vector<std::pair<std::uint32_t, glm::uvec3>> degenerate_;
     double sah_at_build_ = 0.0;
     double sah_current_ = 0.0;
     Bvh bvh_;
     BlasWideBvh<kMeshBlasWidth> wide_;
-    std::vector<Triangle> triangles_;
+    std::vector<Triangle, UnwrittenAllocator<Triangle>> triangles_;
     // In huge pages, as the wide nodes: a walk reads both at random (huge_page_allocator.hpp).
-    std::vector<TriangleBlock, HugePageAllocator<TriangleBlock, alignof(TriangleBlock)>> blocks_;
-    std::vector<std::uint32_t> leaf_blocks_;  // per binary node: a leaf's first block (inner nodes: unused)
+    std::vector<TriangleBlock, HugePageAllocator<TriangleBlock, alignof(TriangleBlock), true>> blocks_;
+    std::vector<std::uint32_t, UnwrittenAllocator<std::uint32_t>> leaf_blocks_;  // per binary node: a leaf's first block (inner nodes: unused)
     // The binary leaves' (first slot, first block), in slot order: leaf_block()'s table.
     std::vector<std::pair<std::uint32_t, std::uint32_t>> leaf_starts_;
     std::size_t input_count_ = 0;
