@@ -37,6 +37,17 @@ std::vector<std::pair<std::string, double>>& summary() {
 }
 
 constexpr int kMaxThreadCount = 1024;
+constexpr int kMaxRepeats = 1000;
+
+// --repeats N: a whole number from 1 to kMaxRepeats ("3x" or "-2" is an error, not 3 or 1).
+int parse_repeats(std::string_view text) {
+    int n = 0;
+    const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), n);
+    if (text.empty() || ec != std::errc() || ptr != text.data() + text.size() || n < 1 || n > kMaxRepeats)
+        throw std::runtime_error("--repeats: '" + std::string(text) + "' is not a whole number from 1 to " +
+                                 std::to_string(kMaxRepeats));
+    return n;
+}
 
 // --thread-counts LIST: positive integers separated by commas ("1,2,4,16"), sorted and without repeats,
 // with 1 added where missing (the sweep's speedups are over one thread).
@@ -97,7 +108,7 @@ int smoketrace::bench::bench_main_at_level(int argc, char** argv) {
             const std::string a = argv[i];
             if (a == "--quick") options.quick = true;
             else if (a == "--section" && i + 1 < argc) only.push_back(argv[++i]);
-            else if (a == "--repeats" && i + 1 < argc) options.repeats = std::max(1, std::atoi(argv[++i]));
+            else if (a == "--repeats" && i + 1 < argc) options.repeats = parse_repeats(argv[++i]);
             else if (a == "--results" && i + 1 < argc) options.results_dir = argv[++i];
             else if (a == "--assets" && i + 1 < argc) assets = argv[++i];
             else if (a == "--thread-counts" && i + 1 < argc) options.thread_counts = parse_thread_counts(argv[++i]);
@@ -166,6 +177,7 @@ int smoketrace::bench::bench_main_at_level(int argc, char** argv) {
         std::cout << "\nthread counts of section threads:";
         for (const int n : options.thread_counts) std::cout << " " << n;
         std::cout << "\nresults: " << options.results_dir << (options.quick ? " (quick)" : "") << "\n";
+        std::cout << "repeats: " << options.repeats << "\n";
         return 0;
     }
     std::filesystem::create_directories(options.results_dir);

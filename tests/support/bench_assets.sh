@@ -5,7 +5,7 @@
 #     loader (as a bundle's own loader runs it: the running binary is then the loader, argv[0] the bench);
 #   * named by --assets and by SMOKETRACE_ASSETS, --assets first;
 #   * a folder given that is none, or lacks a file, is an error naming it;
-#   * a section that reads no assets does not look for them; a bad --thread-counts is an error.
+#   * a section that reads no assets does not look for them; a bad --thread-counts or --repeats is an error.
 #     bench_assets.sh BENCH SOURCE_ASSETS
 set -euo pipefail
 bench="$1"; source_assets="$2"
@@ -70,4 +70,8 @@ expect_error "SMOKETRACE_ASSETS: not a folder" "SMOKETRACE_ASSETS: '$tmp/nowhere
 expect_line "--thread-counts" "thread counts of section threads: 1 3 8" "$alone" --dry-run --thread-counts 8,3,8
 expect_error "--thread-counts: not a count" "--thread-counts: '0' in '2,0' is not a thread count" \
   "$alone" --dry-run --thread-counts 2,0
+expect_line "--repeats" "repeats: 7" "$alone" --dry-run --repeats 7
+expect_error "--repeats: not a whole number" "--repeats: '3x' is not a whole number from 1 to 1000" \
+  "$alone" --dry-run --repeats 3x
+expect_error "--repeats: zero" "--repeats: '0' is not a whole number" "$alone" --dry-run --repeats 0
 echo "ok"
