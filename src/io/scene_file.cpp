@@ -1303,14 +1303,22 @@ CameraDescription read_camera(const Reader& r, const Node& n, const SceneDescrip
                       std::to_string(kMaxImagePixels) + " pixels)");
     if (fov_node) check_fov_resolution(r, *fov_node, fov, height);
 
-    CameraDescription camera = default_camera(scene.smoke.particles, scene.ground, fov, width, height);
-    if (auto v = Reader::optional(n, "position")) {
-        camera.position = local_point(r.point(*v), scene.origin);
+    CameraDescription camera;
+    camera.fov_deg = fov;
+    camera.width = width;
+    camera.height = height;
+    const auto position = Reader::optional(n, "position"), look_at = Reader::optional(n, "look_at");
+    // The default view is two passes over the particles: taken only when the file leaves position or look_at
+    // to it.
+    std::optional<DefaultView> fallback;
+    if (!position || !look_at) fallback = default_view(scene.smoke.particles, scene.ground, fov, width, height);
+    if (position) {
+        camera.position = local_point(r.point(*position), scene.origin);
     } else {
-        check_default_position(r, default_view(scene.smoke.particles, scene.ground, fov, width, height),
-                               fov_node ? fov_node->path : n.path, fov_node.has_value(), scene.origin);
+        check_default_position(r, *fallback, fov_node ? fov_node->path : n.path, fov_node.has_value(), scene.origin);
+        camera.position = glm::vec3(fallback->position);
     }
-    if (auto v = Reader::optional(n, "look_at")) camera.look_at = local_point(r.point(*v), scene.origin);
+    camera.look_at = look_at ? local_point(r.point(*look_at), scene.origin) : glm::vec3(fallback->look_at);
     const auto up = Reader::optional(n, "up");
     // Unit length (normalised in double from the file's numbers): the renderer's camera then sees |forward ×
     // up| = the sine checked below, whatever length the file gave (up = [0, 1e-30, 0] underflowed there; up =
@@ -1381,10 +1389,11 @@ SceneDescription read_scene(const json& document, const Reader& r, const FastPar
     if (auto v = Reader::optional(root, "camera")) {
         scene.camera = read_camera(r, *v, scene);
     } else {
-        const CameraDescription d;
-        scene.camera = default_camera(scene.smoke.particles, scene.ground, d.fov_deg, d.width, d.height);
-        check_default_position(r, default_view(scene.smoke.particles, scene.ground, d.fov_deg, d.width, d.height),
-                               "/camera", false, scene.origin);
+        CameraDescription& c = scene.camera = CameraDescription{};
+        const DefaultView view = default_view(scene.smoke.particles, scene.ground, c.fov_deg, c.width, c.height);
+        check_default_position(r, view, "/camera", false, scene.origin);
+        c.position = glm::vec3(view.position);
+        c.look_at = glm::vec3(view.look_at);
         check_renderer_accepts(r, scene.camera, "/camera");
     }
     face_ground_to_camera(scene);
