@@ -39,9 +39,10 @@ if [ "$which" = all ] || [ "$which" = tsan ]; then
   cmake --build "$root/build-tsan" --parallel "$jobs" --target smoketrace_tests
   # Test names (ctest -R): optical-depth pass, hit resolver, view compositor and frame loop, BVH/TLAS builds
   # and refits, the six-way bake's thread-count test, and the stress suite (which renders with 1 and 2 threads);
-  # the ground truth's thread-count test; and the scalar kernels: the lanes, ray bundles, box tests, the triangle
-  # block and the sorts.
-  parallel='^(optical depth: |resolve_optical_path_lengths|the three HitSort|occluded and cutoff|view: |BVH builder: |BVH refit|Grouped build|scene: |sixway bake: same settings|stability: |trace_bundle: |trace_tile: |ray tile: |bundle_order: |radix, rank and insertion|sort_by_float_key|simd lanes: |stable_ranks: |BVH traversal: the paired|Wide BVH traversal: |Watertight triangle: the 8-wide|truth: the same bytes)'
+  # the ground truth's thread-count test; the bottom-up sweep, the wide layout at 1/2/8 threads, the mesh BLAS
+  # build and refit, the PLY reader's pieces and the populated pages; and the scalar kernels: the lanes, ray
+  # bundles, box tests, the triangle block and the sorts.
+  parallel='^(optical depth: |resolve_optical_path_lengths|the three HitSort|occluded and cutoff|view: |BVH builder: |BVH refit|Grouped build|scene: |sixway bake: same settings|stability: |trace_bundle: |trace_tile: |ray tile: |bundle_order: |radix, rank and insertion|sort_by_float_key|simd lanes: |stable_ranks: |BVH traversal: the paired|Wide BVH traversal: |Watertight triangle: the 8-wide|truth: the same bytes|Bottom-up sweep: |Wide BVH: the collapse of a large tree|MeshBlas|PLY particles: (a|in a) cloud of many pieces|populated pages: )'
   # No suppressions: Debian's oneTBB is not built with TSan, so tests/support/tsan_tbb.cpp (linked into this
   # build only) tells TSan about the scheduler's hand-overs instead; every report is a finding.
   (cd "$root/build-tsan" &&
