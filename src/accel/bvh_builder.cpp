@@ -701,7 +701,8 @@ Bvh build_grouped(std::span<const Aabb> prim_boxes, std::span<const Group> group
     std::vector<ChunkKeys> per_chunk(chunks);
     tbb::parallel_for(std::uint32_t{0}, chunks, [&](std::uint32_t c) {
         ChunkKeys& ck = per_chunk[c];
-        for (std::uint32_t i = c * kChunk, end = std::min(n, i + kChunk); i < end && ck.distinct <= kMaxBvhGroups; ++i) {
+        const std::uint32_t end = std::min(n, c * kChunk + kChunk);
+        for (std::uint32_t i = c * kChunk; i < end && ck.distinct <= kMaxBvhGroups; ++i) {
             const std::uint32_t g = group_of[i];
             std::uint32_t k = 0;
             while (k < ck.distinct && ck.key[k] != g) ++k;

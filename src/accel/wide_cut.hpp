@@ -119,7 +119,8 @@ private:
 // Lays out the wide tree of `cut` as one depth-first work list would (a node's inner children side by side,
 // appended when it is made; the last child's subtree first), the large subtrees' stretches filled in
 // parallel: the same array at any thread count. allocate(count) sizes the array for `count` wide nodes (on
-// one thread: first for at most one per binary inner node, and to the count at the end, a shrink); then make(wide, slot, n, axis, child) once for every wide node (from several threads at once): the
+// one thread: first for at most one per binary inner node, and to the count at the end, a shrink); then
+// make(wide, slot, n, axis, child) once for every wide node (from several threads at once): the
 // wide node `wide` has n slots, the binary nodes slot[0 … n) in the order of order_slots() (bvh.hpp) along
 // `axis`, and child[i] is the wide node of slot i where that is an inner node.
 template <unsigned W, class Allocate, class Make>
@@ -161,7 +162,8 @@ void lay_out_wide_tree(const Bvh& binary, const WideCut<W>& cut, Allocate&& allo
         return next;
     };
 
-    // One thread, or a tree one task lays out: the work list alone, with no sizing pass (its work would be spent for nothing).
+    // One thread, or a tree one task lays out: the work list alone, with no sizing pass (its work would be
+    // spent for nothing).
     const std::size_t threads = std::min<std::size_t>(
         std::size_t(tbb::this_task_arena::max_concurrency()),
         tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));

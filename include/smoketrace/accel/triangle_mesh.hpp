@@ -112,7 +112,8 @@ private:
     std::vector<Triangle, UnwrittenAllocator<Triangle>> triangles_;
     // In huge pages, as the wide nodes: a walk reads both at random (huge_page_allocator.hpp).
     std::vector<TriangleBlock, HugePageAllocator<TriangleBlock, alignof(TriangleBlock), true>> blocks_;
-    std::vector<std::uint32_t, UnwrittenAllocator<std::uint32_t>> leaf_blocks_;  // per binary node: a leaf's first block (inner nodes: unused)
+    // Per binary node: a leaf's first block (inner nodes: unused).
+    std::vector<std::uint32_t, UnwrittenAllocator<std::uint32_t>> leaf_blocks_;
     // The binary leaves' (first slot, first block), in slot order: leaf_block()'s table.
     std::vector<std::pair<std::uint32_t, std::uint32_t>> leaf_starts_;
     std::size_t input_count_ = 0;
