@@ -59,13 +59,6 @@ inline GroundQuad ground_quad() {
                        glm::vec3(-20.0f, -3.0f, -20.0f)}};
 }
 
-inline TriangleMesh quad_mesh(const GroundQuad& g) {
-    TriangleMesh m;
-    m.vertices.assign(g.corners.begin(), g.corners.end());
-    m.triangles = {{0, 1, 2}, {0, 2, 3}};
-    return m;
-}
-
 // Embree's stand-ins: icosahedra in one world-space mesh or instanced, or its own sphere primitive.
 enum class Layout { flattened, instanced, spheres };
 // How Embree is asked: one ray per rtcOccluded1, or a packet of eight per rtcOccluded8.
@@ -83,18 +76,9 @@ public:
           ground_only_(device, er::SceneOptions{RTC_BUILD_QUALITY_MEDIUM, robust}), particle_count_(ps.size()) {
         const TriangleMesh unit = make_icosahedron(1.0f);
         triangles_per_particle_ = static_cast<std::uint32_t>(unit.triangles.size());
-        ground_geometry_ = scene_.attach_mesh(quad_mesh(ground_quad()));
+        ground_geometry_ = scene_.attach_mesh(er::quad_mesh(ground_quad()));
         if (layout == Layout::flattened) {
-            TriangleMesh world;
-            world.vertices.reserve(ps.size() * unit.vertices.size());
-            world.triangles.reserve(ps.size() * unit.triangles.size());
-            for (const Particle& p : ps) {
-                const auto base = static_cast<std::uint32_t>(world.vertices.size());
-                for (const glm::vec3& v : unit.vertices)
-                    world.vertices.push_back(glm::vec3(glm::dvec3(p.center) + double(p.radius) * glm::dvec3(v)));
-                for (const glm::uvec3& t : unit.triangles) world.triangles.push_back(t + base);
-            }
-            scene_.attach_mesh(world);
+            scene_.attach_mesh(er::flattened_stand_ins(ps, unit));
         } else if (layout == Layout::spheres) {
             RTCGeometry g = rtcNewGeometry(device.handle(), RTC_GEOMETRY_TYPE_SPHERE_POINT);
             auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4,
@@ -133,7 +117,7 @@ public:
             device.check("instances");
         }
         scene_.commit();
-        ground_only_.attach_mesh(quad_mesh(ground_quad()));
+        ground_only_.attach_mesh(er::quad_mesh(ground_quad()));
         ground_only_.commit();
     }
 

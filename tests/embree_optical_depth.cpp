@@ -67,13 +67,6 @@ TriangleMesh unit_mesh(StandInShape shape) {
     return shape.kind == StandInKind::icosahedron ? make_icosahedron(1.0f) : make_icosphere(shape.level, 1.0f);
 }
 
-TriangleMesh quad_mesh(const GroundQuad& g) {
-    TriangleMesh m;
-    m.vertices.assign(g.corners.begin(), g.corners.end());
-    m.triangles = {{0, 1, 2}, {0, 2, 3}};
-    return m;
-}
-
 // Every particle's stand-in in one Embree scene, with the ground, and a map from Embree's ids to particles.
 class EmbreeStandIns {
 public:
@@ -82,17 +75,9 @@ public:
         : top_(device) {
         const TriangleMesh unit = unit_mesh(shape);
         triangles_per_particle_ = static_cast<std::uint32_t>(unit.triangles.size());
-        if (ground) ground_geometry_ = top_.attach_mesh(quad_mesh(*ground));
+        if (ground) ground_geometry_ = top_.attach_mesh(er::quad_mesh(*ground));
         if (layout == Layout::flattened) {
-            // World vertices in double (translate(centre)·scale(radius)), rounded to float once.
-            TriangleMesh world;
-            for (const Particle& p : ps) {
-                const auto base = static_cast<std::uint32_t>(world.vertices.size());
-                for (const glm::vec3& v : unit.vertices)
-                    world.vertices.push_back(glm::vec3(glm::dvec3(p.center) + double(p.radius) * glm::dvec3(v)));
-                for (const glm::uvec3& t : unit.triangles) world.triangles.push_back(t + base);
-            }
-            top_.attach_mesh(world);
+            top_.attach_mesh(er::flattened_stand_ins(ps, unit));
         } else {
             child_ = std::make_unique<er::Scene>(device);
             child_->attach_mesh(unit);

@@ -11,6 +11,8 @@
 // (RTC_GEOMETRY_TYPE_INSTANCE, an attach_instance() next to attach_mesh()) needs no change here: its
 // hits arrive with EmbreeHit::instance set from the hit's instID.
 #include <smoketrace/geometry/ray.hpp>
+#include <smoketrace/smoke/particle_system.hpp>
+#include <smoketrace/smoke/smoke_scene.hpp>
 #include <smoketrace/smoke/stand_in_shapes.hpp>
 #include <smoketrace/accel/triangle_mesh.hpp>
 
@@ -22,6 +24,7 @@
 #include <cmath>
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
@@ -248,6 +251,29 @@ private:
     SceneOptions options_;
     std::vector<std::unique_ptr<MeshBuffers>> meshes_;
 };
+
+// The ground quad as Embree's two triangles.
+inline TriangleMesh quad_mesh(const GroundQuad& g) {
+    TriangleMesh m;
+    m.vertices.assign(g.corners.begin(), g.corners.end());
+    m.triangles = {{0, 1, 2}, {0, 2, 3}};
+    return m;
+}
+
+// Every particle's copy of `unit` in one world-space mesh (Embree's flattened layout): the vertices
+// translate(centre)·scale(radius)'d in double, rounded to float once.
+inline TriangleMesh flattened_stand_ins(std::span<const Particle> ps, const TriangleMesh& unit) {
+    TriangleMesh world;
+    world.vertices.reserve(ps.size() * unit.vertices.size());
+    world.triangles.reserve(ps.size() * unit.triangles.size());
+    for (const Particle& p : ps) {
+        const auto base = static_cast<std::uint32_t>(world.vertices.size());
+        for (const glm::vec3& v : unit.vertices)
+            world.vertices.push_back(glm::vec3(glm::dvec3(p.center) + double(p.radius) * glm::dvec3(v)));
+        for (const glm::uvec3& t : unit.triangles) world.triangles.push_back(t + base);
+    }
+    return world;
+}
 
 // ---------------------------------------------------------------------------------------------------
 // The large reference mesh of the Embree comparisons and of the benchmark: a finely subdivided
