@@ -57,6 +57,56 @@ void populate(AccelScene& s, Pcg32& rng, int n, float extent) {
                                 instance_flag_none});
 }
 
+// Commits both and requires the same scene: every instance's transform, world box, record and detail, the
+// world-space triangles, the TLAS's leaf order and SAH cost.
+void require_same_scene(AccelScene& bulk, AccelScene& one_by_one) {
+    REQUIRE(bulk.instance_count() == one_by_one.instance_count());
+    one_by_one.commit();
+    bulk.commit();
+    for (std::uint32_t i = 0; i < bulk.instance_count(); ++i) {
+        INFO("instance " << i);
+        REQUIRE(bulk.transform(i) == one_by_one.transform(i));
+        REQUIRE(bulk.instance_bounds(i).lo == one_by_one.instance_bounds(i).lo);
+        REQUIRE(bulk.instance_bounds(i).hi == one_by_one.instance_bounds(i).hi);
+        const InstanceRecord &a = bulk.record(i), &b = one_by_one.record(i);
+        REQUIRE(a.path == b.path);
+        REQUIRE(a.mask == b.mask);
+        REQUIRE(a.opaque == b.opaque);
+        REQUIRE(a.user_id == b.user_id);
+        if (a.path == InstancePath::world_sphere) {
+            REQUIRE(a.sphere.offset == b.sphere.offset);
+            REQUIRE(a.sphere.radius == b.sphere.radius);
+        } else {
+            REQUIRE(a.other.detail == b.other.detail);
+            REQUIRE(a.other.first_world_triangle == b.other.first_world_triangle);
+            REQUIRE(a.other.world_triangle_count == b.other.world_triangle_count);
+            REQUIRE(a.other.world_facing_flipped == b.other.world_facing_flipped);
+            if (a.path == InstancePath::world_triangles)
+                REQUIRE(a.other.blas == &bulk.bottom_level(bulk.instance(i).blas));
+        }
+        REQUIRE(bulk.detail(i).blas == &bulk.bottom_level(bulk.instance(i).blas));
+        REQUIRE(bulk.detail(i).world_to_object_linear == one_by_one.detail(i).world_to_object_linear);
+    }
+    std::size_t triangles = 0;
+    for (std::uint32_t i = 0; i < bulk.instance_count(); ++i)
+        if (bulk.record(i).path == InstancePath::world_triangles) triangles += bulk.record(i).other.world_triangle_count;
+    CHECK(std::memcmp(bulk.world_triangles(), one_by_one.world_triangles(), triangles * sizeof(MeshBlas::Triangle)) ==
+          0);
+    CHECK(bulk.tlas().prim_indices == one_by_one.tlas().prim_indices);
+    CHECK(bulk.tlas_sah_cost() == one_by_one.tlas_sah_cost());
+}
+
+// The three bottom levels of the bulk tests, one per instance path: a unit sphere (world sphere), a quad
+// (world triangles), an opaque icosphere (object space).
+void add_path_bottom_levels(AccelScene& s) {
+    TriangleMesh quad;
+    quad.vertices = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
+    quad.triangles = {{0, 1, 2}, {0, 2, 3}};
+    s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 1.0f}}, false));
+    s.add_bottom_level(BottomLevel::from_mesh(quad, false));
+    s.add_bottom_level(BottomLevel::from_mesh(make_icosphere(1, 1.0f), true));
+}
+
 // Moves every instance by a random step of up to `step` per axis (keeping its linear part).
 void jitter(AccelScene& s, Pcg32& rng, float step) {
     for (std::uint32_t i = 0; i < s.instance_count(); ++i) {
@@ -467,20 +517,28 @@ TEST_CASE("scene: a singular instance transform is rejected", "[scene]") {
     flat.linear[2][2] = 0.0;  // squashes z
     CHECK_THROWS_AS(s.add_instance(Instance{b, flat, 0xFF, 0, 0}), std::domain_error);
     CHECK_THROWS_AS(s.add_instance(Instance{5, {}, 0xFF, 0, 0}), std::out_of_range);
+    CHECK(s.instance_count() == 0);
+    // A rejected set_transform() leaves the instance as it was: transform, box and record.
+    const AffineTransform at = AffineTransform::translate_scale({1, 2, 3}, 2.0);
+    s.add_instance(Instance{b, at, 0xFF, 0, 0});
+    s.commit();
+    const Aabb box = s.instance_bounds(0);
+    CHECK_THROWS_AS(s.set_transform(0, flat), std::domain_error);
+    AffineTransform huge = at;
+    huge.translation.x = 1e300;  // finite, but its box does not fit in float
+    CHECK_THROWS_AS(s.set_transform(0, huge), std::domain_error);
+    CHECK(s.transform(0) == at);
+    CHECK(s.instance_bounds(0).lo == box.lo);
+    CHECK(s.instance_bounds(0).hi == box.hi);
+    CHECK(s.record(0).sphere.offset == glm::dvec3(0.0));
+    CHECK(s.record(0).sphere.radius == 2.0);
+    CHECK(s.commit() == TlasUpdate::none);
 }
 
 TEST_CASE("scene: add_instances() gives the scene of add_instance() one by one, and adds none on error",
           "[scene]") {
     // Every kind of instance path (world sphere, world triangles, object space), rotated, mirrored and
     // scaled, in batches large enough that the set-up runs on several threads.
-    auto bottom_levels = [](AccelScene& s) {
-        TriangleMesh quad;
-        quad.vertices = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
-        quad.triangles = {{0, 1, 2}, {0, 2, 3}};
-        s.add_bottom_level(BottomLevel::from_spheres({Sphere{{0, 0, 0}, 1.0f}}, false));
-        s.add_bottom_level(BottomLevel::from_mesh(quad, false));
-        s.add_bottom_level(BottomLevel::from_mesh(make_icosphere(1, 1.0f), true));
-    };
     Pcg32 rng(12);
     std::vector<Instance> instances;
     for (std::uint32_t i = 0; i < 20000; ++i) {
@@ -492,8 +550,8 @@ TEST_CASE("scene: add_instances() gives the scene of add_instance() one by one, 
         instances.push_back(Instance{i % 3, m, std::uint8_t(1u << (i % 3)), i, std::uint8_t(i % 7 == 0 ? 2 : 0)});
     }
     AccelScene one_by_one, bulk;
-    bottom_levels(one_by_one);
-    bottom_levels(bulk);
+    add_path_bottom_levels(one_by_one);
+    add_path_bottom_levels(bulk);
     for (const Instance& in : instances) one_by_one.add_instance(in);
     bulk.reserve_instances(instances.size());
     CHECK(bulk.add_instances(std::span(instances).first(7000)) == 0);
@@ -505,36 +563,72 @@ TEST_CASE("scene: add_instances() gives the scene of add_instance() one by one, 
     bad.back() = Instance{9, {}, 0xFF, 0, 0};
     CHECK_THROWS_AS(bulk.add_instances(bad), std::out_of_range);
     REQUIRE(bulk.instance_count() == one_by_one.instance_count());
+    require_same_scene(bulk, one_by_one);
+}
+
+TEST_CASE("scene: set_transforms() gives the scene of set_transform() one by one, and changes nothing on error",
+          "[scene]") {
+    // 20,000 instances over the three paths, every linear part a uniform scale (no matrix slot yet); the new
+    // transforms leave some alone, turn some (a matrix slot given, in instance order), turn some back to a
+    // scale (the slot kept), mirror and move the rest: in chunks enough for several threads.
+    Pcg32 rng(31);
+    std::vector<Instance> instances;
+    for (std::uint32_t i = 0; i < 20000; ++i)
+        instances.push_back(Instance{i % 3,
+                                     AffineTransform::translate_scale({rng.uniform(-50, 50), rng.uniform(-50, 50),
+                                                                       rng.uniform(-50, 50)},
+                                                                      rng.uniform(0.1f, 2.0f)),
+                                     std::uint8_t(1u << (i % 3)), i, 0});
+    auto frame = [&](int f) {
+        std::vector<AffineTransform> m;
+        for (std::uint32_t i = 0; i < instances.size(); ++i) {
+            AffineTransform t = instances[i].object_to_world;
+            const std::uint32_t kind = (i * 7 + std::uint32_t(f)) % 5;
+            if (kind == 0) {
+                m.push_back(t);  // unchanged
+                continue;
+            }
+            t.translation += glm::dvec3(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
+            if (kind == 1 || kind == 2)
+                t.linear = glm::dmat3(glm::mat3_cast(glm::angleAxis(rng.uniform(0, 6.28f), glm::vec3(0, 1, 0)))) *
+                           t.linear;
+            if (kind == 2) t.linear[0] = -t.linear[0];  // mirrored
+            m.push_back(t);
+        }
+        return m;
+    };
+    AccelScene one_by_one, bulk;
+    add_path_bottom_levels(one_by_one);
+    add_path_bottom_levels(bulk);
+    one_by_one.add_instances(instances);
+    bulk.add_instances(instances);
     one_by_one.commit();
     bulk.commit();
-    for (std::uint32_t i = 0; i < bulk.instance_count(); ++i) {
-        INFO("instance " << i);
-        REQUIRE(bulk.instance_bounds(i).lo == one_by_one.instance_bounds(i).lo);
-        REQUIRE(bulk.instance_bounds(i).hi == one_by_one.instance_bounds(i).hi);
-        const InstanceRecord &a = bulk.record(i), &b = one_by_one.record(i);
-        REQUIRE(a.path == b.path);
-        REQUIRE(a.mask == b.mask);
-        REQUIRE(a.opaque == b.opaque);
-        REQUIRE(a.user_id == b.user_id);
-        if (a.path == InstancePath::world_sphere) {
-            REQUIRE(a.sphere.offset == b.sphere.offset);
-            REQUIRE(a.sphere.radius == b.sphere.radius);
-        } else {
-            REQUIRE(a.other.detail == b.other.detail);
-            REQUIRE(a.other.first_world_triangle == b.other.first_world_triangle);
-            REQUIRE(a.other.world_triangle_count == b.other.world_triangle_count);
-            REQUIRE(a.other.world_facing_flipped == b.other.world_facing_flipped);
-            if (a.path == InstancePath::world_triangles)
-                REQUIRE(a.other.blas == &bulk.bottom_level(bulk.instance(i).blas));
-        }
-        REQUIRE(bulk.detail(i).blas == &bulk.bottom_level(bulk.instance(i).blas));
-        REQUIRE(bulk.detail(i).world_to_object_linear == one_by_one.detail(i).world_to_object_linear);
+    for (int f = 0; f < 3; ++f) {
+        INFO("frame " << f);
+        const std::vector<AffineTransform> m = frame(f);
+        // Instances 0 and 1 are left out of the bulk call's range, the rest set in two calls.
+        for (std::uint32_t i = 2; i < m.size(); ++i) one_by_one.set_transform(i, m[i]);
+        bulk.set_transforms(2, std::span(m).subspan(2, 9000));
+        bulk.set_transforms(9002, std::span(m).subspan(9002));
+        require_same_scene(bulk, one_by_one);
     }
-    const std::size_t triangles = 2 * ((instances.size() + 1) / 3);  // every quad instance's two
-    CHECK(std::memcmp(bulk.world_triangles(), one_by_one.world_triangles(), triangles * sizeof(MeshBlas::Triangle)) ==
-          0);
-    CHECK(bulk.tlas().prim_indices == one_by_one.tlas().prim_indices);
-    CHECK(bulk.tlas_sah_cost() == one_by_one.tlas_sah_cost());
+    // Rejected: a range past the last instance; a batch with two bad transforms, of which the lower one is
+    // named. The scene is left as it was, and a good batch after them gives the one-by-one scene still.
+    const std::vector<AffineTransform> m = frame(3);
+    CHECK_THROWS_AS(bulk.set_transforms(1, m), std::out_of_range);
+    CHECK_THROWS_AS(bulk.set_transforms(20001, std::span(m).first(0)), std::out_of_range);
+    std::vector<AffineTransform> bad = m;
+    bad[15000].linear[2] = glm::dvec3(0.0);  // singular
+    bad[9000].translation.y = 1e300;         // a box past float
+    CHECK_THROWS_WITH(bulk.set_transforms(0, bad), Catch::Contains("instance 9000 "));
+    CHECK(bulk.commit() == TlasUpdate::none);
+    require_same_scene(bulk, one_by_one);
+    for (std::uint32_t i = 0; i < m.size(); ++i) one_by_one.set_transform(i, m[i]);
+    bulk.set_transforms(0, m);
+    require_same_scene(bulk, one_by_one);
+    bulk.set_transforms(0, m);  // the same again: no change
+    CHECK(bulk.commit() == TlasUpdate::none);
 }
 
 TEST_CASE("scene: node masks are the OR of the subtree after build, refit and mask changes", "[scene]") {

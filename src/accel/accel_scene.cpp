@@ -77,6 +77,9 @@ std::uint32_t AccelScene::add_bottom_level(BottomLevel blas) {
 std::uint32_t AccelScene::add_instance(const Instance& instance) {
     if (instance.blas >= blases_.size())
         throw std::out_of_range("AccelScene::add_instance: no bottom level " + std::to_string(instance.blas));
+    // Checked before anything is added, so that a rejected instance leaves the scene as it was.
+    const Aabb world_box = checked_world_box(static_cast<std::uint32_t>(instances_.size()), *blases_[instance.blas],
+                                             instance.object_to_world);
     instances_.push_back(StoredInstance{instance.object_to_world.translation, 0.0, instance.blas, instance.user_id,
                                         kNoLinearSlot, instance.mask, instance.flags, false});
     store_linear(static_cast<std::uint32_t>(instances_.size() - 1), instance.object_to_world.linear);
@@ -96,7 +99,7 @@ std::uint32_t AccelScene::add_instance(const Instance& instance) {
     }
     world_boxes_.push_back(Aabb{});
     instance_masks_.push_back(instance.mask);
-    update_instance(static_cast<std::uint32_t>(instances_.size() - 1));
+    update_instance(static_cast<std::uint32_t>(instances_.size() - 1), world_box);
     structure_dirty_ = true;
     return static_cast<std::uint32_t>(instances_.size() - 1);
 }
@@ -238,9 +241,88 @@ void AccelScene::remove_instance(std::uint32_t index) {
 void AccelScene::set_transform(std::uint32_t index, const AffineTransform& m) {
     if (index >= instances_.size()) throw std::out_of_range("AccelScene::set_transform");
     if (transform(index) == m) return;  // an unchanged frame does no TLAS work
+    const Aabb world_box = checked_world_box(index, *blases_[instances_[index].blas], m);  // before any write
     instances_[index].translation = m.translation;
     store_linear(index, m.linear);
-    update_instance(index);
+    update_instance(index, world_box);
+    transforms_dirty_ = true;
+}
+
+void AccelScene::set_transforms(std::uint32_t first, std::span<const AffineTransform> m) {
+    if (first > instances_.size() || m.size() > instances_.size() - first)
+        throw std::out_of_range("AccelScene::set_transforms: instances " + std::to_string(first) + " + " +
+                                std::to_string(m.size()) + " pass the last of " + std::to_string(instances_.size()));
+    // Two passes over fixed chunks (the same outcome whatever the thread count). The first checks each
+    // changed transform and writes its world box, the only state it writes (a rejection puts the old boxes
+    // back, from the transforms still stored, and names the lowest rejected instance), and counts the
+    // instances that need a linears_ slot; these are handed out in instance order, as set_transform() one by
+    // one would. The second writes the rest, each instance its own.
+    constexpr std::size_t kChunk = 4096;
+    constexpr std::size_t kNoRejection = ~std::size_t{0};
+    const std::size_t chunks = (m.size() + kChunk - 1) / kChunk;
+    struct ChunkScan {
+        std::size_t first_slot = 0;  // the chunk's new slots; after the prefix sum, its first one
+        std::size_t changed = 0;
+        std::size_t rejected = kNoRejection;  // the chunk's lowest rejected position in m
+        std::string why;
+    };
+    std::vector<ChunkScan> scan(chunks + 1);
+    using Range = tbb::blocked_range<std::size_t>;
+    auto for_each_changed = [&](auto&& f) {
+        tbb::parallel_for(Range(0, chunks), [&](const Range& r) {
+            for (std::size_t c = r.begin(); c < r.end(); ++c)
+                for (std::size_t k = c * kChunk; k < std::min(m.size(), (c + 1) * kChunk); ++k) {
+                    const auto i = static_cast<std::uint32_t>(first + k);
+                    if (!(transform(i) == m[k]) && !f(c, k, i)) break;
+                }
+        });
+    };
+    for_each_changed([&](std::size_t c, std::size_t k, std::uint32_t i) {
+        ChunkScan& cs = scan[c + 1];
+        ++cs.changed;
+        double scale = 0.0;
+        cs.first_slot += instances_[i].linear_slot == kNoLinearSlot && !uniform_scale(m[k].linear, scale);
+        try {
+            world_boxes_[i] = checked_world_box(i, *blases_[instances_[i].blas], m[k]);
+        } catch (const std::exception& e) {
+            cs.rejected = k;
+            cs.why = e.what();
+            return false;  // the rest of the chunk keeps its boxes
+        }
+        return true;
+    });
+    std::size_t changed = 0;
+    std::string rejected;
+    scan[0].first_slot = linears_.size();
+    for (std::size_t c = 1; c <= chunks; ++c) {
+        if (scan[c].rejected != kNoRejection && rejected.empty()) rejected = scan[c].why;
+        scan[c].first_slot += scan[c - 1].first_slot;
+        changed += scan[c].changed;
+    }
+    if (!rejected.empty()) {
+        for_each_changed([&](std::size_t c, std::size_t k, std::uint32_t i) {
+            if (k == scan[c + 1].rejected) return false;
+            world_boxes_[i] = checked_world_box(i, *blases_[instances_[i].blas], transform(i));
+            return true;
+        });
+        throw std::domain_error(rejected);
+    }
+    if (changed == 0) return;
+    linears_.resize(scan[chunks].first_slot);
+    tbb::parallel_for(Range(0, chunks), [&](const Range& r) {
+        for (std::size_t c = r.begin(); c < r.end(); ++c) {
+            std::size_t next_slot = scan[c].first_slot;
+            for (std::size_t k = c * kChunk; k < std::min(m.size(), (c + 1) * kChunk); ++k) {
+                const auto i = static_cast<std::uint32_t>(first + k);
+                if (transform(i) == m[k]) continue;
+                const bool needs_slot = instances_[i].linear_slot == kNoLinearSlot;
+                instances_[i].translation = m[k].translation;
+                store_linear(i, m[k].linear, needs_slot ? static_cast<std::uint32_t>(next_slot) : kNoLinearSlot);
+                if (needs_slot && !instances_[i].scaled) ++next_slot;
+                update_instance(i, world_boxes_[i]);
+            }
+        }
+    });
     transforms_dirty_ = true;
 }
 
@@ -342,9 +424,36 @@ bool AccelScene::keeps_detail(const BottomLevel& b) const {
 
 // World box: the 8 transformed corners of the object box, in double, rounded outward to float.
 void AccelScene::update_instance(std::uint32_t i) {
+    const StoredInstance& s = instances_[i];
+    update_instance(i, checked_world_box(i, *blases_[s.blas], transform(i)));
+}
+
+Aabb AccelScene::checked_world_box(std::uint32_t i, const BottomLevel& b, const AffineTransform& m) {
+    m.check_invertible();  // every instance needs an inverse, though only details keep it
+    const Aabb ob = b.bounds();
+    Aabb wb;
+    if (!ob.empty()) {
+        glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+        for (int c = 0; c < 8; ++c) {
+            const glm::dvec3 p((c & 1) ? ob.hi.x : ob.lo.x, (c & 2) ? ob.hi.y : ob.lo.y, (c & 4) ? ob.hi.z : ob.lo.z);
+            const glm::dvec3 w = m.point(p);
+            lo = glm::min(lo, w);
+            hi = glm::max(hi, w);
+        }
+        for (int a = 0; a < 3; ++a) {
+            wb.lo[a] = float_below(static_cast<float>(lo[a]));
+            wb.hi[a] = float_above(static_cast<float>(hi[a]));
+        }
+    }
+    if (!(std::isfinite(wb.lo.x) && std::isfinite(wb.lo.y) && std::isfinite(wb.lo.z) && std::isfinite(wb.hi.x) &&
+          std::isfinite(wb.hi.y) && std::isfinite(wb.hi.z)))
+        throw std::domain_error("AccelScene: instance " + std::to_string(i) + " has a non-finite or empty world box");
+    return wb;
+}
+
+void AccelScene::update_instance(std::uint32_t i, const Aabb& world_box) {
     const Instance in = instance(i);
     const BottomLevel& b = *blases_[in.blas];
-    in.object_to_world.check_invertible();  // every instance needs an inverse, though only details keep it
     InstanceRecord& r = records_[record_slot_[i]];
     // Both fixed by add_instance (and by assign_world_triangle_slots()).
     const std::uint32_t detail = keeps_detail(b) ? r.other.detail : kNoInstanceDetail;
@@ -384,25 +493,7 @@ void AccelScene::update_instance(std::uint32_t i) {
             world_triangles_[first_world_triangle + k] = {to_world(t.v0), to_world(t.v1), to_world(t.v2)};
         }
     }
-    const Aabb ob = b.bounds();
-    Aabb wb;
-    if (!ob.empty()) {
-        glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
-        for (int c = 0; c < 8; ++c) {
-            const glm::dvec3 p((c & 1) ? ob.hi.x : ob.lo.x, (c & 2) ? ob.hi.y : ob.lo.y, (c & 4) ? ob.hi.z : ob.lo.z);
-            const glm::dvec3 w = in.object_to_world.point(p);
-            lo = glm::min(lo, w);
-            hi = glm::max(hi, w);
-        }
-        for (int a = 0; a < 3; ++a) {
-            wb.lo[a] = float_below(static_cast<float>(lo[a]));
-            wb.hi[a] = float_above(static_cast<float>(hi[a]));
-        }
-    }
-    if (!(std::isfinite(wb.lo.x) && std::isfinite(wb.lo.y) && std::isfinite(wb.lo.z) && std::isfinite(wb.hi.x) &&
-          std::isfinite(wb.hi.y) && std::isfinite(wb.hi.z)))
-        throw std::domain_error("AccelScene: instance " + std::to_string(i) + " has a non-finite or empty world box");
-    world_boxes_[i] = wb;
+    world_boxes_[i] = world_box;
 }
 
 void AccelScene::rebuild() {

@@ -18,10 +18,7 @@ glm::vec3 GroundQuad::normal() const {
 
 namespace {
 constexpr std::size_t kInstanceBatch = 1 << 16;
-
-bool same(const AffineTransform& a, const AffineTransform& b) {
-    return a.linear == b.linear && a.translation == b.translation;
-}
+constexpr std::size_t kUpdateBatch = 1 << 14;  // transforms per set_transforms() call: a 1.5 MiB buffer
 
 AffineTransform stand_in_transform(const Particle& p) {
     return AffineTransform::translate_scale(glm::dvec3(p.center), double(p.radius));
@@ -98,34 +95,22 @@ SmokeScene::SmokeScene(std::span<const Particle> particles, StandInShape shape, 
 }
 
 TlasUpdate SmokeScene::update(std::span<const Particle> particles, const glm::vec3& eye) {
-    // Which transforms changed is found a batch at a time on all threads (a frame that moves nothing, such
-    // as the first after construction, is then all parallel); the changes are applied in index order, as
-    // one serial pass would.
-    std::vector<std::uint8_t> changed;
-    std::vector<AffineTransform> billboard(billboards_ ? std::min(count_, kInstanceBatch) : 0);  // not worked out twice
-    for (std::size_t first = 0; first < count_; first += kInstanceBatch) {
-        const std::size_t n = std::min(count_, first + kInstanceBatch) - first;
-        changed.assign(n, 0);
-        using Range = tbb::blocked_range<std::size_t>;
+    // A batch of transforms at a time, worked out and set on all threads (AccelScene::set_transforms(),
+    // which leaves the unchanged ones alone): the batch is a small buffer, reused, beside the scene's arrays.
+    std::vector<AffineTransform> batch(std::min(count_, kUpdateBatch));
+    using Range = tbb::blocked_range<std::size_t>;
+    for (std::size_t first = 0; first < count_; first += kUpdateBatch) {
+        const std::size_t n = std::min(count_, first + kUpdateBatch) - first;
+        const std::span<AffineTransform> to(batch.data(), n);
         tbb::parallel_for(Range(0, n, 4096), [&](const Range& r) {
-            for (std::size_t k = r.begin(); k < r.end(); ++k) {
-                const std::size_t i = first + k;
-                const auto idx = static_cast<std::uint32_t>(i);
-                std::uint8_t c = !same(scene_.transform(idx), stand_in_transform(particles[i]));
-                if (billboards_) {
-                    const auto b_idx = static_cast<std::uint32_t>(count_ + i);
-                    billboard[k] = billboard_transform(particles[i], eye);
-                    c |= std::uint8_t(!same(scene_.transform(b_idx), billboard[k]) << 1);
-                }
-                changed[k] = c;
-            }
+            for (std::size_t k = r.begin(); k < r.end(); ++k) to[k] = stand_in_transform(particles[first + k]);
         });
-        for (std::size_t k = 0; k < n; ++k) {
-            if (changed[k] == 0) continue;
-            const std::size_t i = first + k;
-            if (changed[k] & 1) scene_.set_transform(static_cast<std::uint32_t>(i), stand_in_transform(particles[i]));
-            if (changed[k] & 2) scene_.set_transform(static_cast<std::uint32_t>(count_ + i), billboard[k]);
-        }
+        scene_.set_transforms(static_cast<std::uint32_t>(first), to);
+        if (!billboards_) continue;
+        tbb::parallel_for(Range(0, n, 4096), [&](const Range& r) {
+            for (std::size_t k = r.begin(); k < r.end(); ++k) to[k] = billboard_transform(particles[first + k], eye);
+        });
+        scene_.set_transforms(static_cast<std::uint32_t>(count_ + first), to);
     }
     return scene_.commit();
 }

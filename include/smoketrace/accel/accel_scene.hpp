@@ -135,7 +135,13 @@ public:
     // Room for this many instances in all, so that adding them (a million particles) moves nothing.
     void reserve_instances(std::size_t count);
     void remove_instance(std::uint32_t index);              // later indices move down by one
+    // Throws, changing nothing, when the transform is singular or the instance's world box would not fit in
+    // float (or index is out of range).
     void set_transform(std::uint32_t index, const AffineTransform& object_to_world);
+    // set_transform(first + k, object_to_world[k]) for every k, in parallel: the same scene as the calls one
+    // by one, whatever the thread count (a moving particle system's every frame). Throws, changing nothing,
+    // when the range passes the last instance or a transform is rejected (the lowest such instance named).
+    void set_transforms(std::uint32_t first, std::span<const AffineTransform> object_to_world);
     void set_mask(std::uint32_t index, std::uint8_t mask);
     // Moves the vertices of the mesh bottom level `blas` (same triangles): its tree is refit, or rebuilt
     // when the refit degraded it past the rebuild ratio (MeshBlas::update_vertices, which says which), and
@@ -202,7 +208,11 @@ private:
     [[nodiscard]] bool takes_world_triangles(const BottomLevel& b) const;
     [[nodiscard]] bool keeps_detail(const BottomLevel& b) const;
     void assign_world_triangle_slots();
-    void update_instance(std::uint32_t i);
+    // Instance i's world box under m, every corner in double rounded outward once; throws when m is
+    // singular or the box does not fit in float, so that callers check before they write.
+    [[nodiscard]] static Aabb checked_world_box(std::uint32_t i, const BottomLevel& b, const AffineTransform& m);
+    void update_instance(std::uint32_t i);  // from its stored transform
+    void update_instance(std::uint32_t i, const Aabb& world_box);
     void rebuild();
     void refit_binary();
     template <bool kRefitBoxes>
