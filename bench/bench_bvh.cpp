@@ -5,7 +5,8 @@
 // Embree at its best for speed: its default (medium) and its high-quality (spatial split) builds, each
 // with and without RTC_SCENE_FLAG_ROBUST; closest hit also on scenes without the context-filter flag.
 // Embree's build time is its rtcCommitScene alone (vertex and index buffers are shared, set up untimed);
-// ours is the whole MeshBlas constructor (boxes, degenerate check, tree, leaf-ordered triangle copy).
+// ours is the whole MeshBlas constructor (boxes, degenerate check, tree, leaf-ordered triangle copy); either's
+// release of the previous repeat's tree is untimed.
 // Builds run at one thread and at two, each inside a TBB arena of that many threads, ours and Embree's
 // alike (Embree's builds run in the caller's arena. A "threads=1" Embree device is no limit while another
 // device with the default thread count exists: Embree sizes its tasking for the largest of its live
@@ -355,17 +356,24 @@ void run_bvh(const BenchOptions& options) {
     // may set other things).
     er::Device device = bench_embree_device();
     tbb::task_arena arena_1(1), arena_2(2);
-    std::unique_ptr<MeshBlas> blas;  // the two-thread build's, traversed below
+    // Each build is timed alone: the previous repeat's tree is freed in the untimed set-up, as Embree's
+    // scenes are (freeing a tree's arrays gives their pages back to the kernel, which is not the build).
+    std::unique_ptr<MeshBlas> blas;    // the two-thread build's, traversed below
+    std::unique_ptr<MeshBlas> blas_1;  // the one-thread build's
     std::vector<std::unique_ptr<er::Scene>> scenes(std::size(kEmbreeConfigs));  // the two-thread builds'
     std::vector<Contender> builds;
-    builds.push_back({"smoketrace", 2, [&] {
+    builds.push_back({"smoketrace", 2,
+                      [&] {
                           arena_2.execute([&] { blas = std::make_unique<MeshBlas>(mesh); });
                           return PassResult{};
-                      }});
-    builds.push_back({"smoketrace", 1, [&] {
-                          arena_1.execute([&] { MeshBlas b(mesh); });
+                      },
+                      [&] { blas.reset(); }});
+    builds.push_back({"smoketrace", 1,
+                      [&] {
+                          arena_1.execute([&] { blas_1 = std::make_unique<MeshBlas>(mesh); });
                           return PassResult{};
-                      }});
+                      },
+                      [&] { blas_1.reset(); }});
     for (std::size_t i = 0; i < std::size(kEmbreeConfigs); ++i) {
         const EmbreeConfig& c = kEmbreeConfigs[i];
         auto commit = [&, i] {
@@ -391,6 +399,7 @@ void run_bvh(const BenchOptions& options) {
     const int build_repeats = only_measures().empty() ? options.repeats : 1;
     time_round_robin(builds, build_repeats);
     scene_1.reset();
+    blas_1.reset();
     const double ours_build_2 = stats_of(builds[0].ms).median, ours_build_1 = stats_of(builds[1].ms).median;
     double embree_medium_ms[3] = {0, 0, 0}, embree_high_ms[3] = {0, 0, 0};  // [threads]
     for (const Contender& c : builds) {
@@ -410,7 +419,7 @@ void run_bvh(const BenchOptions& options) {
     TriangleMesh deformed = mesh;
     for (glm::vec3& v : deformed.vertices)
         v += 0.01f * glm::vec3(std::sin(3.0f * v.y), std::sin(3.0f * v.z), std::sin(3.0f * v.x));
-    std::unique_ptr<MeshBlas> refit_blas;
+    std::unique_ptr<MeshBlas> refit_blas, rebuilt_blas;
     BlasUpdate refit_outcome = BlasUpdate::rebuild;
     std::vector<Contender> refits;
     for (int threads : {1, 2}) {
@@ -424,12 +433,15 @@ void run_bvh(const BenchOptions& options) {
                               return PassResult{};
                           },
                           [&] { arena_2.execute([&] { refit_blas = std::make_unique<MeshBlas>(mesh); }); }});
-        refits.push_back({"smoketrace_rebuild", threads, [&] {
-                              arena.execute([&] { MeshBlas b(deformed); });
+        refits.push_back({"smoketrace_rebuild", threads,
+                          [&] {
+                              arena.execute([&] { rebuilt_blas = std::make_unique<MeshBlas>(deformed); });
                               return PassResult{};
-                          }});
+                          },
+                          [&] { rebuilt_blas.reset(); }});
     }
     time_round_robin(refits, build_repeats);
+    rebuilt_blas.reset();
     const double refit_sah = refit_blas->sah_cost(), refit_sah_at_build = refit_blas->sah_cost_at_build();
     const double fresh_sah = MeshBlas(deformed).sah_cost();
     double refit_ms[3] = {0, 0, 0}, rebuild_ms[3] = {0, 0, 0};  // [threads]
