@@ -422,12 +422,12 @@ bool AccelScene::keeps_detail(const BottomLevel& b) const {
              b.spheres.leaf_spheres().size() == 1);
 }
 
-// World box: the 8 transformed corners of the object box, in double, rounded outward to float.
 void AccelScene::update_instance(std::uint32_t i) {
     const StoredInstance& s = instances_[i];
     update_instance(i, checked_world_box(i, *blases_[s.blas], transform(i)));
 }
 
+// The 8 transformed corners of the object box, in double, rounded outward to float.
 Aabb AccelScene::checked_world_box(std::uint32_t i, const BottomLevel& b, const AffineTransform& m) {
     m.check_invertible();  // every instance needs an inverse, though only details keep it
     const Aabb ob = b.bounds();
