@@ -92,6 +92,38 @@ TEST_CASE("kernel levels: every level this CPU runs writes the same frame and de
     }
 }
 
+TEST_CASE("kernel levels: every level this CPU runs writes the same ground truth and ladder rung, bit for bit",
+          "[simd][levels][cli]") {
+    // The truth's passes (truth/ground_truth.cpp: the camera march, the light volume, the exact light rays,
+    // check()) and a ladder rung's (own light volumes, axis depths); small and coarse, so that each level's
+    // run takes seconds: the bytes, not the convergence, are what is compared.
+    const std::vector<simd::Level> levels = runnable_levels();
+    INFO("levels tried: " << levels.size());
+    TempDir dir;
+    const std::string scene = kAssets + "/scenes/two_tubes_right.json";
+    std::vector<std::string> truths, rungs;
+    for (simd::Level l : levels) {
+        const std::string name(simd::level_name(l));
+        const std::string truth = (dir.path / (name + "_truth.pfm")).string();
+        const std::string rung = (dir.path / (name + "_rung.pfm")).string();
+        const auto t = smoketrace::test::detail::run_cli(
+            "truth " + scene + " -o " + truth + " --size 40x30 --spp 1 --light-spacing 8 --check 5", true, forced(l));
+        REQUIRE(t.exit_code == 0);
+        const std::size_t found = t.out.find("largest difference");  // check()'s findings, after its time
+        REQUIRE(found != std::string::npos);
+        REQUIRE(run_cli_with(forced(l), "truth " + scene + " -o " + rung + " --size 24x16 --spp 1 --rung six-axis")
+                    .exit_code == 0);
+        truths.push_back(file_bytes(truth) + t.out.substr(found, t.out.find('\n', found) - found));
+        rungs.push_back(file_bytes(rung));
+        REQUIRE_FALSE(rungs.back().empty());
+    }
+    for (std::size_t i = 1; i < levels.size(); ++i) {
+        INFO(simd::level_name(levels[i]) << " against " << simd::level_name(levels[0]));
+        CHECK(truths[i] == truths[0]);
+        CHECK(rungs[i] == rungs[0]);
+    }
+}
+
 TEST_CASE("kernel levels: --version names the level the process runs, SMOKETRACE_SIMD's where set",
           "[simd][levels][cli]") {
     for (simd::Level l : runnable_levels()) {

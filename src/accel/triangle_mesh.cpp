@@ -1,4 +1,5 @@
-// Mesh BLAS construction (see triangle_mesh.hpp).
+// Mesh BLAS construction and refit (see triangle_mesh.hpp): a kernel source, compiled once per kernel level
+// (core/simd/dispatch.hpp) for the refit; update_vertices() is in triangle_mesh_dispatch.cpp.
 #include <smoketrace/accel/triangle_mesh.hpp>
 #include <smoketrace/geometry/ray_triangle.hpp>
 #include "bvh_bottom_up.hpp"
@@ -188,29 +189,12 @@ void MeshBlas::refit_boxes() {
     sah_current_ = bvh_.sah_cost(settings_.costs);
 }
 
-BlasUpdate MeshBlas::update_vertices(std::span<const glm::vec3> vertices, double rebuild_ratio) {
-    if (vertices.size() != vertex_count_)
-        throw std::invalid_argument("MeshBlas::update_vertices: " + std::to_string(vertices.size()) +
-                                    " vertices given, but the mesh has " + std::to_string(vertex_count_) +
-                                    " (its triangles index them, so the count must stay the same)");
-    for (std::size_t i = 0; i < vertices.size(); ++i)
-        if (!std::isfinite(vertices[i].x) || !std::isfinite(vertices[i].y) || !std::isfinite(vertices[i].z))
-            throw std::invalid_argument("MeshBlas::update_vertices: vertex " + std::to_string(i) + " is not finite");
-
-    // The rebuild: the input mesh put back together from the leaf order and the degenerate list.
-    auto rebuild = [&] {
-        TriangleMesh m;
-        m.vertices.assign(vertices.begin(), vertices.end());
-        m.triangles.resize(input_count_);
-        for (std::size_t k = 0; k < leaf_indices_.size(); ++k) m.triangles[bvh_.prim_indices[k]] = leaf_indices_[k];
-        for (const auto& [id, t] : degenerate_) m.triangles[id] = t;
-        *this = MeshBlas(m, settings_);
-        return BlasUpdate::rebuild;
-    };
-
-    // The tree must hold exactly the non-degenerate triangles, as a fresh build's would.
-    for (const auto& [id, t] : degenerate_)
-        if (!is_degenerate(vertices[t.x], vertices[t.y], vertices[t.z])) return rebuild();
+// The refit (update_vertices(), in triangle_mesh_dispatch.cpp, has checked the vertices): the leaf-ordered
+// triangles from the new vertices, the boxes, the blocks and the walked tree; false, and the rest left
+// unwritten, where the mesh must be rebuilt instead.
+template <simd::Level L>
+bool MeshBlas::refit_at_level(std::span<const glm::vec3> vertices, double rebuild_ratio) {
+    static_assert(L == simd::kCompiledLevel);
     std::atomic<bool> became_degenerate{false};
     tbb::parallel_for(Range(0, leaf_indices_.size(), kParallelGrain), [&](const Range& r) {
         bool any = false;
@@ -221,12 +205,15 @@ BlasUpdate MeshBlas::update_vertices(std::span<const glm::vec3> vertices, double
         }
         if (any) became_degenerate.store(true, std::memory_order_relaxed);
     });
-    if (became_degenerate.load()) return rebuild();
+    if (became_degenerate.load()) return false;
     refit_boxes();
-    if (sah_current_ > rebuild_ratio * sah_at_build_) return rebuild();
+    if (sah_current_ > rebuild_ratio * sah_at_build_) return false;
     refresh_blocks();
     wide_.collapse(bvh_, leaf_blocks_);  // the walked tree from the refit one: the same topology, O(nodes)
-    return BlasUpdate::refit;
+    return true;
 }
+
+// This copy's refit (core/simd/dispatch.hpp).
+template bool MeshBlas::refit_at_level<simd::kCompiledLevel>(std::span<const glm::vec3>, double);
 
 }  // namespace smoketrace

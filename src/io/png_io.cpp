@@ -1,12 +1,16 @@
 // PNG reading and writing, and all-or-nothing file writes (see png_io.hpp).
 #include <smoketrace/io/png_io.hpp>
 
+#include <smoketrace/core/simd/dispatch.hpp>
 #include <smoketrace/io/file_bytes.hpp>
 #include <smoketrace/io/output_path.hpp>
 
 #include <stb_image.h>
 #include <zlib.h>
 
+#include "png_filter.hpp"
+
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdlib>
@@ -48,19 +52,16 @@ void check_png_size(const fs::path& path, int width, int height) {
 
 constexpr std::array<std::uint8_t, 8> kPngSignature{137, 80, 78, 71, 13, 10, 26, 10};
 
-std::uint32_t crc32_update(std::uint32_t crc, const std::uint8_t* data, std::size_t size) {
-    // The CRC of the PNG specification (ISO 3309 / ITU-T V.42, reflected polynomial 0xEDB88320).
-    static const std::array<std::uint32_t, 256> table = [] {
-        std::array<std::uint32_t, 256> t{};
-        for (std::uint32_t n = 0; n < 256; ++n) {
-            std::uint32_t c = n;
-            for (int k = 0; k < 8; ++k) c = (c & 1u) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
-            t[n] = c;
-        }
-        return t;
-    }();
-    for (std::size_t i = 0; i < size; ++i) crc = table[(crc ^ data[i]) & 0xFFu] ^ (crc >> 8);
-    return crc;
+// A chunk's CRC (PNG specification 5.5: ISO 3309 / ITU-T V.42, reflected polynomial 0xEDB88320, over the
+// chunk's type and data): zlib's crc32(), the library the writer deflates with.
+std::uint32_t chunk_crc(const std::uint8_t* data, std::size_t size) {
+    uLong crc = crc32(0, nullptr, 0);
+    for (std::size_t done = 0; done < size;) {  // zlib counts in uInt
+        const uInt n = uInt(std::min<std::size_t>(size - done, std::size_t(1) << 30));
+        crc = crc32(crc, data + done, n);
+        done += n;
+    }
+    return std::uint32_t(crc);
 }
 
 std::uint32_t read_be32(const std::uint8_t* p) {
@@ -97,7 +98,7 @@ void check_png_structure(const fs::path& path, const std::vector<std::uint8_t>& 
             read_error(path, "truncated PNG: chunk '" + name + "' at byte " + std::to_string(at) + " needs " +
                                  std::to_string(needed) + " bytes, the file has " + std::to_string(bytes.size() - at) + " left");
         const std::uint32_t stored = read_be32(&bytes[at + 8 + length]);
-        const std::uint32_t computed = crc32_update(0xFFFF'FFFFu, type, 4 + std::size_t(length)) ^ 0xFFFF'FFFFu;
+        const std::uint32_t computed = chunk_crc(type, 4 + std::size_t(length));
         if (stored != computed)
             read_error(path, "corrupt PNG: CRC mismatch in chunk '" + name + "' at byte " + std::to_string(at));
         if (first) {
@@ -115,18 +116,10 @@ void check_png_structure(const fs::path& path, const std::vector<std::uint8_t>& 
 
 // --- PNG encoding -------------------------------------------------------------------------------------
 // A PNG is the signature, then chunks: IHDR (size and pixel format), one IDAT (the zlib stream of the
-// filtered rows), IEND. Each row is Paeth-filtered (filter type 4: every byte minus the prediction from
-// its left, upper and upper-left neighbours), which on rendered smoke and sky leaves long runs of small
-// values; zlib's run-length strategy compresses those well and several times faster than its default
-// strategy (bench section "output").
-
-// Paeth's predictor (PNG specification, 9.4): the neighbour closest to left + up − upper-left.
-std::uint8_t paeth(int left, int up, int upper_left) {
-    const int p = left + up - upper_left;
-    const int pl = std::abs(p - left), pu = std::abs(p - up), pul = std::abs(p - upper_left);
-    if (pl <= pu && pl <= pul) return std::uint8_t(left);
-    return std::uint8_t(pu <= pul ? up : upper_left);
-}
+// filtered rows), IEND. Each row is Paeth-filtered (png_filter.cpp; filter type 4: every byte minus the
+// prediction from its left, upper and upper-left neighbours), which on rendered smoke and sky leaves long
+// runs of small values; zlib's run-length strategy compresses those well and several times faster than its
+// default strategy (bench section "output").
 
 // The inverse of read_be32(): PNG stores every number big-endian.
 void store_be32(std::uint8_t* p, std::uint32_t v) {
@@ -143,7 +136,7 @@ void append_chunk(std::string& out, const char (&type)[5], const std::uint8_t* d
     out.append(type, 4);
     if (size > 0) out.append(reinterpret_cast<const char*>(data), size);
     const auto* typed = reinterpret_cast<const std::uint8_t*>(out.data() + type_at);
-    append_be32(out, crc32_update(0xFFFF'FFFFu, typed, 4 + size) ^ 0xFFFF'FFFFu);
+    append_be32(out, chunk_crc(typed, 4 + size));
 }
 
 // The signature and the IHDR chunk of a `width` x `height` image of `channels` 8-bit samples per pixel.
@@ -219,22 +212,9 @@ std::size_t PngWriter::Buffers::deflate_rows(const fs::path& path, int width, in
     const std::size_t stride = std::size_t(width) * std::size_t(channels);
     const std::size_t filtered_size = std::size_t(height) * (stride + 1);
     std::uint8_t* const rows = filtered.reserve(filtered_size);
-    for (std::size_t y = 0; y < std::size_t(height); ++y) {
-        const std::uint8_t* row = data + y * stride;
-        const std::uint8_t* above = y > 0 ? row - stride : nullptr;
-        std::uint8_t* out = rows + y * (stride + 1);
-        out[0] = 4;  // Paeth
-        // Missing neighbours count as 0 (left of the first pixel, above the first row). The first pixel
-        // separately, so that the loop over the rest has no such cases and vectorises.
-        const std::size_t c = std::size_t(channels);
-        for (std::size_t i = 0; i < c; ++i) out[1 + i] = std::uint8_t(row[i] - paeth(0, above ? above[i] : 0, 0));
-        if (above) {
-            for (std::size_t i = c; i < stride; ++i)
-                out[1 + i] = std::uint8_t(row[i] - paeth(row[i - c], above[i], above[i - c]));
-        } else {
-            for (std::size_t i = c; i < stride; ++i) out[1 + i] = std::uint8_t(row[i] - paeth(row[i - c], 0, 0));
-        }
-    }
+    simd::at_active_level([&]<simd::Level L> {
+        detail::paeth_filter_rows_at_level<L>(data, stride, std::size_t(height), std::size_t(channels), rows);
+    });
 
     // deflateReset() starts a stream exactly as a fresh deflateInit2() with the same settings would: the
     // same bytes as a writer of its own.

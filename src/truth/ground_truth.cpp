@@ -1,4 +1,5 @@
-// The ground truth of a frame (see ground_truth.hpp and docs/ground-truth.md).
+// The ground truth of a frame (see ground_truth.hpp and docs/ground-truth.md): a kernel source, compiled once
+// per kernel level (core/simd/dispatch.hpp); its public entry points are in ground_truth_dispatch.cpp.
 #include <smoketrace/truth/ground_truth.hpp>
 
 #include <smoketrace/render/frame_renderer.hpp>
@@ -595,7 +596,9 @@ GroundTruth::~GroundTruth() = default;
 int GroundTruth::width() const { return impl_->width; }
 int GroundTruth::height() const { return impl_->height; }
 
-TruthReport GroundTruth::render(ImageRgba& image, WorkProgress* progress) const {
+template <simd::Level L>
+TruthReport GroundTruth::render_at_level(ImageRgba& image, WorkProgress* progress) const {
+    static_assert(L == simd::kCompiledLevel);
     const auto start = std::chrono::steady_clock::now();
     const Impl& m = *impl_;
     TruthReport report;
@@ -852,11 +855,14 @@ GroundTruth::Impl::LadderPixel GroundTruth::Impl::shade_ladder_pixel(int x, int 
     return r;
 }
 
-LadderReport GroundTruth::render_ladder(std::array<ImageRgba, kTruthRungs>& images, WorkProgress* progress) const {
+template <simd::Level L>
+LadderReport GroundTruth::render_ladder_at_level(std::array<ImageRgba, kTruthRungs>& images,
+                                                WorkProgress* progress) const {
+    static_assert(L == simd::kCompiledLevel);
     const auto start = std::chrono::steady_clock::now();
     const Impl& m = *impl_;
     LadderLight ll;
-    ll.tau_centre = particle_optical_depths();
+    ll.tau_centre = particle_optical_depths_at_level<L>();
     ll.tau_others.resize(m.puffs.size());
     unsigned lights = 0;  // the axis lights some particle's light direction picks
     for (std::size_t i = 0; i < m.puffs.size(); ++i) {
@@ -911,14 +917,19 @@ LadderReport GroundTruth::render_ladder(std::array<ImageRgba, kTruthRungs>& imag
     return report;
 }
 
-glm::vec3 GroundTruth::pixel(int x, int y) const {
+template <simd::Level L>
+glm::vec3 GroundTruth::pixel_at_level(int x, int y) const {
+    static_assert(L == simd::kCompiledLevel);
     if (x < 0 || y < 0 || x >= impl_->width || y >= impl_->height)
         throw std::out_of_range("truth: pixel (" + std::to_string(x) + ", " + std::to_string(y) + ") is outside the image");
     Scratch sc;
     return impl_->shade_pixel(x, y, nullptr, impl_->settings.max_view_levels, sc).color;
 }
 
-TruthCheck GroundTruth::check(const ImageRgba& image, const TruthReport& report, int stride, WorkProgress* progress) const {
+template <simd::Level L>
+TruthCheck GroundTruth::check_at_level(const ImageRgba& image, const TruthReport& report, int stride,
+                                       WorkProgress* progress) const {
+    static_assert(L == simd::kCompiledLevel);
     const auto start = std::chrono::steady_clock::now();
     const Impl& m = *impl_;
     if (stride < 1) throw std::invalid_argument("truth: the check's stride must be >= 1");
@@ -933,7 +944,7 @@ TruthCheck GroundTruth::check(const ImageRgba& image, const TruthReport& report,
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, at.size(), 1), [&](const tbb::blocked_range<std::size_t>& r) {
         for (std::size_t k = r.begin(); k != r.end(); ++k) {
             const auto [x, y] = at[k];
-            const glm::vec3 d = glm::abs(glm::vec3(image.at(x, y)) - pixel(x, y));
+            const glm::vec3 d = glm::abs(glm::vec3(image.at(x, y)) - pixel_at_level<L>(x, y));
             difference[k] = std::max({d.x, d.y, d.z});
             if (progress) progress->add(1);
         }
@@ -957,7 +968,9 @@ TruthCheck GroundTruth::check(const ImageRgba& image, const TruthReport& report,
     return c;
 }
 
-std::vector<double> GroundTruth::particle_optical_depths() const {
+template <simd::Level L>
+std::vector<double> GroundTruth::particle_optical_depths_at_level() const {
+    static_assert(L == simd::kCompiledLevel);
     const Impl& m = *impl_;
     std::vector<double> tau(m.puffs.size());
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tau.size(), 16), [&](const tbb::blocked_range<std::size_t>& r) {
@@ -967,7 +980,9 @@ std::vector<double> GroundTruth::particle_optical_depths() const {
     return tau;
 }
 
-std::vector<std::uint8_t> GroundTruth::ground_shadow_mask() const {
+template <simd::Level L>
+std::vector<std::uint8_t> GroundTruth::ground_shadow_mask_at_level() const {
+    static_assert(L == simd::kCompiledLevel);
     const Impl& m = *impl_;
     std::vector<std::uint8_t> mask(std::size_t(m.width) * std::size_t(m.height), 0);
     tbb::parallel_for(tbb::blocked_range<int>(0, m.height), [&](const tbb::blocked_range<int>& rows) {
@@ -987,5 +1002,15 @@ std::vector<std::uint8_t> GroundTruth::ground_shadow_mask() const {
     });
     return mask;
 }
+
+// This copy's passes (core/simd/dispatch.hpp); the public members that run them are in ground_truth_dispatch.cpp.
+template TruthReport GroundTruth::render_at_level<simd::kCompiledLevel>(ImageRgba&, WorkProgress*) const;
+template LadderReport GroundTruth::render_ladder_at_level<simd::kCompiledLevel>(std::array<ImageRgba, kTruthRungs>&,
+                                                                               WorkProgress*) const;
+template glm::vec3 GroundTruth::pixel_at_level<simd::kCompiledLevel>(int, int) const;
+template TruthCheck GroundTruth::check_at_level<simd::kCompiledLevel>(const ImageRgba&, const TruthReport&, int,
+                                                                      WorkProgress*) const;
+template std::vector<double> GroundTruth::particle_optical_depths_at_level<simd::kCompiledLevel>() const;
+template std::vector<std::uint8_t> GroundTruth::ground_shadow_mask_at_level<simd::kCompiledLevel>() const;
 
 }  // namespace smoketrace

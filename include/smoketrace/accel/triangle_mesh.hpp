@@ -5,6 +5,7 @@
 #include <smoketrace/accel/bvh_builder.hpp>
 #include <smoketrace/core/aligned_allocator.hpp>
 #include <smoketrace/core/huge_page_allocator.hpp>
+#include <smoketrace/core/simd/level.hpp>
 #include <smoketrace/geometry/ray_triangle_block.hpp>
 
 #include <glm/vec3.hpp>
@@ -96,6 +97,10 @@ private:
     // triangles_ and the node boxes).
     void refresh_blocks();
     void refit_boxes();
+    // update_vertices()'s refit at one kernel level (core/simd/dispatch.hpp): triangle_mesh.cpp, compiled
+    // once per level, instantiates it for the level it is compiled for. False where a rebuild is due.
+    template <simd::Level L>
+    bool refit_at_level(std::span<const glm::vec3> vertices, double rebuild_ratio);
 
     BvhBuildSettings settings_{};
     std::size_t vertex_count_ = 0;

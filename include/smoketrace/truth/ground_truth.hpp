@@ -15,6 +15,7 @@
 // its share of the tolerance, its largest ones are replaced by exact light rays. Camera rays halve their
 // step until the pixel settles.
 #include <smoketrace/core/image.hpp>
+#include <smoketrace/core/simd/level.hpp>
 #include <smoketrace/core/work_progress.hpp>
 #include <smoketrace/smoke/scene_description.hpp>
 #include <smoketrace/render/sixway_baker.hpp>
@@ -163,6 +164,23 @@ public:
     [[nodiscard]] int height() const;
 
 private:
+    // The members above that do the work, at one kernel level (core/simd/dispatch.hpp): ground_truth.cpp,
+    // compiled once per level, instantiates each for the level it is compiled for; the public members
+    // (ground_truth_dispatch.cpp) run them at the process's level.
+    template <simd::Level L>
+    TruthReport render_at_level(ImageRgba& image, WorkProgress* progress) const;
+    template <simd::Level L>
+    LadderReport render_ladder_at_level(std::array<ImageRgba, kTruthRungs>& images, WorkProgress* progress) const;
+    template <simd::Level L>
+    glm::vec3 pixel_at_level(int x, int y) const;
+    template <simd::Level L>
+    TruthCheck check_at_level(const ImageRgba& image, const TruthReport& report, int stride,
+                              WorkProgress* progress) const;
+    template <simd::Level L>
+    std::vector<double> particle_optical_depths_at_level() const;
+    template <simd::Level L>
+    std::vector<std::uint8_t> ground_shadow_mask_at_level() const;
+
     struct Impl;
     std::unique_ptr<Impl> impl_;
 };
