@@ -81,20 +81,18 @@ std::uint32_t AccelScene::add_instance(const Instance& instance) {
     const Aabb world_box = checked_world_box(static_cast<std::uint32_t>(instances_.size()), *blases_[instance.blas],
                                              instance.object_to_world);
     instances_.push_back(StoredInstance{instance.object_to_world.translation, 0.0, instance.blas, instance.user_id,
-                                        kNoLinearSlot, instance.mask, instance.flags, false});
+                                        kNoLinearSlot, kNoInstanceDetail, 0, instance.mask, instance.flags, false});
+    StoredInstance& added = instances_.back();
     store_linear(static_cast<std::uint32_t>(instances_.size() - 1), instance.object_to_world.linear);
-    record_slot_.push_back(static_cast<std::uint32_t>(records_.size()));
-    records_.emplace_back();
     // Whether an instance keeps a detail and takes the world_triangles path depends on the BLAS alone, so
     // its slots are fixed here.
     const BottomLevel& b = *blases_[instance.blas];
-    records_.back().other.detail = kNoInstanceDetail;
     if (keeps_detail(b)) {
-        records_.back().other.detail = static_cast<std::uint32_t>(details_.size());
+        added.detail = static_cast<std::uint32_t>(details_.size());
         details_.emplace_back();
     }
     if (takes_world_triangles(b)) {
-        records_.back().other.first_world_triangle = static_cast<std::uint32_t>(world_triangles_.size());
+        added.first_world_triangle = static_cast<std::uint32_t>(world_triangles_.size());
         world_triangles_.resize(world_triangles_.size() + b.mesh.leaf_triangles().size());
     }
     world_boxes_.push_back(Aabb{});
@@ -113,8 +111,6 @@ std::uint32_t AccelScene::add_instances(std::span<const Instance> added) {
     // Grown unwritten: every new element is written once, by the parallel set-up below, so that the
     // fresh pages are first touched on all threads instead of in serial fills.
     instances_.resize(last);
-    records_.resize(last);
-    record_slot_.resize(last);
     world_boxes_.resize(last);
     instance_masks_.resize(last);
     // Detail and world-triangle slots in instance order, as add_instance() lays them out one by one: each
@@ -164,18 +160,16 @@ std::uint32_t AccelScene::add_instances(std::span<const Instance> added) {
                 for (std::size_t k = c * kChunk; k < std::min(added.size(), (c + 1) * kChunk); ++k) {
                     const Instance& in = added[k];
                     const std::size_t i = first + k;
-                    instances_[i] = StoredInstance{in.object_to_world.translation, 0.0, in.blas, in.user_id,
-                                                   kNoLinearSlot, in.mask, in.flags, false};
+                    StoredInstance& s = instances_[i];
+                    s = StoredInstance{in.object_to_world.translation, 0.0, in.blas, in.user_id, kNoLinearSlot,
+                                       kNoInstanceDetail, 0, in.mask, in.flags, false};
                     store_linear(static_cast<std::uint32_t>(i), in.object_to_world.linear,
                                  static_cast<std::uint32_t>(next.linears));
-                    if (!instances_[i].scaled) ++next.linears;
-                    record_slot_[i] = static_cast<std::uint32_t>(i);  // added at the end: instance i's slot is i
+                    if (!s.scaled) ++next.linears;
                     instance_masks_[i] = in.mask;
-                    InstanceRecord& rec = records_[i];
-                    rec.other.detail = blas_detail[in.blas] ? static_cast<std::uint32_t>(next.details++)
-                                                            : kNoInstanceDetail;
+                    if (blas_detail[in.blas]) s.detail = static_cast<std::uint32_t>(next.details++);
                     if (blas_triangles[in.blas] != 0) {
-                        rec.other.first_world_triangle = static_cast<std::uint32_t>(next.triangles);
+                        s.first_world_triangle = static_cast<std::uint32_t>(next.triangles);
                         next.triangles += blas_triangles[in.blas];
                     }
                     update_instance(static_cast<std::uint32_t>(i));
@@ -184,8 +178,6 @@ std::uint32_t AccelScene::add_instances(std::span<const Instance> added) {
         });
     } catch (...) {
         instances_.resize(first);
-        records_.resize(first);
-        record_slot_.resize(first);
         world_boxes_.resize(first);
         instance_masks_.resize(first);
         world_triangles_.resize(first_triangle);
@@ -207,32 +199,26 @@ void AccelScene::reserve_instances(std::size_t count) {
 
 void AccelScene::remove_instance(std::uint32_t index) {
     if (index >= instances_.size()) throw std::out_of_range("AccelScene::remove_instance");
-    const std::uint32_t slot = record_slot_[index];
-    const InstanceRecord& gone = records_[slot];
-    if (gone.path == InstancePath::world_triangles) {
-        const std::uint32_t first = gone.other.first_world_triangle, n = gone.other.world_triangle_count;
+    // The records need nothing: the rebuild that removal makes due writes them all again.
+    const StoredInstance gone = instances_[index];
+    if (takes_world_triangles(*blases_[gone.blas])) {
+        const std::uint32_t first = gone.first_world_triangle;
+        const auto n = static_cast<std::uint32_t>(blases_[gone.blas]->mesh.leaf_triangles().size());
         world_triangles_.erase(world_triangles_.begin() + first, world_triangles_.begin() + first + n);
-        for (InstanceRecord& r : records_)
-            if (r.path == InstancePath::world_triangles && r.other.first_world_triangle > first)
-                r.other.first_world_triangle -= n;
-    }
-    if (gone.path != InstancePath::world_sphere && gone.other.detail != kNoInstanceDetail) {
-        const std::uint32_t d = gone.other.detail;
-        details_.erase(details_.begin() + d);
-        for (InstanceRecord& r : records_)
-            if (r.path != InstancePath::world_sphere && r.other.detail != kNoInstanceDetail && r.other.detail > d)
-                --r.other.detail;
-    }
-    if (const std::uint32_t gone_linear = instances_[index].linear_slot; gone_linear != kNoLinearSlot) {
-        linears_.erase(linears_.begin() + gone_linear);
         for (StoredInstance& in : instances_)
-            if (in.linear_slot != kNoLinearSlot && in.linear_slot > gone_linear) --in.linear_slot;
+            if (takes_world_triangles(*blases_[in.blas]) && in.first_world_triangle > first) in.first_world_triangle -= n;
+    }
+    if (gone.detail != kNoInstanceDetail) {
+        details_.erase(details_.begin() + gone.detail);
+        for (StoredInstance& in : instances_)
+            if (in.detail != kNoInstanceDetail && in.detail > gone.detail) --in.detail;
+    }
+    if (gone.linear_slot != kNoLinearSlot) {
+        linears_.erase(linears_.begin() + gone.linear_slot);
+        for (StoredInstance& in : instances_)
+            if (in.linear_slot != kNoLinearSlot && in.linear_slot > gone.linear_slot) --in.linear_slot;
     }
     instances_.erase(instances_.begin() + index);
-    records_.erase(records_.begin() + slot);
-    record_slot_.erase(record_slot_.begin() + index);
-    for (std::uint32_t& s : record_slot_)
-        if (s > slot) --s;
     world_boxes_.erase(world_boxes_.begin() + index);
     instance_masks_.erase(instance_masks_.begin() + index);
     structure_dirty_ = true;
@@ -245,6 +231,7 @@ void AccelScene::set_transform(std::uint32_t index, const AffineTransform& m) {
     instances_[index].translation = m.translation;
     store_linear(index, m.linear);
     update_instance(index, world_box);
+    refresh_record(index);
     transforms_dirty_ = true;
 }
 
@@ -320,6 +307,7 @@ void AccelScene::set_transforms(std::uint32_t first, std::span<const AffineTrans
                 store_linear(i, m[k].linear, needs_slot ? static_cast<std::uint32_t>(next_slot) : kNoLinearSlot);
                 if (needs_slot && !instances_[i].scaled) ++next_slot;
                 update_instance(i, world_boxes_[i]);
+                refresh_record(i);
             }
         }
     });
@@ -330,7 +318,7 @@ void AccelScene::set_mask(std::uint32_t index, std::uint8_t mask) {
     if (index >= instances_.size()) throw std::out_of_range("AccelScene::set_mask");
     if (instances_[index].mask == mask) return;
     instances_[index].mask = mask;
-    records_[record_slot_[index]].mask = mask;
+    if (!structure_dirty_) records_[record_slot_[index]].mask = mask;
     instance_masks_[index] = mask;
     transforms_dirty_ = true;  // node masks are refreshed by the refit sweep
 }
@@ -349,13 +337,17 @@ BlasUpdate AccelScene::update_mesh_vertices(std::uint32_t blas, std::span<const 
         // A rebuild changed whether (or with how many triangles) its instances take the world-triangles
         // path, whose slots are laid out by instance: lay them out again and refresh every record.
         assign_world_triangle_slots();
-        for (std::uint32_t i = 0; i < instances_.size(); ++i) update_instance(i);
+        for (std::uint32_t i = 0; i < instances_.size(); ++i) {
+            update_instance(i);
+            refresh_record(i);
+        }
         transforms_dirty_ = true;
         return u;
     }
     for (std::uint32_t i = 0; i < instances_.size(); ++i)
         if (instances_[i].blas == blas) {
             update_instance(i);
+            refresh_record(i);
             transforms_dirty_ = true;  // the TLAS boxes over it are refit by commit()
         }
     return u;
@@ -365,7 +357,7 @@ void AccelScene::assign_world_triangle_slots() {
     world_triangles_.clear();
     for (std::uint32_t i = 0; i < instances_.size(); ++i) {
         if (const BottomLevel& b = *blases_[instances_[i].blas]; takes_world_triangles(b)) {
-            records_[record_slot_[i]].other.first_world_triangle = static_cast<std::uint32_t>(world_triangles_.size());
+            instances_[i].first_world_triangle = static_cast<std::uint32_t>(world_triangles_.size());
             world_triangles_.resize(world_triangles_.size() + b.mesh.leaf_triangles().size());
         }
     }
@@ -452,48 +444,53 @@ Aabb AccelScene::checked_world_box(std::uint32_t i, const BottomLevel& b, const 
 }
 
 void AccelScene::update_instance(std::uint32_t i, const Aabb& world_box) {
-    const Instance in = instance(i);
-    const BottomLevel& b = *blases_[in.blas];
-    InstanceRecord& r = records_[record_slot_[i]];
-    // Both fixed by add_instance (and by assign_world_triangle_slots()).
-    const std::uint32_t detail = keeps_detail(b) ? r.other.detail : kNoInstanceDetail;
-    const std::uint32_t first_world_triangle = takes_world_triangles(b) ? r.other.first_world_triangle : 0;
-    r = InstanceRecord{};
-    r.path = InstancePath::object_space;
-    r.mask = in.mask;
-    r.flags = in.flags;
-    // Rule 2's instance part: FORCE_NON_OPAQUE over FORCE_OPAQUE over the geometry's opacity.
-    r.opaque = !(in.flags & instance_flag_force_non_opaque) && ((in.flags & instance_flag_force_opaque) || b.opaque);
-    r.user_id = in.user_id;
-    r.object_to_world_translation = in.object_to_world.translation;
-    if (detail != kNoInstanceDetail) details_[detail] = {&b, in.object_to_world.inverse().linear};
-    // The world-space paths of trace() (see InstancePath); anything else takes the general path.
-    double scale = 0.0;
-    if (paths_ == InstancePaths::fastest && b.kind == GeometryKind::spheres && b.spheres.leaf_spheres().size() == 1 &&
-        is_similarity(in.object_to_world.linear, scale)) {
-        const Sphere& sp = b.spheres.leaf_spheres()[0];
-        r.path = InstancePath::world_sphere;
-        r.sphere.offset = in.object_to_world.linear * glm::dvec3(sp.center);
-        r.sphere.radius = scale * double(sp.radius);
-    } else {
-        r.other.detail = detail;
-    }
+    const StoredInstance& s = instances_[i];
+    const BottomLevel& b = *blases_[s.blas];
+    const AffineTransform m = transform(i);
+    if (s.detail != kNoInstanceDetail) details_[s.detail] = {&b, m.inverse().linear};
     if (takes_world_triangles(b)) {
         // Each vertex transformed in double and rounded once; a vertex shared by two triangles rounds to
         // the same float in both, so the world-space mesh stays watertight for the watertight test.
-        r.path = InstancePath::world_triangles;
-        r.other.first_world_triangle = first_world_triangle;
-        r.other.world_triangle_count = static_cast<std::uint8_t>(b.mesh.leaf_triangles().size());
-        r.other.blas = &b;
-        const bool mirrored = glm::determinant(in.object_to_world.linear) < 0.0;
-        r.other.world_facing_flipped = mirrored != ((in.flags & instance_flag_triangle_front_clockwise) != 0);
-        auto to_world = [&](const glm::vec3& v) { return glm::vec3(in.object_to_world.point(glm::dvec3(v))); };
-        for (std::uint32_t k = 0; k < r.other.world_triangle_count; ++k) {
-            const MeshBlas::Triangle& t = b.mesh.leaf_triangles()[k];
-            world_triangles_[first_world_triangle + k] = {to_world(t.v0), to_world(t.v1), to_world(t.v2)};
-        }
+        auto to_world = [&](const glm::vec3& v) { return glm::vec3(m.point(glm::dvec3(v))); };
+        const std::span<const MeshBlas::Triangle> local = b.mesh.leaf_triangles();
+        for (std::size_t k = 0; k < local.size(); ++k)
+            world_triangles_[s.first_world_triangle + k] = {to_world(local[k].v0), to_world(local[k].v1),
+                                                            to_world(local[k].v2)};
     }
     world_boxes_[i] = world_box;
+}
+
+InstanceRecord AccelScene::derive_record(std::uint32_t i) const {
+    const StoredInstance& s = instances_[i];
+    const BottomLevel& b = *blases_[s.blas];
+    InstanceRecord r{};
+    r.path = InstancePath::object_space;
+    r.mask = s.mask;
+    r.flags = s.flags;
+    // Rule 2's instance part: FORCE_NON_OPAQUE over FORCE_OPAQUE over the geometry's opacity.
+    r.opaque = !(s.flags & instance_flag_force_non_opaque) && ((s.flags & instance_flag_force_opaque) || b.opaque);
+    r.user_id = s.user_id;
+    r.object_to_world_translation = s.translation;
+    // The world-space paths of trace() (see InstancePath); anything else takes the general path.
+    const glm::dmat3 lin = linear(i);
+    double scale = 0.0;
+    if (paths_ == InstancePaths::fastest && b.kind == GeometryKind::spheres && b.spheres.leaf_spheres().size() == 1 &&
+        is_similarity(lin, scale)) {
+        const Sphere& sp = b.spheres.leaf_spheres()[0];
+        r.path = InstancePath::world_sphere;
+        r.sphere.offset = lin * glm::dvec3(sp.center);
+        r.sphere.radius = scale * double(sp.radius);
+        return r;
+    }
+    if (takes_world_triangles(b)) {
+        r.path = InstancePath::world_triangles;
+        r.other.first_world_triangle = s.first_world_triangle;
+        r.other.world_triangle_count = static_cast<std::uint8_t>(b.mesh.leaf_triangles().size());
+        r.other.blas = &b;
+        const bool mirrored = glm::determinant(lin) < 0.0;
+        r.other.world_facing_flipped = mirrored != ((s.flags & instance_flag_triangle_front_clockwise) != 0);
+    }
+    return r;
 }
 
 void AccelScene::rebuild() {
@@ -503,9 +500,10 @@ void AccelScene::rebuild() {
     tlas_ = build_grouped_bvh(world_boxes_, std::span<const std::uint8_t>(instance_masks_),
                               BvhBuildSettings{.max_leaf_size = 1});
     // Two independent halves side by side: the node masks, the SAH cost and the wide tree (each parallel
-    // over subtrees), and the records to leaf order (one instance per leaf:
-    // prim_indices is a permutation; each k writes its own record and its instance's slot).
-    decltype(records_) in_leaf_order(records_.size());
+    // over subtrees), and the records, derived in leaf order (one instance per leaf: prim_indices is a
+    // permutation; each k writes its own record and its instance's slot).
+    records_.resize(instances_.size());
+    record_slot_.resize(instances_.size());
     tbb::parallel_invoke(
         [&] {
             node_masks_.assign(tlas_.nodes.size(), 0);
@@ -517,12 +515,11 @@ void AccelScene::rebuild() {
             using Range = tbb::blocked_range<std::size_t>;
             tbb::parallel_for(Range(0, leaf.size(), 4096), [&](const Range& r) {
                 for (std::size_t k = r.begin(); k < r.end(); ++k) {
-                    in_leaf_order[k] = records_[record_slot_[leaf[k]]];
+                    records_[k] = derive_record(leaf[k]);
                     record_slot_[leaf[k]] = static_cast<std::uint32_t>(k);
                 }
             });
         });
-    records_.swap(in_leaf_order);
     sah_at_build_ = sah_current_;
 }
 

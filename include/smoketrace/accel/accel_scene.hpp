@@ -82,9 +82,6 @@ struct alignas(64) InstanceRecord {
         double radius;
     };
     struct OtherFields {
-        // Where AccelScene keeps this instance's InstanceDetail, or kNoInstanceDetail (then detail() derives
-        // it from the Instance).
-        std::uint32_t detail;
         // world_triangles only: how many (in the BLAS's leaf order, from AccelScene::world_triangles()
         // [first_world_triangle]), and whether a world-space front face is an object-space back face (a
         // mirroring transform) — XOR TRIANGLE_FRONT_CLOCKWISE, so that rule 4 sees the facing the general
@@ -170,6 +167,8 @@ public:
     [[nodiscard]] const std::vector<std::uint8_t>& tlas_node_masks() const { return node_masks_; }
     // The same tree collapsed to 4-wide nodes, with the masks: what trace() walks.
     [[nodiscard]] const WideBvh& wide_tlas() const { return wide_tlas_; }
+    // Instance i's record. Valid after commit(): the records are the committed top level's, written by
+    // each rebuild (and kept current by set_transform() and the like between rebuilds).
     [[nodiscard]] const InstanceRecord& record(std::uint32_t i) const { return records_[record_slot_[i]]; }
     // The record of the instance at TLAS leaf position k (tlas().prim_indices[k]), for a walk: the records
     // lie in leaf order, so the walk reads them in the order of the tree. Valid after commit().
@@ -180,10 +179,9 @@ public:
     // inverse update_instance() takes, so the same bits either way. Inline and free of side effects, so
     // that a caller that never reads the result pays nothing.
     [[nodiscard]] InstanceDetail detail(std::uint32_t i) const {
-        const InstanceRecord& r = records_[record_slot_[i]];
-        if (r.path != InstancePath::world_sphere && r.other.detail != kNoInstanceDetail)
-            return details_[r.other.detail];
-        return {blases_[instances_[i].blas].get(), glm::inverse(linear(i))};
+        const StoredInstance& s = instances_[i];
+        if (s.detail != kNoInstanceDetail) return details_[s.detail];
+        return {blases_[s.blas].get(), glm::inverse(linear(i))};
     }
     // Asks this core's caches for what a walk of the whole top level reads first: the wide nodes, the
     // leaves' index array and each instance record's first line (a world sphere's whole record), when
@@ -211,15 +209,22 @@ private:
     // Instance i's world box under m, every corner in double rounded outward once; throws when m is
     // singular or the box does not fit in float, so that callers check before they write.
     [[nodiscard]] static Aabb checked_world_box(std::uint32_t i, const BottomLevel& b, const AffineTransform& m);
-    void update_instance(std::uint32_t i);  // from its stored transform
+    // Instance i's world box, detail and world triangles, from its stored transform; not its record.
+    void update_instance(std::uint32_t i);
     void update_instance(std::uint32_t i, const Aabb& world_box);
+    // Instance i's record, from its stored instance, bottom level and slots.
+    [[nodiscard]] InstanceRecord derive_record(std::uint32_t i) const;
+    // Writes instance i's record again after a change, unless the next commit() rebuilds and writes them all.
+    void refresh_record(std::uint32_t i) {
+        if (!structure_dirty_) records_[record_slot_[i]] = derive_record(i);
+    }
     void rebuild();
     void refit_binary();
     template <bool kRefitBoxes>
     void sweep_binary();
 
     std::vector<std::unique_ptr<BottomLevel>> blases_;  // stable addresses for InstanceRecord::blas
-    // An instance as the scene keeps it: 48 bytes where an Instance takes 120, since a particle's linear
+    // An instance as the scene keeps it: 56 bytes where an Instance takes 120, since a particle's linear
     // part, a uniform scale, needs no matrix: at millions of particles the copies were fresh memory to fault in.
     // Any other linear part lies in linears_, in a slot the instance keeps once given (so that a transform
     // that turns from a scale to a matrix and back, frame after frame, reuses it).
@@ -229,11 +234,16 @@ private:
         std::uint32_t blas;
         std::uint32_t user_id;
         std::uint32_t linear_slot;  // in linears_, or kNoLinearSlot
+        // Where its InstanceDetail lies (kNoInstanceDetail when !keeps_detail()) and, if it takes the
+        // world_triangles path, its first world triangle: both depend on the bottom level alone, so they are
+        // fixed when it is added. Kept here, not only in the record, so that the records can be derived.
+        std::uint32_t detail;
+        std::uint32_t first_world_triangle;
         std::uint8_t mask;
         std::uint8_t flags;
         bool scaled;
     };
-    static_assert(sizeof(StoredInstance) == 48);
+    static_assert(sizeof(StoredInstance) == 56);
     static constexpr std::uint32_t kNoLinearSlot = ~std::uint32_t{0};
     [[nodiscard]] glm::dmat3 linear(std::uint32_t i) const {
         const StoredInstance& s = instances_[i];
@@ -246,11 +256,13 @@ private:
     // The arrays per instance grow unwritten (UnwrittenAllocator): add_instances() writes them in parallel.
     std::vector<StoredInstance, UnwrittenAllocator<StoredInstance>> instances_;
     std::vector<glm::dmat3> linears_;
-    // records_[record_slot_[i]] is instance i's record. Each rebuild lays the records out in TLAS leaf order
-    // (and instances added since sit at the end, in instance order): a walk meets the instances of a region
-    // together, and instance order is often random in space (a particle system's), so records in instance
-    // order cost a cache miss per visit.
-    // Not zeroed when grown: every record is written whole (update_instance(), the rebuild's reordering).
+    // records_[record_slot_[i]] is instance i's record, in TLAS leaf order: a walk meets the instances of a
+    // region together, and instance order is often random in space (a particle system's), so records in
+    // instance order would cost a cache miss per visit. They are derived data: each rebuild writes them all,
+    // once, straight into leaf order (a million records are 64 MB of fresh memory, so they are not also
+    // written in instance order when added); between rebuilds refresh_record() keeps them current, and while
+    // a rebuild is pending (structure_dirty_) they and record_slot_ are stale.
+    // Not zeroed when grown: every record is written whole.
     std::vector<InstanceRecord, UnwrittenAllocator<InstanceRecord, 64>> records_;
     std::vector<std::uint32_t, UnwrittenAllocator<std::uint32_t>> record_slot_;
     std::vector<InstanceDetail> details_;  // of the instances that keeps_detail(), in instance order
