@@ -85,6 +85,9 @@ void require_same_scene(AccelScene& bulk, AccelScene& one_by_one) {
         }
         REQUIRE(bulk.detail(i).blas == &bulk.bottom_level(bulk.instance(i).blas));
         REQUIRE(bulk.detail(i).world_to_object_linear == one_by_one.detail(i).world_to_object_linear);
+        // What a walk reads through the record: the same detail.
+        REQUIRE(bulk.detail(i, a).blas == bulk.detail(i).blas);
+        REQUIRE(bulk.detail(i, a).world_to_object_linear == bulk.detail(i).world_to_object_linear);
     }
     std::size_t triangles = 0;
     for (std::uint32_t i = 0; i < bulk.instance_count(); ++i)
@@ -342,10 +345,9 @@ TEST_CASE("scene: removing a world-triangles instance keeps the others' triangle
     const auto b = s.add_bottom_level(BottomLevel::from_mesh(quad, false));
     for (std::uint32_t i = 0; i < 3; ++i)
         s.add_instance(Instance{b, AffineTransform::translate_scale({0, 0, 3.0 * i}, 1.0), 0xFF, 20 + i, 0});
+    s.remove_instance(0);  // before any commit: only the stored instances hold the slots yet
     s.commit();
-    REQUIRE(s.record(2).path == InstancePath::world_triangles);
-    s.remove_instance(0);
-    s.commit();
+    REQUIRE(s.record(1).path == InstancePath::world_triangles);
     std::vector<std::pair<float, std::uint32_t>> hits;  // (t, user id)
     trace(s, Ray{{0.3f, 0.2f, 20.0f}, 0.0f, {0, 0, -1}, kInf}, ray_flag_none, 0xFF, [&](const TraceHit& h) {
         hits.emplace_back(h.t, h.instance_id);
@@ -400,6 +402,8 @@ TEST_CASE("scene: records and details stay each instance's own through adds, rem
         const Instance& in = s.instance(i);
         REQUIRE(s.detail(i).blas == &s.bottom_level(in.blas));
         REQUIRE(s.detail(i).world_to_object_linear == in.object_to_world.inverse().linear);
+        REQUIRE(s.detail(i, s.record(i)).blas == &s.bottom_level(in.blas));
+        REQUIRE(s.detail(i, s.record(i)).world_to_object_linear == in.object_to_world.inverse().linear);
         ++paths[int(s.record(i).path)];
         stretched_spheres += in.blas == 3 && s.record(i).path == InstancePath::object_space ? 1 : 0;
     }

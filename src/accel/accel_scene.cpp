@@ -482,6 +482,7 @@ InstanceRecord AccelScene::derive_record(std::uint32_t i) const {
         r.sphere.radius = scale * double(sp.radius);
         return r;
     }
+    r.other.detail = s.detail;
     if (takes_world_triangles(b)) {
         r.path = InstancePath::world_triangles;
         r.other.first_world_triangle = s.first_world_triangle;

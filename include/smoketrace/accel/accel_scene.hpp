@@ -82,6 +82,9 @@ struct alignas(64) InstanceRecord {
         double radius;
     };
     struct OtherFields {
+        // Where AccelScene keeps this instance's InstanceDetail, or kNoInstanceDetail: the general path reads
+        // it here (AccelScene::detail(i, record)), on the line the walk has already fetched.
+        std::uint32_t detail;
         // world_triangles only: how many (in the BLAS's leaf order, from AccelScene::world_triangles()
         // [first_world_triangle]), and whether a world-space front face is an object-space back face (a
         // mirroring transform) — XOR TRIANGLE_FRONT_CLOCKWISE, so that rule 4 sees the facing the general
@@ -179,9 +182,14 @@ public:
     // inverse update_instance() takes, so the same bits either way. Inline and free of side effects, so
     // that a caller that never reads the result pays nothing.
     [[nodiscard]] InstanceDetail detail(std::uint32_t i) const {
-        const StoredInstance& s = instances_[i];
-        if (s.detail != kNoInstanceDetail) return details_[s.detail];
-        return {blases_[s.blas].get(), glm::inverse(linear(i))};
+        const std::uint32_t slot = instances_[i].detail;
+        return slot != kNoInstanceDetail ? details_[slot] : derived_detail(i);
+    }
+    // detail(i) for a walk holding instance i's record (after commit()): the slot is read from the record,
+    // whose line the walk has fetched already, not from the stored instance, one more miss per visit.
+    [[nodiscard]] InstanceDetail detail(std::uint32_t i, const InstanceRecord& r) const {
+        const bool kept = r.path != InstancePath::world_sphere && r.other.detail != kNoInstanceDetail;
+        return kept ? details_[r.other.detail] : derived_detail(i);
     }
     // Asks this core's caches for what a walk of the whole top level reads first: the wide nodes, the
     // leaves' index array and each instance record's first line (a world sphere's whole record), when
@@ -212,6 +220,10 @@ private:
     // Instance i's world box, detail and world triangles, from its stored transform; not its record.
     void update_instance(std::uint32_t i);
     void update_instance(std::uint32_t i, const Aabb& world_box);
+    // detail(i) of an instance that keeps none: derived from its linear part.
+    [[nodiscard]] InstanceDetail derived_detail(std::uint32_t i) const {
+        return {blases_[instances_[i].blas].get(), glm::inverse(linear(i))};
+    }
     // Instance i's record, from its stored instance, bottom level and slots.
     [[nodiscard]] InstanceRecord derive_record(std::uint32_t i) const;
     // Writes instance i's record again after a change, unless the next commit() rebuilds and writes them all.

@@ -151,7 +151,7 @@ private:
             h.t = t;
             // In object space: W·(o − T + t·d), the general path's o + t·d.
             const glm::dvec3 rel_point = (world_origin_ - inst.object_to_world_translation) + double(t) * world_dir_;
-            h.object_point = glm::vec3(scene_.detail(index).world_to_object_linear * rel_point);
+            h.object_point = glm::vec3(scene_.detail(index, inst).world_to_object_linear * rel_point);
             h.instance_index = index;
             h.instance_id = inst.user_id;
             h.primitive_index = 0;  // the BLAS's only sphere
@@ -247,7 +247,7 @@ private:
     // there (rule 4 applies to triangles only). Out of line, so that the instance visit, the TLAS walk's
     // leaf callback, stays small enough to be inlined into the walk.
     __attribute__((noinline)) bool visit_object_space(std::uint32_t index, const InstanceRecord& inst, bool opaque) {
-        return visit_in_object_space(index, inst, opaque, object_direction(scene_.detail(index), world_dir_));
+        return visit_in_object_space(index, inst, opaque, object_direction(scene_.detail(index, inst), world_dir_));
     }
 
 public:

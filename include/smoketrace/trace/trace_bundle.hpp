@@ -90,7 +90,7 @@ BundleResults trace_bundle(const AccelScene& scene, const RayBundle& bundle, std
                 }
             } else if (inst.path == InstancePath::object_space) {
                 // The direction's part of the object-space ray, once for the bundle.
-                const auto od = RaySearch<LaneAnyHit<Callback>>::object_direction(scene.detail(index),
+                const auto od = RaySearch<LaneAnyHit<Callback>>::object_direction(scene.detail(index, inst),
                                                                                   glm::dvec3(bundle.direction));
                 for (unsigned m = lanes; m != 0; m &= m - 1) {
                     const unsigned i = unsigned(std::countr_zero(m));
