@@ -731,12 +731,18 @@ TEST_CASE("output cli: a sequence killed at random moments leaves no temporary f
         return pid;
     };
     // Polls until `out` holds a whole frame (true), or until the run has ended without one (false: it is then
-    // reaped into `status`).
+    // reaped into `status`). A run that does neither within a minute has hung: it is killed and the test fails.
     auto await_first_frame = [&](const fs::path& out, pid_t pid, int& status) {
+        const auto deadline = std::chrono::steady_clock::now() + std::chrono::minutes(1);
         for (;;) {
             for (const std::string& name : names_in(out))
                 if (name.rfind("frame_", 0) == 0) return true;
             if (::waitpid(pid, &status, WNOHANG) == pid) return false;
+            if (std::chrono::steady_clock::now() > deadline) {
+                ::kill(pid, SIGKILL);
+                ::waitpid(pid, &status, 0);
+                FAIL("the sequence wrote no frame and did not end within a minute");
+            }
             std::this_thread::sleep_for(std::chrono::microseconds(100));
         }
     };
